@@ -1,0 +1,5 @@
+import sys
+
+from bootnav.cli import main
+
+sys.exit(main())

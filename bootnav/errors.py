@@ -1,0 +1,9 @@
+"""Errors shown to the user as ``bootnav CMD: error: MESSAGE`` (exit code 1)."""
+
+
+class BootnavError(Exception):
+    """An error whose message says what is wrong and where (file, line, byte offset)."""
+
+
+class InputError(BootnavError):
+    """Bad input data: unreadable, wrong units, non-monotonic time, no stance, ..."""

@@ -1,0 +1,457 @@
+"""The bootnav recording: one self-describing HDF5 file per session.
+
+The layout is documented in ``docs/recording-format.md`` (the single source of truth); this module is
+its only reader and writer. Raw sensor values are kept exactly as delivered (int16 counts from our
+firmware, or floats from another IMU's CSV) together with the factor that turns them into SI, so
+nothing is lost and ``load`` always returns SI units.
+
+Writing is incremental (``RecordingWriter``): chunked, compressed, extendible datasets in SWMR mode,
+so a reader (or a crash) always sees a consistent file up to the last ``flush``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import h5py
+import numpy as np
+
+from bootnav import CONVENTIONS, __version__
+from bootnav.errors import InputError
+
+FORMAT_VERSION = 1
+CHUNK_ROWS = 4096
+_COMPRESSION = dict(compression="gzip", compression_opts=4, shuffle=True)
+
+#: Event kinds: every anomaly seen while recording or importing is kept as one row.
+EVENT_KINDS = (
+    "gap",  # samples missing (count = number missing), from sequence numbers or timestamps
+    "crc_error",  # frame with a bad CRC (byte_offset = stream offset of its sync word)
+    "resync",  # bytes skipped to find the next sync word (count = bytes skipped)
+    "disconnect",  # serial port vanished
+    "reconnect",  # serial port back
+    "saturation",  # run of samples at full scale (axis 0-2 acc x/y/z, 3-5 gyro x/y/z; count = samples)
+    "skipped_line",  # unparseable input line (line = 1-based line number)
+    "duplicate_time",  # timestamp equal to the previous one
+    "nonmonotonic_time",  # timestamp going backwards (not a wrap)
+    "time_wrap",  # device counter wrapped (uint32 microseconds, every 71.6 min)
+    "header",  # header/config frame received
+    "note",  # anything else worth keeping
+)
+
+EVENT_DTYPE = np.dtype(
+    [
+        ("t_s", "<f8"),  # recording time of the event, NaN if unknown
+        ("sample_index", "<i8"),  # index into /imu arrays where it applies, -1 if none
+        ("kind", "S24"),
+        ("count", "<i8"),  # samples missing / bytes skipped / samples saturated; 0 if n/a
+        ("byte_offset", "<i8"),  # offset in the input byte stream or file, -1 if n/a
+        ("line", "<i8"),  # 1-based input line number, -1 if n/a
+        ("axis", "<i1"),  # 0-2 acc x/y/z, 3-5 gyro x/y/z, -1 if n/a
+        ("detail", "S200"),  # short human-readable text
+    ]
+)
+
+SATURATION_BITS = {"ax": 0, "ay": 1, "az": 2, "gx": 3, "gy": 4, "gz": 5}
+
+
+def make_events(rows: Iterable[Mapping[str, Any]]) -> np.ndarray:
+    """Build an event table from dicts; missing fields get their 'not applicable' value."""
+    rows = list(rows)
+    out = np.zeros(len(rows), dtype=EVENT_DTYPE)
+    out["t_s"] = np.nan
+    out["sample_index"] = -1
+    out["byte_offset"] = -1
+    out["line"] = -1
+    out["axis"] = -1
+    for i, row in enumerate(rows):
+        for key, value in row.items():
+            if key not in EVENT_DTYPE.names:
+                raise KeyError(f"unknown event field {key!r}")
+            if key == "kind" and value not in EVENT_KINDS:
+                raise ValueError(f"unknown event kind {value!r}")
+            if key in ("kind", "detail"):
+                value = str(value).encode("utf-8")[:200]
+            out[key][i] = value
+    return out
+
+
+@dataclass
+class Channel:
+    """How one sensor channel is stored: its raw unit and the factor to SI.
+
+    ``si = raw * scale_to_si + offset_to_si``. ``full_scale`` is the saturation limit in *raw* units
+    (e.g. 32767 counts), or NaN when unknown.
+    """
+
+    units: str  # raw unit: "count", "m/s^2", "rad/s", "degC"
+    si_units: str
+    scale_to_si: float = 1.0
+    offset_to_si: float = 0.0
+    full_scale: float = float("nan")
+    dtype: str = "<f8"
+
+    def attrs(self) -> dict:
+        return {
+            "units": self.units,
+            "si_units": self.si_units,
+            "scale_to_si": float(self.scale_to_si),
+            "offset_to_si": float(self.offset_to_si),
+            "full_scale": float(self.full_scale),
+        }
+
+
+def counts_channel(kind: str, scale_to_si: float) -> Channel:
+    """An int16-count channel (our firmware): ``kind`` is 'acc', 'gyro' or 'temp'."""
+    si = {"acc": "m/s^2", "gyro": "rad/s", "temp": "degC"}[kind]
+    if kind == "temp":
+        return Channel("count", si, scale_to_si, 36.53, float("nan"), "<i2")
+    return Channel("count", si, scale_to_si, 0.0, 32767.0, "<i2")
+
+
+def si_channel(kind: str, full_scale_si: float = float("nan")) -> Channel:
+    si = {"acc": "m/s^2", "gyro": "rad/s", "temp": "degC"}[kind]
+    return Channel(si, si, 1.0, 0.0, full_scale_si, "<f8")
+
+
+def _utc_now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _clean_attr(value: Any) -> Any:
+    if value is None:
+        return ""
+    if isinstance(value, (dict, list, tuple)) and not (
+        isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) for v in value)
+    ):
+        return json.dumps(value)
+    return value
+
+
+class RecordingWriter:
+    """Incremental writer: create once, ``append`` blocks, ``add_events``, ``flush``, ``close``.
+
+    Optional per-sample arrays are created only when enabled: ``temp`` (channel), ``t_device``
+    (uint32 raw device clock, µs), ``t_host`` (host receive time, UNIX s), ``seq`` (uint16 frame
+    sequence number). All datasets are created before SWMR mode is switched on, because SWMR
+    forbids creating objects later; metadata given to ``close(final_meta=...)`` is written after
+    leaving SWMR.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        acc: Channel,
+        gyro: Channel,
+        *,
+        temp: Channel | None = None,
+        device_time: bool = False,
+        host_time: bool = False,
+        seq: bool = False,
+        meta: Mapping[str, Any] | None = None,
+        swmr: bool = True,
+        chunk_rows: int = CHUNK_ROWS,
+    ):
+        self.path = Path(path)
+        self._file = h5py.File(self.path, "w", libver="latest")
+        f = self._file
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["producer"] = f"bootnav {__version__}"
+        f.attrs["created_utc"] = _utc_now()
+        for key, value in CONVENTIONS.items():
+            f.attrs[key] = value
+        meta_group = f.create_group("meta")
+        for key, value in (meta or {}).items():
+            meta_group.attrs[key] = _clean_attr(value)
+        meta_group.attrs.setdefault("start_utc", _utc_now())
+
+        imu = f.create_group("imu")
+        self._t = imu.create_dataset(
+            "t_s", shape=(0,), maxshape=(None,), dtype="<f8", chunks=(chunk_rows,), **_COMPRESSION
+        )
+        self._t.attrs["units"] = "s"
+        self._t.attrs["description"] = "sample time since the first sample (device clock, unwrapped)"
+        self._t.make_scale("time")
+        axis = imu.create_dataset("axis", data=np.array([b"x", b"y", b"z"]))
+        axis.make_scale("axis")
+
+        self._arrays: dict[str, h5py.Dataset] = {"t_s": self._t}
+        for name, channel in (("acc", acc), ("gyro", gyro)):
+            ds = imu.create_dataset(
+                name,
+                shape=(0, 3),
+                maxshape=(None, 3),
+                dtype=channel.dtype,
+                chunks=(chunk_rows, 3),
+                **_COMPRESSION,
+            )
+            ds.attrs.update(channel.attrs())
+            ds.dims[0].attach_scale(self._t)
+            ds.dims[1].attach_scale(axis)
+            self._arrays[name] = ds
+        optional = {
+            "temp": (temp is not None, temp.dtype if temp else None, temp.attrs() if temp else None),
+            "t_device": (device_time, "<u4", {"units": "us", "description": "raw device clock, wraps at 2**32"}),
+            "t_host": (host_time, "<f8", {"units": "s", "description": "host receive time, UNIX epoch"}),
+            "seq": (seq, "<u2", {"units": "1", "description": "frame sequence number, wraps at 2**16"}),
+        }
+        for name, (enabled, dtype, attrs) in optional.items():
+            if not enabled:
+                continue
+            ds = imu.create_dataset(
+                name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(chunk_rows,), **_COMPRESSION
+            )
+            ds.attrs.update(attrs)
+            ds.dims[0].attach_scale(self._t)
+            self._arrays[name] = ds
+        sat = imu.create_dataset(
+            "saturated", shape=(0,), maxshape=(None,), dtype="u1", chunks=(chunk_rows,), **_COMPRESSION
+        )
+        sat.attrs["units"] = "bitmask"
+        sat.attrs["description"] = "bit 0-2 acc x/y/z, bit 3-5 gyro x/y/z at full scale"
+        sat.dims[0].attach_scale(self._t)
+        self._arrays["saturated"] = sat
+
+        self._events = f.create_dataset(
+            "events", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE, chunks=(256,), **_COMPRESSION
+        )
+        self._events.attrs["units"] = "t_s: s; count: samples or bytes; byte_offset: bytes; line: 1-based"
+        self._events.attrs["kinds"] = ",".join(EVENT_KINDS)
+        self.n = 0
+        if swmr:
+            f.swmr_mode = True
+        self._closed = False
+
+    @property
+    def enabled(self) -> tuple[str, ...]:
+        return tuple(self._arrays)
+
+    def append(self, t_s, acc, gyro, *, saturated=None, **optional) -> None:
+        """Append a block of samples. ``optional`` takes temp, t_device, t_host, seq."""
+        t_s = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        n_new = t_s.shape[0]
+        if n_new == 0:
+            return
+        block = {"t_s": t_s, "acc": np.asarray(acc), "gyro": np.asarray(gyro)}
+        if saturated is None:
+            saturated = np.zeros(n_new, dtype=np.uint8)
+        block["saturated"] = np.asarray(saturated, dtype=np.uint8)
+        for name, value in optional.items():
+            if value is None:
+                continue
+            if name not in self._arrays:
+                raise KeyError(f"recording was created without {name!r}")
+            block[name] = np.asarray(value)
+        missing = set(self._arrays) - set(block)
+        if missing:
+            raise KeyError(f"append() is missing {sorted(missing)}")
+        for name, ds in self._arrays.items():
+            value = block[name]
+            if value.shape[0] != n_new:
+                raise ValueError(f"{name}: {value.shape[0]} rows, expected {n_new}")
+            ds.resize(self.n + n_new, axis=0)
+            ds[self.n :] = value
+        self.n += n_new
+
+    def add_events(self, events: np.ndarray | Iterable[Mapping[str, Any]]) -> None:
+        if not isinstance(events, np.ndarray):
+            events = make_events(events)
+        if len(events) == 0:
+            return
+        n0 = self._events.shape[0]
+        self._events.resize(n0 + len(events), axis=0)
+        self._events[n0:] = events
+
+    def flush(self) -> None:
+        self._file.flush()
+
+    def close(self, final_meta: Mapping[str, Any] | None = None) -> None:
+        if self._closed:
+            return
+        self._file.flush()
+        self._file.close()
+        self._closed = True
+        if final_meta:
+            with h5py.File(self.path, "r+") as f:
+                for key, value in final_meta.items():
+                    f["meta"].attrs[key] = _clean_attr(value)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def write_recording(
+    path,
+    t_s,
+    acc,
+    gyro,
+    *,
+    acc_channel: Channel | None = None,
+    gyro_channel: Channel | None = None,
+    events=None,
+    meta=None,
+    measured_rate: bool = True,
+    **optional,
+) -> Path:
+    """Write a whole recording at once (importers, simulator). Returns the path."""
+    acc = np.asarray(acc)
+    gyro = np.asarray(gyro)
+    acc_channel = acc_channel or si_channel("acc")
+    gyro_channel = gyro_channel or si_channel("gyro")
+    temp_channel = optional.pop("temp_channel", None)
+    writer = RecordingWriter(
+        path,
+        acc_channel,
+        gyro_channel,
+        temp=temp_channel,
+        device_time=optional.get("t_device") is not None,
+        host_time=optional.get("t_host") is not None,
+        seq=optional.get("seq") is not None,
+        meta=meta,
+        swmr=False,
+    )
+    writer.append(t_s, acc, gyro, **optional)
+    if events is not None:
+        writer.add_events(events)
+    final = {}
+    if measured_rate:
+        final = timing_summary(np.asarray(t_s, dtype=float))
+    writer.close(final_meta=final)
+    return Path(path)
+
+
+def timing_summary(t_s: np.ndarray) -> dict:
+    """Measured rate and jitter from sample times (robust: median interval)."""
+    dt = np.diff(t_s)
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    if dt.size == 0:
+        return {"rate_measured_hz": float("nan"), "jitter_s": float("nan")}
+    med = float(np.median(dt))
+    return {"rate_measured_hz": 1.0 / med, "jitter_s": float(np.std(dt[dt < 1.5 * med]))}
+
+
+@dataclass
+class Recording:
+    """A recording in SI units, as ``load`` returns it."""
+
+    path: Path
+    t_s: np.ndarray  # (N,) s
+    acc_mps2: np.ndarray  # (N, 3) specific force in the body frame
+    gyro_radps: np.ndarray  # (N, 3) angular rate in the body frame
+    saturated: np.ndarray  # (N,) uint8 bitmask, see SATURATION_BITS
+    events: np.ndarray  # EVENT_DTYPE
+    meta: dict
+    attrs: dict
+    temp_degc: np.ndarray | None = None
+    t_device: np.ndarray | None = None
+    t_host: np.ndarray | None = None
+    seq: np.ndarray | None = None
+    raw: dict = field(default_factory=dict)  # raw acc/gyro arrays as stored (counts or SI)
+    truth: dict | None = None  # /truth datasets and attrs, when present
+
+    @property
+    def n(self) -> int:
+        return int(self.t_s.shape[0])
+
+    @property
+    def rate_hz(self) -> float:
+        return timing_summary(self.t_s)["rate_measured_hz"]
+
+    def events_of(self, kind: str) -> np.ndarray:
+        return self.events[self.events["kind"] == kind.encode()]
+
+
+def _open_for_read(path: Path) -> h5py.File:
+    try:
+        return h5py.File(path, "r")
+    except OSError as first:
+        # A writer still running (or killed) leaves SWMR flags set; SWMR read mode accepts that.
+        try:
+            return h5py.File(path, "r", libver="latest", swmr=True)
+        except OSError:
+            raise InputError(f"{path}: cannot open as an HDF5 recording ({first})") from first
+
+
+def _decode(value):
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+def load(path: str | os.PathLike, *, with_truth: bool = True) -> Recording:
+    """Open a recording and return it in SI units (the one function every consumer uses)."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    with _open_for_read(path) as f:
+        version = f.attrs.get("format_version")
+        if version is None or "imu" not in f:
+            raise InputError(f"{path}: not a bootnav recording (no format_version or /imu)")
+        if int(version) > FORMAT_VERSION:
+            raise InputError(f"{path}: format_version {version} is newer than this bootnav reads ({FORMAT_VERSION})")
+        imu = f["imu"]
+        # A killed writer may leave datasets of unequal length; keep the common prefix.
+        names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
+        n = min(imu[k].shape[0] for k in names)
+        get = lambda k: imu[k][:n] if k in imu else None  # noqa: E731
+        scale = lambda k: (  # noqa: E731
+            imu[k][:n].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
+            + float(imu[k].attrs.get("offset_to_si", 0.0))
+        )
+        rec = Recording(
+            path=path,
+            t_s=get("t_s").astype(np.float64),
+            acc_mps2=scale("acc"),
+            gyro_radps=scale("gyro"),
+            saturated=get("saturated"),
+            events=f["events"][()] if "events" in f else np.zeros(0, EVENT_DTYPE),
+            meta={k: _decode(v) for k, v in f["meta"].attrs.items()} if "meta" in f else {},
+            attrs={k: _decode(v) for k, v in f.attrs.items()},
+            temp_degc=scale("temp") if "temp" in imu else None,
+            t_device=get("t_device"),
+            t_host=get("t_host"),
+            seq=get("seq"),
+            raw={
+                "acc": get("acc"),
+                "gyro": get("gyro"),
+                "acc_attrs": dict(imu["acc"].attrs),
+                "gyro_attrs": dict(imu["gyro"].attrs),
+            },
+        )
+        if with_truth and "truth" in f:
+            g = f["truth"]
+            rec.truth = {k: g[k][()] for k in g if isinstance(g[k], h5py.Dataset)}
+            rec.truth["attrs"] = {k: _decode(v) for k, v in g.attrs.items()}
+    return rec
+
+
+def write_group(path, group: str, arrays: Mapping[str, Any], attrs: Mapping[str, Any] | None = None,
+                units: Mapping[str, str] | None = None, replace: bool = True) -> None:
+    """Add (or replace) a group such as ``/truth`` or ``/results/<name>`` in an existing recording.
+
+    Every array gets a ``units`` attribute (from ``units``, default "1").
+    """
+    units = units or {}
+    with h5py.File(path, "r+") as f:
+        if group in f and replace:
+            del f[group]
+        g = f.require_group(group)
+        for key, value in (attrs or {}).items():
+            g.attrs[key] = _clean_attr(value)
+        for key, value in arrays.items():
+            value = np.asarray(value)
+            kwargs = dict(_COMPRESSION, chunks=True) if value.ndim and value.size > 1024 else {}
+            ds = g.create_dataset(key, data=value, **kwargs)
+            ds.attrs["units"] = units.get(key, "1")
