@@ -1,0 +1,234 @@
+"""Accuracy metrics exactly as ``shared/datasets/METRICS.md`` defines them.
+
+Every position metric first removes the unknown start position and start heading — never scale, never
+anything fitted to the whole path:
+
+1. translate estimate and truth so both start at the origin (first sample, or stride 0);
+2. find the first estimate sample whose horizontal distance from the start is >= 0.8 m and rotate the
+   estimate about the vertical axis so that its horizontal position there points the same way as the truth
+   at the same time (truth interpolated linearly in time) — pyshoe's evaluation convention;
+3. z is never rotated or scaled.
+
+All functions take plain arrays (SI, nav frame z up) so they serve the foot-mounted filter and PDR alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+ALIGN_DISTANCE_M = 0.8
+EVENT_TOLERANCE_S = 0.25
+
+
+# ----------------------------------------------------------------------------------------- alignment
+def _interp_rows(t_query: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Linear interpolation of each column of ``values`` (clamped at the ends)."""
+    values = np.asarray(values, dtype=float)
+    return np.column_stack([np.interp(t_query, t, values[:, k]) for k in range(values.shape[1])])
+
+
+def align_to_truth(t_est, pos_est, t_truth, pos_truth, t_origin: float | None = None):
+    """Return the estimate translated and rotated about z per METRICS.md, and the rotation angle (rad).
+
+    ``t_origin``: time of the common origin (default: the estimate's first sample; footprints use the time
+    of stride 0). The truth is translated so that it is at the origin at ``t_origin``.
+    """
+    t_est = np.asarray(t_est, float)
+    pos_est = np.asarray(pos_est, float)
+    t_truth = np.asarray(t_truth, float)
+    pos_truth = np.asarray(pos_truth, float)
+    if t_origin is None:
+        t_origin = t_est[0]
+    est0 = _interp_rows(np.array([t_origin]), t_est, pos_est)[0]
+    truth0 = _interp_rows(np.array([t_origin]), t_truth, pos_truth)[0]
+    est = pos_est - est0
+    truth_shift = truth0
+    after = t_est >= t_origin
+    horiz = np.hypot(est[:, 0], est[:, 1])
+    far = np.flatnonzero(after & (horiz >= ALIGN_DISTANCE_M))
+    if far.size == 0:
+        return est, 0.0, truth_shift
+    k = far[0]
+    truth_k = _interp_rows(np.array([t_est[k]]), t_truth, pos_truth)[0] - truth0
+    angle = np.arctan2(truth_k[1], truth_k[0]) - np.arctan2(est[k, 1], est[k, 0])
+    c, s = np.cos(angle), np.sin(angle)
+    rotated = est.copy()
+    rotated[:, 0] = c * est[:, 0] - s * est[:, 1]
+    rotated[:, 1] = s * est[:, 0] + c * est[:, 1]
+    return rotated, float(angle), truth_shift
+
+
+# ----------------------------------------------------------------------------------- stance phases
+def stance_phases(stance) -> list[tuple[int, int]]:
+    """Contiguous stance intervals as (first, last_exclusive) sample indices."""
+    s = np.asarray(stance, dtype=np.int8)
+    edges = np.diff(np.concatenate([[0], s, [0]]))
+    starts = np.flatnonzero(edges == 1)
+    ends = np.flatnonzero(edges == -1)
+    return list(zip(starts.tolist(), ends.tolist()))
+
+
+def stance_positions(pos, stance) -> np.ndarray:
+    """Mean position of each stance phase (the foot is still there)."""
+    phases = stance_phases(stance)
+    pos = np.asarray(pos, float)
+    if not phases:
+        return np.zeros((0, pos.shape[1]))
+    return np.array([pos[a:b].mean(axis=0) for a, b in phases])
+
+
+# --------------------------------------------------------------------------------- per truth kind
+def trajectory_metrics(t_est, pos_est, t_truth, pos_truth) -> dict:
+    """mean_h_err_m, armse_2d, mean_v_err_m, final_h_err_m (truth samples matched by time)."""
+    t_truth = np.asarray(t_truth, float)
+    pos_truth = np.asarray(pos_truth, float)
+    inside = (t_truth >= t_est[0]) & (t_truth <= t_est[-1])
+    t_truth, pos_truth = t_truth[inside], pos_truth[inside]
+    aligned, angle, truth0 = align_to_truth(t_est, pos_est, t_truth, pos_truth, t_origin=t_truth[0])
+    est_at = _interp_rows(t_truth, t_est, aligned)
+    truth = pos_truth - truth0
+    d = est_at - truth
+    h = np.hypot(d[:, 0], d[:, 1])
+    return {
+        "mean_h_err_m": float(h.mean()),
+        "armse_2d": float(np.mean(np.sqrt((d[:, 0] ** 2 + d[:, 1] ** 2) / 2.0))),
+        "mean_v_err_m": float(np.mean(np.abs(d[:, 2]))) if d.shape[1] > 2 else float("nan"),
+        "final_h_err_m": float(h[-1]),
+        "align_angle_rad": angle,
+    }
+
+
+def closed_loop_metrics(pos_est, stance) -> dict:
+    """closure_h_m, closure_v_m, closure_3d_m, distance_m, closure_pct (first vs last stance phase)."""
+    p = stance_positions(pos_est, stance)
+    if len(p) < 2:
+        raise ValueError("closed-loop metrics need at least two stance phases")
+    d = p[-1] - p[0]
+    distance = float(np.sum(np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1]))))
+    c3 = float(np.linalg.norm(d))
+    return {
+        "closure_h_m": float(np.hypot(d[0], d[1])),
+        "closure_v_m": float(abs(d[2])),
+        "closure_3d_m": c3,
+        "distance_m": distance,
+        "closure_pct": 100.0 * c3 / distance if distance > 0 else float("nan"),
+    }
+
+
+def footprint_metrics(t_est, pos_est, fp_t, fp_xy, n_detected_strides: int | None = None) -> dict:
+    """mean_fp_err_m, final_fp_err_m, final_fp_err_pct, stride_count_err (footprints with times)."""
+    fp_t = np.asarray(fp_t, float)
+    fp_xy = np.asarray(fp_xy, float)[:, :2]
+    truth3 = np.column_stack([fp_xy, np.zeros(len(fp_xy))])
+    est3 = np.asarray(pos_est, float)
+    aligned, angle, truth0 = align_to_truth(t_est, est3, fp_t, truth3, t_origin=fp_t[0])
+    est_at = _interp_rows(fp_t, t_est, aligned)[:, :2]
+    err = np.hypot(*(est_at - (fp_xy - truth0[:2])).T)
+    length = float(np.sum(np.hypot(*np.diff(fp_xy, axis=0).T)))
+    out = {
+        "mean_fp_err_m": float(err.mean()),
+        "final_fp_err_m": float(err[-1]),
+        "final_fp_err_pct": 100.0 * float(err[-1]) / length,
+        "truth_length_m": length,
+        "align_angle_rad": angle,
+    }
+    if n_detected_strides is not None:
+        out["stride_count_err"] = int(n_detected_strides)
+    return out
+
+
+def stride_length_metrics(t_est, pos_est, t_start, t_end, length_truth) -> dict:
+    """stride_mae_m, stride_bias_m: estimated stride = horizontal distance between positions at start/end."""
+    a = _interp_rows(np.asarray(t_start, float), t_est, pos_est)
+    b = _interp_rows(np.asarray(t_end, float), t_est, pos_est)
+    est = np.hypot(b[:, 0] - a[:, 0], b[:, 1] - a[:, 1])
+    e = est - np.asarray(length_truth, float)
+    return {"stride_mae_m": float(np.mean(np.abs(e))), "stride_bias_m": float(np.mean(e)), "n_strides": int(len(e))}
+
+
+def out_and_back_metrics(step_t, step_xy, t_start, t_end, distance_truth) -> dict:
+    """distance_err_pct of the estimated horizontal distance walked between two times.
+
+    ``step_t``/``step_xy``: times and horizontal positions of consecutive stance phases (foot) or steps
+    (PDR); the walked distance is the sum of horizontal displacements between those inside the window.
+    """
+    step_t = np.asarray(step_t, float)
+    step_xy = np.asarray(step_xy, float)[:, :2]
+    inside = (step_t >= t_start - EVENT_TOLERANCE_S) & (step_t <= t_end + EVENT_TOLERANCE_S)
+    p = step_xy[inside]
+    est = float(np.sum(np.hypot(*np.diff(p, axis=0).T))) if len(p) > 1 else 0.0
+    return {"distance_est_m": est, "distance_err_pct": 100.0 * (est - distance_truth) / distance_truth}
+
+
+def match_events(detected, truth, tolerance: float = EVENT_TOLERANCE_S) -> list[tuple[int, int]]:
+    """One-to-one matching within ±tolerance, nearest pairs first. Returns (detected_i, truth_j) pairs."""
+    detected = np.sort(np.asarray(detected, float))
+    truth = np.asarray(truth, float)
+    order_truth = np.argsort(truth)
+    truth_sorted = truth[order_truth]
+    # Candidate pairs: each detected event vs the truth events within tolerance (sorted search).
+    lo = np.searchsorted(truth_sorted, detected - tolerance, side="left")
+    hi = np.searchsorted(truth_sorted, detected + tolerance, side="right")
+    counts = hi - lo
+    det_idx = np.repeat(np.arange(len(detected)), counts)
+    tru_idx = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]) if len(detected) else np.zeros(0, int)
+    dist = np.abs(detected[det_idx] - truth_sorted[tru_idx])
+    pairs = []
+    used_d = np.zeros(len(detected), bool)
+    used_t = np.zeros(len(truth), bool)
+    for k in np.argsort(dist, kind="stable"):
+        i, j = det_idx[k], tru_idx[k]
+        if not used_d[i] and not used_t[j]:
+            used_d[i] = used_t[j] = True
+            pairs.append((int(i), int(order_truth[j])))
+    return pairs
+
+
+def step_event_metrics(detected, truth, tolerance: float = EVENT_TOLERANCE_S) -> dict:
+    """precision, recall, f1, count_err_pct."""
+    n_det, n_true = len(detected), len(truth)
+    tp = len(match_events(detected, truth, tolerance))
+    precision = tp / n_det if n_det else 0.0
+    recall = tp / n_true if n_true else 0.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+    return {
+        "precision": precision,
+        "recall": recall,
+        "f1": f1,
+        "count_err_pct": 100.0 * (n_det - n_true) / n_true if n_true else float("nan"),
+        "n_detected": n_det,
+        "n_true": n_true,
+    }
+
+
+def step_count_metrics(n_detected: int, n_true: int) -> dict:
+    return {"count_err_pct": 100.0 * (n_detected - n_true) / n_true, "n_detected": n_detected, "n_true": n_true}
+
+
+def step_length_metrics(step_t, step_len, ref_t, ref_len, tolerance: float = EVENT_TOLERANCE_S) -> dict:
+    """The detected step nearest each reference contact within ±tolerance; MAE and bias over matches."""
+    step_t = np.asarray(step_t, float)
+    step_len = np.asarray(step_len, float)
+    errors = []
+    if len(step_t):
+        for t, length in zip(np.asarray(ref_t, float), np.asarray(ref_len, float)):
+            k = int(np.argmin(np.abs(step_t - t)))
+            if abs(step_t[k] - t) <= tolerance:
+                errors.append(step_len[k] - length)
+    e = np.asarray(errors)
+    if e.size == 0:
+        return {"step_len_mae_m": float("nan"), "step_len_bias_m": float("nan"), "n_matched": 0}
+    return {"step_len_mae_m": float(np.abs(e).mean()), "step_len_bias_m": float(e.mean()), "n_matched": int(e.size)}
+
+
+def stance_metrics(t_est, stance_est, t_truth, stance_truth) -> dict:
+    """Per-sample precision and recall of stance (estimate sampled at the truth times, nearest)."""
+    t_est = np.asarray(t_est, float)
+    idx = np.clip(np.searchsorted(t_est, np.asarray(t_truth, float)), 0, len(t_est) - 1)
+    est = np.asarray(stance_est, bool)[idx]
+    truth = np.asarray(stance_truth, bool)
+    tp = np.sum(est & truth)
+    return {
+        "stance_precision": float(tp / max(est.sum(), 1)),
+        "stance_recall": float(tp / max(truth.sum(), 1)),
+    }
