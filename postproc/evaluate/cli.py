@@ -1,0 +1,62 @@
+"""``bootnav eval DATASET_ROOT --out DIR [--jobs N]``: accuracy on every trial, one fixed configuration."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from bootnav.errors import InputError
+
+
+def add_arguments(parser):
+    parser.add_argument("root", type=Path, help="dataset tree with manifest.json (e.g. ../shared/datasets)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder")
+    parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    parser.add_argument("--sets", nargs="*", default=None, help="only these datasets")
+    parser.add_argument("--trials", nargs="*", default=None, help="only these trial ids")
+    parser.add_argument("--no-plots", action="store_true", help="skip the per-trial plots")
+
+
+def select_trials(manifest: dict, sets=None, trial_ids=None) -> list[dict]:
+    trials = manifest["trials"]
+    if sets:
+        trials = [t for t in trials if t["set"] in sets]
+    if trial_ids:
+        trials = [t for t in trials if t["id"] in trial_ids]
+    return trials
+
+
+def run(args) -> int:
+    import time
+
+    from postproc.evaluate.report import plot_trial, write_metrics_json, write_report
+    from postproc.evaluate.runner import evaluate_all
+
+    manifest_path = args.root / "manifest.json"
+    if not manifest_path.exists():
+        raise InputError(f"{manifest_path}: no manifest.json in the dataset root")
+    trials = select_trials(json.loads(manifest_path.read_text()), args.sets, args.trials)
+    if not trials:
+        raise InputError("no trial selected")
+    args.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+
+    def progress(done, total, result):
+        status = "ok" if result.status == "ok" else f"FAILED ({result.reason})"
+        print(f"\r[{done}/{total}] {result.id}: {status}".ljust(100), file=sys.stderr, end="\n" if done == total else "")
+
+    results = evaluate_all(args.root, trials, jobs=args.jobs, progress=progress)
+    elapsed = time.perf_counter() - t0
+    doc = write_metrics_json(results, args.out / "metrics.json", extra={"elapsed_s": elapsed})
+    if not args.no_plots:
+        plots = args.out / "plots"
+        plots.mkdir(exist_ok=True)
+        for r in results:
+            plot_trial(r, plots)
+    report = write_report(results, doc, args.out, header=f"{len(results)} trials in {elapsed:.1f} s.")
+    failed = [r for r in results if r.status != "ok"]
+    print(f"{len(results) - len(failed)} trials ok, {len(failed)} failed; report: {report}", file=sys.stderr)
+    for r in failed:
+        print(f"  failed {r.id}: {r.reason}", file=sys.stderr)
+    return 0

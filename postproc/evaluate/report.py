@@ -1,0 +1,110 @@
+"""metrics.json, a Markdown report with one table per dataset, and a path-vs-truth plot per trial."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from postproc.evaluate.runner import TrialResult, dataset_summary
+
+# Metrics shown first in each dataset's table (the rest follow alphabetically in metrics.json only).
+HEADLINE = [
+    "armse_2d", "mean_h_err_m", "final_h_err_m", "mean_v_err_m", "stance_precision", "stance_recall",
+    "closure_pct", "closure_h_m", "closure_v_m", "distance_m",
+    "final_fp_err_pct", "mean_fp_err_m", "stride_count_err",
+    "stride_mae_m", "stride_bias_m",
+    "distance_err_pct", "abs_distance_err_pct", "foot_abs_distance_err_pct",
+    "f1", "precision", "recall", "count_err_pct", "abs_count_err_pct",
+    "step_len_mae_m", "step_len_bias_m", "seconds",
+]
+
+
+def _fmt(v) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "—"
+    if isinstance(v, float):
+        return f"{v:.3g}" if abs(v) < 1000 else f"{v:.0f}"
+    return str(v)
+
+
+def write_metrics_json(results: list[TrialResult], path: Path, extra: dict | None = None) -> dict:
+    doc = {
+        "trials": {
+            r.id: {"set": r.set, "mount": r.mount, "status": r.status, "reason": r.reason, **r.metrics,
+                   "files": r.files}
+            for r in results
+        },
+        "datasets": dataset_summary(results),
+    }
+    if extra:
+        doc.update(extra)
+    path.write_text(json.dumps(doc, indent=1, default=float, allow_nan=True))
+    return doc
+
+
+def plot_trial(result: TrialResult, out_dir: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    paths = []
+    for name, data in result.plot_data.items():
+        if "est_xy" not in data:
+            continue
+        fig, ax = plt.subplots(figsize=(6, 5))
+        est = np.asarray(data["est_xy"])
+        ax.plot(est[:, 0], est[:, 1], "-", lw=1.2, label="bootnav estimate")
+        ax.plot(est[0, 0], est[0, 1], "go", label="start")
+        ax.plot(est[-1, 0], est[-1, 1], "rs", label="end")
+        if "truth_xy" in data:
+            tr = np.asarray(data["truth_xy"])
+            style = "k.:" if data.get("truth_style") == "footprints" else "k:"
+            ax.plot(tr[:, 0], tr[:, 1], style, lw=1.2, label="truth")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("x east [m]")
+        ax.set_ylabel("y north [m]")
+        m = result.files.get(name, {})
+        key = next((k for k in ("armse_2d", "closure_pct", "final_fp_err_pct", "abs_distance_err_pct",
+                                "stride_mae_m", "f1") if k in m), None)
+        title = f"{result.id} · {name}"
+        if key:
+            title += f"\n{key} = {_fmt(m[key])}"
+        ax.set_title(title, fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+        fig.tight_layout()
+        p = out_dir / (result.id.replace("/", "__") + "__" + name.replace(".csv.gz", "") + ".png")
+        fig.savefig(p, dpi=90)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def write_report(results: list[TrialResult], doc: dict, out_dir: Path, header: str = "") -> Path:
+    lines = ["# bootnav evaluation report", ""]
+    if header:
+        lines += [header, ""]
+    for set_name, summary in doc["datasets"].items():
+        rows = [r for r in results if r.set == set_name]
+        keys = [k for k in HEADLINE if any(k in r.metrics for r in rows)]
+        lines += [f"## {set_name}", "", f"{summary['n_trials']} trials, {summary['n_failed']} failed.", ""]
+        if keys:
+            lines.append("| trial | " + " | ".join(keys) + " |")
+            lines.append("|---|" + "---|" * len(keys))
+            for r in rows:
+                if r.status != "ok":
+                    continue
+                lines.append(f"| {r.id.split('/', 1)[1]} | " + " | ".join(_fmt(r.metrics.get(k)) for k in keys) + " |")
+            lines.append("| **mean** | " + " | ".join(_fmt(summary.get(k)) for k in keys) + " |")
+            lines.append("| **median** | " + " | ".join(_fmt(summary.get(f"median_{k}")) for k in keys) + " |")
+        failed = [r for r in rows if r.status != "ok"]
+        if failed:
+            lines += ["", "Failures:"] + [f"- `{r.id}`: {r.reason}" for r in failed]
+        lines.append("")
+    path = out_dir / "report.md"
+    path.write_text("\n".join(lines))
+    return path
