@@ -1,0 +1,149 @@
+"""``run_filter``: ZUPT-aided strapdown navigation (seed-004 eqs. 1–5; Skog et al. 2010; Foxlin 2005; OpenShoe).
+
+Error state δx = x_true − x̂ = (δp_n, δv_n, δθ_n[, δb_a,b, δb_g,b]) with the attitude error a nav-frame
+rotation, C_true ≈ (I + [δθ×]) Ĉ. Linearised dynamics (continuous time, A):
+
+    δṗ = δv,   δv̇ = −[f_n×] δθ − Ĉ δb_a − Ĉ w_a,   δθ̇ = −Ĉ δb_g − Ĉ w_g,   δḃ = w_b
+
+discretised per step as F = I + A Δt and Q_d = diag(σ_a² Δt₀ Δt, σ_g² Δt₀ Δt, σ_ba² Δt, σ_bg² Δt)
+(σ conventions in settings.py; the rotation Ĉ drops out of isotropic noise).
+
+Time update: mechanization (mechanization.py) + P ← F P Fᵀ + Q_d.
+ZUPT in stance (eq. 3 with the sign made explicit): z = 0 − v̂ = H δx + ν, H = [0 I 0], R = σ_zupt² I,
+K = P Hᵀ (H P Hᵀ + R)⁻¹, δx = K z, Joseph form P ← (I−KH) P (I−KH)ᵀ + K R Kᵀ. The paper prints
+"+ k_n v_n": that is this update with z's minus sign absorbed in k_n.
+Reset: p̂ += δp, v̂ += δv, b̂ += δb, q̂ ← exp(δθ/2) ⊗ q̂ (the quaternion form of ψ ← a(dθ) ψ; exact rotation,
+renormalised, not the first-order R ← (I − [δθ×]) R), then δx ← 0.
+Optional ZARU (15 states): z = ω_m − b̂_g = δb_g + ν in stance, sequential after the ZUPT.
+"riccati" mode: constant continuous gain from eq. 5 (riccati.py); P is still propagated and Joseph-updated
+with that (suboptimal) gain so ``pos_sigma_n`` stays meaningful.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bootnav.errors import InputError
+from postproc.ins.mechanization import time_base, validate_imu
+from postproc.ins.settings import FilterSettings
+
+
+@dataclass
+class NavSolution:
+    """Per-sample navigation solution (SI, nav frame ENU, q_nb wxyz body -> nav)."""
+
+    t_s: np.ndarray
+    pos_n: np.ndarray
+    vel_n: np.ndarray
+    q_nb: np.ndarray
+    acc_bias_b: np.ndarray | None
+    gyro_bias_b: np.ndarray | None
+    pos_sigma_n: np.ndarray
+    info: dict = field(default_factory=dict)
+
+
+def initial_covariance(settings: FilterSettings) -> np.ndarray:
+    """P₀ = diag of the initial error sigmas (yaw separately: alignment cannot see it)."""
+    s = [settings.init_pos_sigma_m] * 3 + [settings.init_vel_sigma_mps] * 3
+    s += [settings.init_att_sigma_rad] * 2 + [settings.init_yaw_sigma_rad]
+    if settings.n_states == 15:
+        s += [settings.init_acc_bias_sigma_mps2] * 3 + [settings.init_gyro_bias_sigma_radps] * 3
+    return np.diag(np.square(s))
+
+
+def _init_vector(init, name, default):
+    v = getattr(init, name, None)
+    if v is None:
+        return np.array(default, dtype=float)
+    v = np.asarray(v, dtype=float).reshape(-1)
+    if not np.all(np.isfinite(v)):
+        raise InputError(f"initial state {name} is not finite: {v}")
+    return v
+
+
+def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,
+               progress=None) -> NavSolution:
+    """ZUPT-aided INS over a whole record.
+
+    t_s (N,) s, increasing (duplicates allowed); acc_b (N,3) m/s² specific force; gyro_b (N,3) rad/s;
+    stance (N,) bool (True = foot still: ZUPT applied); init: any object with ``q_nb`` (4,) wxyz and
+    ``gyro_bias_b`` (3,) (optional ``acc_bias_b``), e.g. ``postproc.calibration.InitialState``;
+    gravity: m/s² (positive); progress: optional ``progress(fraction)`` called a few times.
+    Position starts at 0, velocity at 0. Raises ``InputError`` for bad data, ``ValueError`` for bad settings.
+    """
+    settings = settings or FilterSettings()
+    settings.validate()
+    t_s, acc_b, gyro_b = validate_imu(t_s, acc_b, gyro_b, stance)
+    stance = np.ascontiguousarray(stance, dtype=bool)
+    if not (np.isfinite(gravity) and 5.0 < gravity < 15.0):
+        raise InputError(f"gravity must be the local magnitude in m/s² (about 9.8), got {gravity!r}")
+    tb = time_base(t_s, settings.gap_factor)
+    q0 = _init_vector(init, "q_nb", [1.0, 0.0, 0.0, 0.0])
+    if q0.shape != (4,) or not 0.5 < np.linalg.norm(q0) < 1.5:
+        raise InputError(f"init.q_nb must be a unit quaternion (w, x, y, z), got {q0}")
+    q0 = q0 / np.linalg.norm(q0) * (1.0 if q0[0] >= 0 else -1.0)
+    bg0 = _init_vector(init, "gyro_bias_b", np.zeros(3))
+    ba0 = _init_vector(init, "acc_bias_b", np.zeros(3))
+    P0 = initial_covariance(settings)
+    warnings: list[str] = []
+    zupt_gain = None
+    ric_report = None
+    smooth = settings.smoother == "rts"
+    if settings.mode == "riccati":
+        from postproc.ins.riccati import paper_zupt_gain
+
+        zupt_gain = paper_zupt_gain(settings, gravity, tb.nominal_dt_s)
+        ric_report = zupt_gain.report.to_dict()
+        if smooth:
+            smooth = False
+            warnings.append("smoother disabled in riccati (paper) mode: RTS needs the optimal time-varying P")
+    if not stance.any():
+        warnings.append("no stance sample: the filter ran open loop (pure strapdown) — the path is not usable")
+    if tb.gap_mask.any():
+        warnings.append(f"{int(tb.gap_mask.sum())} timestamp gap(s) > {settings.gap_factor} x nominal period "
+                        f"(largest {tb.dt_s.max():.4g} s) were propagated as single steps")
+
+    t0 = time.perf_counter()
+    if settings.engine == "fast":
+        from postproc.ins.fast import run_fast
+
+        out, einfo = run_fast(t_s, acc_b, gyro_b, stance, q0, bg0, ba0, gravity, settings, tb, P0, zupt_gain,
+                              smooth, progress)
+    else:
+        from postproc.ins.reference import run_reference
+
+        out, einfo = run_reference(t_s, acc_b, gyro_b, stance, q0, bg0, ba0, gravity, settings, tb, P0,
+                                   zupt_gain, smooth, progress)
+    elapsed = time.perf_counter() - t0
+    biases = settings.n_states == 15
+    info = {
+        "mode": settings.mode,
+        "engine": settings.engine,
+        "n_states": settings.n_states,
+        "smoother": "rts" if smooth else "none",
+        "riccati": ric_report,
+        "nominal_dt_s": tb.nominal_dt_s,
+        "n_duplicates": tb.n_duplicates,
+        "gaps": tb.gaps,
+        "gap_mask": tb.gap_mask,
+        "n_updates": einfo["n_updates"],
+        "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"]},
+        "smoother_segments": einfo.get("smoother_segments", 0),
+        "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
+        "final_P": einfo["final_P"],
+        "warnings": warnings,
+        "settings": settings.to_dict(),
+    }
+    return NavSolution(
+        t_s=t_s,
+        pos_n=out["pos_n"],
+        vel_n=out["vel_n"],
+        q_nb=out["q_nb"],
+        acc_bias_b=out["acc_bias_b"] if biases else None,
+        gyro_bias_b=out["gyro_bias_b"] if biases else None,
+        pos_sigma_n=out["pos_sigma_n"],
+        info=info,
+    )

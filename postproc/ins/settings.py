@@ -1,0 +1,95 @@
+"""``FilterSettings``: every tunable of the ZUPT navigation filter, saved with the results (OpenShoe style).
+
+Noise convention (documented because the literature mixes two):
+``sigma_acc_mps2`` / ``sigma_gyro_radps`` are the standard deviations of the accelerometer / gyro error
+of ONE sample at the nominal sample period Δt₀ (OpenShoe's σ_a, σ_g). The process noise of a step of length
+Δt is ``Q_d = σ² Δt₀ Δt`` (white-noise density σ²Δt₀ integrated over Δt), which equals OpenShoe's
+``Ts² σ²`` for uniform sampling and grows linearly, as it physically should, over jitter and gaps.
+Bias random walks are densities (unit/√s): ``Q_d = σ_rw² Δt``.
+The continuous-time Riccati ("paper") mode uses the same densities: W = σ² Δt₀, V = σ_zupt² Δt₀.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+DEG = math.pi / 180.0
+
+
+@dataclass
+class FilterSettings:
+    """Tunables of ``postproc.ins.run_filter`` (defaults: OpenShoe-like, then tuned on the developer data).
+
+    n_states: 9 = (δp, δv, δθ) [Skog 2010, OpenShoe]; 15 = + accelerometer bias δb_a, gyro bias δb_g (body).
+    mode: "time_varying" (default; discrete KF, P propagated and updated) or "riccati" (seed-004 eqs. 4–5:
+        constant gain from the continuous algebraic Riccati equation on the observable subsystem
+        (velocity, roll, pitch); position and yaw propagated open loop; 9 states only).
+    engine: "fast" (numba, production) or "reference" (filterpy ``KalmanFilter``, per-sample Python loop).
+    sigma_acc_mps2, sigma_gyro_radps: per-sample IMU noise at the nominal rate (see module docstring).
+    sigma_acc_bias_rw, sigma_gyro_bias_rw: bias random walks, m/s²/√s and rad/s/√s (15 states only).
+    sigma_zupt_mps: std of the zero-velocity pseudo-measurement (how still a foot in stance really is).
+    zaru: zero-angular-rate update in stance (z = −(ω_m − b̂_g) on the gyro-bias states; needs 15 states).
+        Off by default: it assumes a perfectly still foot. sigma_zaru_radps: its measurement std.
+    init_*: initial 1-σ of the error states (all must be > 0 so the smoother's P_pred stays invertible).
+    smoother: "rts" (Rauch–Tung–Striebel over segments between stance phases, bounded memory) or "none".
+    smoother_max_segment_s: longest buffered segment; a longer swing is smoothed in pieces (memory bound).
+    gap_factor: a step whose Δt exceeds ``gap_factor`` × nominal period is a *gap*: it is still propagated
+        (the dynamics do not care) but flagged in ``NavSolution.info["gaps"]``.
+    heading_aid: "none" only (reserved name for OPTIONAL heading-drift aids, which must stay off by default
+        and clearly labelled; none is implemented yet: heading is unobservable under ZUPT and is left free).
+    """
+
+    n_states: int = 9
+    mode: str = "time_varying"
+    engine: str = "fast"
+    sigma_acc_mps2: float = 0.5
+    sigma_gyro_radps: float = 0.5 * DEG
+    sigma_acc_bias_rw: float = 1e-3
+    sigma_gyro_bias_rw: float = 1e-4
+    sigma_zupt_mps: float = 0.01
+    zaru: bool = False
+    sigma_zaru_radps: float = 0.1 * DEG
+    init_pos_sigma_m: float = 1e-3
+    init_vel_sigma_mps: float = 1e-2
+    init_att_sigma_rad: float = 0.1 * DEG
+    init_yaw_sigma_rad: float = 0.1 * DEG
+    init_acc_bias_sigma_mps2: float = 0.1
+    init_gyro_bias_sigma_radps: float = 0.1 * DEG
+    smoother: str = "rts"
+    smoother_max_segment_s: float = 5.0
+    gap_factor: float = 5.0
+    heading_aid: str = "none"
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first bad field."""
+        if self.n_states not in (9, 15):
+            raise ValueError(f"FilterSettings.n_states must be 9 or 15, got {self.n_states}")
+        if self.mode not in ("time_varying", "riccati"):
+            raise ValueError(f"FilterSettings.mode must be 'time_varying' or 'riccati', got {self.mode!r}")
+        if self.engine not in ("fast", "reference"):
+            raise ValueError(f"FilterSettings.engine must be 'fast' or 'reference', got {self.engine!r}")
+        if self.smoother not in ("rts", "none"):
+            raise ValueError(f"FilterSettings.smoother must be 'rts' or 'none', got {self.smoother!r}")
+        if self.heading_aid != "none":
+            raise ValueError(f"FilterSettings.heading_aid: only 'none' is implemented, got {self.heading_aid!r}")
+        if self.mode == "riccati" and self.n_states != 9:
+            raise ValueError("FilterSettings.mode='riccati' (the paper's constant gain) supports n_states=9 only")
+        if self.zaru and self.n_states != 15:
+            raise ValueError("FilterSettings.zaru=True needs n_states=15 (it observes the gyro-bias states)")
+        for f in fields(self):
+            if f.name.startswith(("sigma_", "init_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
+                v = getattr(self, f.name)
+                if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                    raise ValueError(f"FilterSettings.{f.name} must be a finite number > 0, got {v!r}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FilterSettings":
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"unknown FilterSettings field(s): {sorted(unknown)}")
+        return cls(**d)
