@@ -1,0 +1,165 @@
+"""``bootnav process INPUT --out DIR``: reconstruct the walked 3-D path and write every output.
+
+Settings: defaults < ``--settings FILE.json`` (a full or partial ProcessSettings dict) < the options given
+on the command line. The settings actually used are saved in summary.json and the HDF5 results group.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    try:
+        vals = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LAT,LON[,H] numbers, got {text!r}") from None
+    if len(vals) not in (2, 3):
+        raise argparse.ArgumentTypeError(f"expected LAT,LON[,H], got {len(vals)} numbers")
+    return vals
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", metavar="INPUT",
+                   help="recording (.h5) or any file `bootnav import` reads (e.g. a canonical imu.csv.gz)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
+    p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
+    g = p.add_argument_group("algorithm")
+    g.add_argument("--detector", help="stance detector: adaptive (default), shoe, ared, mv, mag, paper_accmag, xio")
+    g.add_argument("--threshold", type=float, help="detector threshold (fixed-threshold detectors only)")
+    g.add_argument("--mode", choices=("time_varying", "riccati"),
+                   help="filter gain: time_varying (default) or riccati (the paper's steady-state gain)")
+    g.add_argument("--states", type=int, choices=(9, 15), help="error states: 9 (default) or 15 (+ biases)")
+    g.add_argument("--engine", choices=("fast", "reference"), help="fast (numba, default) or reference (filterpy)")
+    g.add_argument("--no-smoother", action="store_true", help="forward filter only (no RTS smoothing)")
+    g.add_argument("--latitude", type=float, metavar="DEG", help="latitude for WGS-84 normal gravity")
+    g.add_argument("--height", type=float, metavar="M", help="ellipsoidal height for normal gravity")
+    g.add_argument("--gravity", type=float, metavar="MPS2", help="gravity in m/s^2 (overrides latitude/height)")
+    g.add_argument("--accel-calibration", metavar="FILE.json", help="accelerometer bias + 3x3 matrix (JSON)")
+    w = p.add_argument_group("data and outputs")
+    w.add_argument("--crop", nargs=2, type=float, metavar=("T0", "T1"), help="process only T0..T1 seconds")
+    w.add_argument("--floor-height", type=float, metavar="M", help="storey height for floor counting (default 3)")
+    w.add_argument("--reference", metavar="FILE",
+                   help="reference path: CSV (t_s,x_m,y_m[,z_m] or x_m,y_m[,z_m]) or JSON "
+                        "({\"closed_loop\": true} / {\"straight_m\": 9} / {\"waypoints\": [...]}); see docs/metrics.md")
+    w.add_argument("--closed-loop", action="store_true", help="the walk ends where it started (closure metrics)")
+    w.add_argument("--geo-anchor", type=_floats, metavar="LAT,LON[,H]", help="WGS-84 position of the start for GeoJSON")
+    w.add_argument("--results-name", metavar="NAME", help="HDF5 results group /results/NAME (default 'default')")
+    w.add_argument("--no-hdf5", action="store_true", help="do not write the HDF5 results group")
+    w.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
+    w.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+
+
+def build_settings(args):
+    """Defaults < --settings file < command-line options."""
+    from postproc.settings import ProcessSettings
+
+    s = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
+    if args.detector:
+        from postproc.detectors import DetectorSettings
+
+        try:
+            s.detector = DetectorSettings(**{**s.detector.to_dict(), "method": args.detector})
+        except ValueError as exc:
+            from bootnav.errors import InputError
+
+            raise InputError(f"--detector: {exc}") from None
+    if args.threshold is not None:
+        s.detector.threshold = args.threshold
+    if args.mode:
+        s.filter.mode = args.mode
+    if args.states:
+        s.filter.n_states = args.states
+    if args.engine:
+        s.filter.engine = args.engine
+    if args.no_smoother:
+        s.filter.smoother = "none"
+    if args.latitude is not None:
+        s.calibration.latitude_deg = args.latitude
+    if args.height is not None:
+        s.calibration.height_m = args.height
+    if args.gravity is not None:
+        s.calibration.gravity_mps2 = args.gravity
+    if args.accel_calibration:
+        s.calibration.accel_calibration_file = args.accel_calibration
+    if args.crop:
+        s.crop_s = tuple(args.crop)
+    if args.floor_height is not None:
+        s.floor_height_m = args.floor_height
+    if args.reference:
+        s.reference = args.reference
+    elif args.closed_loop:
+        s.reference = '{"closed_loop": true}'
+    if args.geo_anchor:
+        s.output.geo_anchor = args.geo_anchor
+    if args.results_name:
+        s.output.results_name = args.results_name
+    if args.no_hdf5:
+        s.output.write_hdf5 = False
+    if args.no_plots:
+        s.output.plots = False
+    return s
+
+
+class StderrProgress:
+    """Stage lines on stderr; filter percentage only when a stage takes long enough to matter."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+        self.t0 = time.perf_counter()
+        self.last = -1.0
+
+    def __call__(self, stage: str, fraction: float) -> None:
+        if not self.enabled:
+            return
+        now = time.perf_counter() - self.t0
+        if fraction >= 1.0:
+            print(f"bootnav process: {stage} done ({now:.1f} s)", file=sys.stderr, flush=True)
+        elif now - self.last >= 1.0:
+            print(f"bootnav process: {stage} {100 * fraction:3.0f} %", file=sys.stderr, flush=True)
+            self.last = now
+
+
+def format_summary(summary: dict, files: dict) -> str:
+    p = summary.get("path", {})
+    lines = [
+        f"input        {summary['input']['source']}  ({summary['input']['samples_processed']} samples, "
+        f"{summary['input']['duration_s']:.1f} s at {summary['input']['rate_hz']:.0f} Hz)",
+        f"stance       {summary['stance']['method']}: {summary['stance']['phases']} phases, "
+        f"{100 * summary['stance']['fraction']:.0f} % of samples",
+        f"strides      {p.get('strides', 0)}, distance {p.get('distance_m', 0):.2f} m (horizontal)",
+    ]
+    if "closure_3d_m" in p:
+        lines.append(f"closure      {p['closure_3d_m']:.3f} m = {p['closure_pct']:.2f} % of distance "
+                     f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m)")
+        lines.append(f"height       {p['height_change_m']:+.2f} m net; floors climbed {p['floors_climbed']}, "
+                     f"descended {p['floors_descended']} (floor height {p['floor_height_m']:g} m)")
+    m = summary.get("metrics")
+    if m and "distance_error_pct" in m:
+        lines.append(f"reference    distance error {m['distance_error_pct']:.2f} % ({m['distance_error_m']:.3f} m), "
+                     f"deviation {m['deviation_error_pct']:.2f} % ({m['deviation_error_m']:.3f} m), "
+                     f"height {m['height_error_pct']:.2f} % ({m['height_error_m']:.3f} m)")
+    t = summary.get("timings_s", {})
+    lines.append("timings      " + ", ".join(f"{k} {v:.2f} s" for k, v in t.items()))
+    for w in summary.get("warnings", []):
+        lines.append(f"warning      {w}")
+    lines.append("files")
+    lines += [f"  {k:<22} {v}" for k, v in files.items()]
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    from postproc.outputs import write_outputs
+    from postproc.pipeline import process
+
+    settings = build_settings(args)
+    if args.save_settings:
+        settings.save(args.save_settings)
+    progress = StderrProgress(not args.quiet)
+    result = process(args.input, settings, progress=progress)
+    files = write_outputs(result, args.out)
+    print(format_summary(result.summary, files))
+    return 0

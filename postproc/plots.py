@@ -1,0 +1,218 @@
+"""The paper's charts 1-7 (seed-004 §3 chart list, R18) as PNG files, readable at a glance.
+
+1. ``1_raw_imu.png``: raw accelerometer and gyroscope with the stance indicator (Chart 1).
+2. ``2_acc_gravity_free.png``: acceleration in the nav frame with gravity removed, components and
+   magnitude: a_n = C_nb f_b + g_n, g_n = [0, 0, −g] (Chart 2).
+3. ``3_velocity.png``: velocity in the nav frame; zero in stance thanks to ZUPT (Chart 3).
+4. ``4_position.png``: position vs time, x/y/z (Charts 4 and 6).
+5. ``5_path_2d.png``: the path seen from above, equal axes, reference dotted when given (Charts 5 and 7).
+6. ``6_path_3d.png``: the 3-D path with equal scales (Chart 7, stairs).
+7. ``7_height.png``: height vs time with the floor lines used for counting floors.
+
+Time charts shade stance (green) and saturated intervals (red). Long signals are decimated for drawing
+only (``OutputSettings.plot_max_points``); every number in the files comes from the full data.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .strides import footprints, floor_levels, FloorSettings, stance_phases
+
+AXIS_COLORS = ("tab:red", "tab:green", "tab:blue")  # x, y, z (the usual RGB convention)
+FILES = {
+    "raw_imu": "1_raw_imu.png",
+    "acc_gravity_free": "2_acc_gravity_free.png",
+    "velocity": "3_velocity.png",
+    "position": "4_position.png",
+    "path_2d": "5_path_2d.png",
+    "path_3d": "6_path_3d.png",
+    "height": "7_height.png",
+}
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "legend.fontsize": 8,
+                         "legend.framealpha": 0.85})
+    return plt
+
+
+def gravity_free_acc_n(q_nb: np.ndarray, acc_b: np.ndarray, gravity: float) -> np.ndarray:
+    """a_n = C_nb(q_nb) f_b + [0, 0, −g] (m/s²)."""
+    from scipy.spatial.transform import Rotation
+
+    rot = Rotation.from_quat(np.asarray(q_nb)[:, [1, 2, 3, 0]])  # scipy wants xyzw
+    return rot.apply(acc_b) - np.array([0.0, 0.0, gravity])
+
+
+def _shade(ax, t, mask, color, label):
+    if mask.any():
+        ax.fill_between(t, 0, 1, where=mask, step="mid", transform=ax.get_xaxis_transform(), color=color,
+                        alpha=0.13, linewidth=0, label=label)
+
+
+def _time_axes(ax, t, stance, sat, ylabel, first=False):
+    _shade(ax, t, stance, "tab:green", "stance" if first else None)
+    _shade(ax, t, sat, "tab:red", "saturated" if first else None)
+    ax.set_ylabel(ylabel)
+    ax.set_xlim(t[0], t[-1])
+
+
+def _lines(ax, t, y, labels, colors=AXIS_COLORS):
+    for k in range(y.shape[1]):
+        ax.plot(t, y[:, k], color=colors[k % len(colors)], lw=0.8, label=labels[k])
+
+
+def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
+    """Write charts 1-7 into ``out_dir``; returns {name: path}."""
+    plt = _pyplot()
+    out = Path(out_dir)
+    step = max(1, int(np.ceil(len(result.t_s) / max(result.settings.output.plot_max_points, 100))))
+    d = slice(None, None, step)
+    t = result.t_s[d]
+    stance = result.stance[d]
+    sat = result.saturated[d]
+    src = Path(str(result.summary["input"]["source"])).name
+    paths: dict[str, Path] = {}
+
+    def save(fig, key):
+        fig.tight_layout()
+        fig.savefig(out / FILES[key])
+        plt.close(fig)
+        paths[key] = out / FILES[key]
+
+    # 1 raw IMU + stance
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1]})
+    _lines(a1, t, result.acc_b[d], ["acc x", "acc y", "acc z"])
+    _time_axes(a1, t, stance, sat, "specific force (m/s²)", first=True)
+    a1.legend(loc="upper right", ncol=5)
+    _lines(a2, t, result.gyro_b[d], ["gyro x", "gyro y", "gyro z"])
+    _time_axes(a2, t, stance, sat, "angular rate (rad/s)")
+    a2.legend(loc="upper right", ncol=3)
+    a3.step(t, stance.astype(int), where="mid", color="k", lw=0.8)
+    a3.set_ylim(-0.2, 1.2)
+    a3.set_yticks([0, 1])
+    a3.set_ylabel("stance")
+    a3.set_xlabel("time (s)")
+    a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {result.summary['stance']['method']}")
+    save(fig, "raw_imu")
+
+    # 2 gravity-free acceleration
+    acc_n = gravity_free_acc_n(result.q_nb[d], result.acc_b[d], result.gravity_mps2)
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    _lines(ax, t, acc_n, ["a east", "a north", "a up"])
+    ax.plot(t, np.linalg.norm(acc_n, axis=1), color="k", lw=0.6, alpha=0.6, label="|a|")
+    _time_axes(ax, t, stance, sat, "acceleration (m/s²)", first=True)
+    ax.set_xlabel("time (s)")
+    ax.set_title("Acceleration in the navigation frame, gravity removed")
+    ax.legend(loc="upper right", ncol=6)
+    save(fig, "acc_gravity_free")
+
+    # 3 velocity
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    _lines(ax, t, result.vel_n[d], ["v east", "v north", "v up"])
+    _time_axes(ax, t, stance, sat, "velocity (m/s)", first=True)
+    ax.set_xlabel("time (s)")
+    ax.set_title("Velocity of the boot (zero in stance: ZUPT)")
+    ax.legend(loc="upper right", ncol=5)
+    save(fig, "velocity")
+
+    # 4 position vs time
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    _lines(ax, t, result.pos_n[d], ["x (east)", "y (north)", "z (up)"])
+    _time_axes(ax, t, stance, sat, "position (m)", first=True)
+    ax.set_xlabel("time (s)")
+    ax.set_title("Position vs time")
+    ax.legend(loc="best", ncol=5)
+    save(fig, "position")
+
+    # aligned path + reference (when given) for charts 5 and 6
+    pos = result.pos_n
+    ref_pts = None
+    title_ref = ""
+    if result.reference is not None and len(result.reference.points_n):
+        from .reference import align_to_reference
+
+        pos, ref_pts, yaw = align_to_reference(result.reference, result.t_s, result.pos_n)
+        if yaw is not None:
+            title_ref = f" (estimate rotated {np.degrees(yaw):+.1f}° onto the reference)"
+    _, fp = footprints(result.t_s, pos, stance_phases(result.stance))
+    summ = result.summary.get("path", {})
+    stats = f"distance {summ.get('distance_m', 0):.2f} m"
+    if "closure_3d_m" in summ:
+        stats += f", closure {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
+    if result.metrics and "distance_error_pct" in result.metrics:
+        m = result.metrics
+        stats += (f"\ndistance err {m['distance_error_pct']:.1f} %, deviation {m['deviation_error_pct']:.1f} %, "
+                  f"height err {m['height_error_pct']:.1f} %")
+
+    # 5 path from above
+    fig, ax = plt.subplots(figsize=(7.5, 7.5))
+    ax.plot(pos[d, 0], pos[d, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
+    if len(fp):
+        ax.plot(fp[:, 0], fp[:, 1], ".", color="tab:blue", ms=4, label="footprints (stance)")
+    if ref_pts is not None:
+        ax.plot(ref_pts[:, 0], ref_pts[:, 1], ":", color="k", lw=2, label="reference path")
+    ax.plot(pos[0, 0], pos[0, 1], "o", color="tab:green", ms=9, label="start")
+    ax.plot(pos[-1, 0], pos[-1, 1], "s", color="tab:red", ms=8, label="end")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    ax.set_title(f"Path from above{title_ref}\n{stats}", fontsize=10)
+    ax.legend(loc="best")
+    save(fig, "path_2d")
+
+    # 6 3-D path
+    fig = plt.figure(figsize=(8, 7))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(pos[d, 0], pos[d, 1], pos[d, 2], color="tab:blue", lw=0.9, label="estimated path")
+    if ref_pts is not None:
+        ax.plot(ref_pts[:, 0], ref_pts[:, 1], ref_pts[:, 2], ":", color="k", lw=2, label="reference path")
+    ax.scatter(*pos[0], color="tab:green", s=40, label="start")
+    ax.scatter(*pos[-1], color="tab:red", marker="s", s=40, label="end")
+    lo, hi = pos.min(axis=0), pos.max(axis=0)
+    span = max(float((hi - lo).max()), 1.0)
+    mid = (lo + hi) / 2
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
+        setter(c - span / 2, c + span / 2)  # equal scale on all three axes
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    ax.set_zlabel("z up (m)")
+    ax.set_title(f"3-D path — {stats.splitlines()[0]}", fontsize=10)
+    ax.legend(loc="upper left")
+    save(fig, "path_3d")
+
+    # 7 height with floor lines
+    floors = FloorSettings(result.settings.floor_height_m, result.settings.floor_hysteresis_m)
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    z0 = float(fp[0, 2]) if len(fp) else float(result.pos_n[0, 2])
+    ax.plot(t, result.pos_n[d, 2] - z0, color="tab:blue", lw=0.9, label="height of the boot")
+    if len(fp):
+        t_fp, fp_raw = footprints(result.t_s, result.pos_n, stance_phases(result.stance))
+        z_fp = fp_raw[:, 2] - z0
+        ax.step(t_fp, floor_levels(z_fp, floors) * floors.floor_height_m, where="post", color="tab:orange",
+                lw=1.5, label="floor level (counted)")
+        zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
+    else:
+        zmin = zmax = 0.0
+    k_lo = int(np.floor(zmin / floors.floor_height_m)) - 1
+    k_hi = int(np.ceil(zmax / floors.floor_height_m)) + 1
+    for k in range(k_lo, k_hi + 1):
+        ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
+        ax.text(t[0], k * floors.floor_height_m, f" floor {k:+d}" if k else " start floor", va="bottom",
+                fontsize=8, color="grey")
+    _time_axes(ax, t, stance, sat, "height above start (m)", first=True)
+    ax.set_xlabel("time (s)")
+    ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
+                 f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
+    ax.legend(loc="best")
+    save(fig, "height")
+    return paths

@@ -1,0 +1,235 @@
+"""``postproc.pipeline.process`` on real data, HDF5 results written and reopened, settings round trip, and
+every bad-input case with its message."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from bootnav.errors import InputError
+from logger.recording import load, write_recording
+from postproc.outputs import write_outputs
+from postproc.pipeline import process
+from postproc.settings import ProcessSettings
+from tests.conftest import run_python
+
+SHORT = "xio_ngimu_loops/short_walk/imu.csv.gz"
+
+
+@pytest.fixture(scope="module")
+def short_walk_rec(tmp_path_factory):
+    """The x-io short walk as a bootnav HDF5 recording (read once per module)."""
+    from tests.conftest import DATASETS
+
+    src = DATASETS / SHORT
+    if not src.exists():
+        pytest.skip(f"dataset {src} not found")
+    data = np.loadtxt(src, delimiter=",", skiprows=1)
+    path = tmp_path_factory.mktemp("rec") / "short_walk.h5"
+    write_recording(path, data[:, 0], data[:, 1:4], data[:, 4:7], meta={"source_file": str(src), "mount": "foot"})
+    return path, data
+
+
+@pytest.fixture(scope="module")
+def short_walk_result(short_walk_rec):
+    return process(short_walk_rec[0], ProcessSettings(reference='{"closed_loop": true}'))
+
+
+def test_real_closed_loop_walk_closes(short_walk_result):
+    """x-io short walk: a closed loop of ~25 m (README; the foot ends where it started).
+
+    Bounds from the truth: the true closure is 0, so any closure is error. The paper's best Table 1 error
+    is 2.5 % of the distance; x-io's own result on this file is 82 mm. Horizontal closure must stay under
+    2 % of the distance, 3-D closure under 2.5 %. Distance: the README's 25 m is approximate, so +-20 %."""
+    r = short_walk_result
+    p = r.summary["path"]
+    assert 20.0 <= p["distance_m"] <= 30.0
+    assert p["closure_h_m"] < 0.02 * p["distance_m"]
+    assert p["closure_pct"] < 2.5
+    assert r.metrics["closure_pct"] == pytest.approx(p["closure_pct"])
+    # a walk on one floor: no floors counted, net height well below a storey
+    assert p["floors_climbed"] == 0 and p["floors_descended"] == 0
+    assert abs(p["height_change_m"]) < 1.0
+    # ZUPT: velocity ~ 0 in stance (the smoother pins it to the zero-velocity measurement, sigma 1 cm/s)
+    v_stance = np.linalg.norm(r.vel_n[r.stance], axis=1)
+    assert np.median(v_stance) < 0.03
+    # strides: 20-ish real strides of a walk (~1.0-1.6 m each) plus tiny shuffles at the ends
+    real = r.steps["stride_length_m"] > 0.5
+    assert 12 <= real.sum() <= 30
+    assert 0.8 < np.median(r.steps["stride_length_m"][real]) < 1.8
+    for stage in ("load", "checks", "calibration", "detection", "filter", "strides"):
+        assert r.summary["timings_s"][stage] >= 0.0
+
+
+def test_outputs_and_hdf5_results_reopened_in_fresh_process(short_walk_rec, short_walk_result, tmp_path):
+    rec_path = tmp_path / "copy.h5"
+    rec_path.write_bytes(Path(short_walk_rec[0]).read_bytes())
+    r = short_walk_result
+    r.source = rec_path  # write into this copy, not the shared fixture file
+    r.settings.output.plots = False
+    files = write_outputs(r, tmp_path / "out")
+    assert files["hdf5"] == f"{rec_path}:/results/default"
+    code = (
+        "import sys, json, h5py, numpy as np\n"
+        "from logger.recording import load\n"
+        "rec = load(sys.argv[1])\n"
+        "with h5py.File(sys.argv[1], 'r') as f:\n"
+        "    g = f['results/default']\n"
+        "    out = {'n_imu': rec.n, 'keys': sorted(g.keys()), 'settings': json.loads(g.attrs['settings']),\n"
+        "           'units': g['pos_n_m'].attrs['units'], 'pos_last': g['pos_n_m'][-1].tolist(),\n"
+        "           'stance_sum': int(g['stance'][()].sum()), 'n_steps': int(g['steps/stride_length_m'].shape[0]),\n"
+        "           'summary_distance': json.loads(g.attrs['summary'])['path']['distance_m']}\n"
+        "print(json.dumps(out))\n"
+    )
+    got = json.loads(run_python(code, str(rec_path)).stdout)
+    assert got["n_imu"] == len(r.t_s)  # the recording itself is untouched
+    assert {"t_s", "pos_n_m", "vel_n_mps", "q_nb", "stance", "steps"} <= set(got["keys"])
+    assert got["settings"] == r.settings.to_dict()
+    assert got["units"] == "m"
+    assert np.allclose(got["pos_last"], r.pos_n[-1])
+    assert got["stance_sum"] == int(r.stance.sum())
+    assert got["n_steps"] == len(r.steps["t_s"])
+    assert got["summary_distance"] == pytest.approx(r.summary["path"]["distance_m"])
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["settings"] == r.settings.to_dict()
+    assert summary["software"]["name"] == "bootnav" and "version" in summary["software"]
+
+
+def test_settings_round_trip_and_unknown_keys(tmp_path):
+    s = ProcessSettings(crop_s=(1.0, 20.0), floor_height_m=2.8)
+    s.filter.mode = "riccati"
+    s.detector.method = "shoe"
+    s.output.geo_anchor = (48.1, 11.5)
+    back = ProcessSettings.from_json(s.to_json())
+    assert back == s
+    assert back.crop_s == (1.0, 20.0) and back.output.geo_anchor == (48.1, 11.5)
+    partial = ProcessSettings.from_dict({"filter": {"n_states": 15}})
+    assert partial.filter.n_states == 15 and partial.detector == ProcessSettings().detector
+    with pytest.raises(InputError, match=r"settings\.filter: unknown key\(s\) \['n_state'\]"):
+        ProcessSettings.from_dict({"filter": {"n_state": 15}})
+    with pytest.raises(InputError, match="unknown stance detector"):
+        ProcessSettings.from_dict({"detector": {"method": "magic"}})
+    bad = tmp_path / "s.json"
+    bad.write_text('{"floor_height_m": 3,}')
+    with pytest.raises(InputError, match=r"s\.json: invalid JSON at line 1"):
+        ProcessSettings.from_file(bad)
+
+
+def test_crop_keeps_the_recording_clock(short_walk_rec):
+    r = process(short_walk_rec[0], ProcessSettings(crop_s=(10.0, 30.0)))
+    assert r.t_s[0] >= 10.0 and r.t_s[-1] <= 30.0
+    assert r.summary["input"]["crop_s"] == [10.0, 30.0]
+    assert r.index.start == int(np.searchsorted(short_walk_rec[1][:, 0], 10.0))
+    with pytest.raises(InputError, match="no samples in that window"):
+        process(short_walk_rec[0], ProcessSettings(crop_s=(100.0, 200.0)))
+
+
+# ------------------------------------------------------------------------------------- bad input
+def _write(tmp_path, t, acc, gyro, name="bad.h5", **kw):
+    return write_recording(tmp_path / name, t, acc, gyro, **kw)
+
+
+@pytest.fixture(scope="module")
+def walk_arrays(short_walk_rec):
+    data = short_walk_rec[1]
+    return data[:, 0].copy(), data[:, 1:4].copy(), data[:, 4:7].copy()
+
+
+def test_nan_is_reported_with_sample_index_and_time(tmp_path, walk_arrays):
+    t, acc, gyro = (a.copy() for a in walk_arrays)
+    acc[7000, 1] = np.nan
+    with pytest.raises(InputError, match=rf"sample 7000 \(t = {t[7000]:.4f} s\): NaN/inf in ay"):
+        process(_write(tmp_path, t, acc, gyro))
+
+
+def test_time_going_backwards(tmp_path, walk_arrays):
+    t, acc, gyro = (a.copy() for a in walk_arrays)
+    t[5000] = t[4990]
+    with pytest.raises(InputError, match="sample 5000: time goes backwards"):
+        process(_write(tmp_path, t, acc, gyro))
+
+
+def test_long_gap_is_an_error_short_gaps_a_warning(tmp_path, walk_arrays):
+    t, acc, gyro = (a.copy() for a in walk_arrays)
+    t[8000:] += 2.5
+    with pytest.raises(InputError, match=r"sample 8000: gap of 2\.5\d+ s .*--crop"):
+        process(_write(tmp_path, t, acc, gyro))
+    r = process(_write(tmp_path, *walk_arrays, name="ok.h5"))
+    assert any("gaps longer than" in w for w in r.warnings)  # the real file has 12 ms packet losses
+    assert any("duplicate timestamps" in w for w in r.warnings)
+
+
+def test_too_short(tmp_path, walk_arrays):
+    t, acc, gyro = (a[:400] for a in walk_arrays)  # 1 s
+    with pytest.raises(InputError, match="too short"):
+        process(_write(tmp_path, t, acc, gyro))
+
+
+def test_no_stance_and_never_moving(tmp_path):
+    rng = np.random.default_rng(7)
+    n, t = 4000, np.arange(4000) / 200.0
+    # a sensor shaken the whole time (not on a foot): no zero-velocity phases
+    acc = np.array([0, 0, 9.81]) + rng.normal(0, 5.0, (n, 3))
+    gyro = rng.normal(0, 3.0, (n, 3))
+    with pytest.raises(InputError, match=r"found [01] stance phase\(s\)|turns at a median [\d.]+ rad/s"):
+        process(_write(tmp_path, t, acc, gyro))
+    acc = np.array([0, 0, 9.81]) + rng.normal(0, 0.02, (n, 3))
+    gyro = rng.normal(0, 0.002, (n, 3))
+    with pytest.raises(InputError, match="at rest for .* nothing to navigate"):
+        process(_write(tmp_path, t, acc, gyro, name="still.h5"))
+
+
+def test_accelerometer_only_file(tmp_path, walk_arrays):
+    t, acc, gyro = walk_arrays
+    with pytest.raises(InputError, match="no gyroscope data.*bootnav pdr"):
+        process(_write(tmp_path, t, acc, np.full_like(gyro, np.nan)))
+
+
+def test_saturated_bursts_flagged(tmp_path, walk_arrays):
+    t, acc, gyro = walk_arrays
+    sat = np.zeros(len(t), np.uint8)
+    sat[9000:9012] = 1 << 2  # acc z
+    sat[12000:12005] = 1 << 4  # gyro y
+    r = process(_write(tmp_path, t, acc, gyro, saturated=sat))
+    ivs = r.summary["saturation_intervals"]
+    assert [(iv["i0"], iv["i1"], iv["axes"]) for iv in ivs] == [(9000, 9011, ["az"]), (12000, 12004, ["gy"])]
+    assert ivs[0]["t0_s"] == pytest.approx(t[9000])
+    assert any("2 saturated bursts" in w for w in r.warnings)
+    assert r.saturated.sum() == 17
+
+
+def test_clipping_without_mask_is_detected(tmp_path, walk_arrays):
+    t, acc, gyro = walk_arrays
+    clipped = np.clip(acc, -2 * 9.80665, 2 * 9.80665)  # a +-2 g accelerometer; no saturation bitmask
+    r = process(_write(tmp_path, t, clipped, gyro))
+    assert r.summary["saturation_intervals"], "full-scale plateaus must be flagged"
+    assert all(set(iv["axes"]) <= {"ax", "ay", "az"} for iv in r.summary["saturation_intervals"])
+    assert any("saturated bursts" in w for w in r.warnings)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda d: d / "missing.h5", "no such file"),
+    (lambda d: d, "is a directory"),
+    (lambda d: (d / "junk.csv").write_text("hello,world\n1,2\n") and d / "junk.csv", "junk.csv"),
+])
+def test_unreadable_inputs(tmp_path, make, message):
+    with pytest.raises(InputError, match=message):
+        process(make(tmp_path))
+
+
+def test_results_of_csv_input_go_to_results_h5(tmp_path, datasets):
+    src = datasets / SHORT
+    r = process(src, ProcessSettings(crop_s=(0.0, 25.0)))
+    r.settings.output.plots = False
+    files = write_outputs(r, tmp_path)
+    h5 = tmp_path / "results.h5"
+    assert files["hdf5"] == f"{h5}:/results/default"
+    rec = load(h5)
+    assert rec.n == r.recording.n  # the whole imported recording, not only the crop
+    with h5py.File(h5) as f:
+        assert f["results/default/pos_n_m"].shape == (len(r.t_s), 3)
+        assert f["results/default/sample_index"][0] == r.index.start
