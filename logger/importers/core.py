@@ -1,0 +1,496 @@
+"""Import a text log from any IMU into a bootnav recording (HDF5).
+
+``read_any(path, profile=None, **overrides) -> ImportResult`` parses and checks in memory;
+``import_file(path, out, profile=None, **overrides) -> Path`` also writes the recording.
+
+Overrides (all optional; the CLI flags of ``bootnav import`` map 1:1):
+``columns`` (str or list, see ``columns.parse_columns_option``), ``acc_unit`` (g|mps2|counts),
+``gyro_unit`` (dps|radps|counts), ``time_unit`` (s|ms|us), ``acc_range_g``, ``gyro_range_dps``,
+``rate_hz``, ``mount``, ``sensor`` (second IMU of a file), ``delimiter``, ``check_units`` (default True).
+
+Recovery rules (documented, nothing silent):
+
+* malformed lines (wrong field count, a non-numeric value): skipped, reported with file and line,
+  stored as ``skipped_line`` events; every good line is kept;
+* NaN/inf in the time or in a used sensor column: that line is skipped the same way (a NaN sample
+  cannot be integrated); if more than half of the lines are bad the import fails;
+* a truncated last line (no final newline and malformed): ``skipped_line`` with detail "truncated";
+* duplicate / backward times, gaps, counter wraps: kept as they are and recorded as events
+  (see ``timebase``); never resampled or reordered;
+* accelerometer-only files (phones): the gyro is stored as NaN (rad/s) and meta ``gyro_present`` = 0;
+* units that contradict gravity or physics: an error naming the right flag (see ``checks``);
+  ``check_units=False`` turns it into a ``note`` event.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bootnav.errors import InputError
+from logger import mpu6050
+from logger.recording import Channel, counts_channel, make_events, si_channel, timing_summary, write_group, write_recording
+
+from . import checks, columns as colmod, timebase
+from .profiles import Profile, all_profiles, load_profile, matches
+from .text import TextTable, parse_table, read_text
+
+G = mpu6050.STANDARD_GRAVITY
+ACC_SCALE = {"g": G, "mps2": 1.0}
+GYRO_SCALE = {"dps": math.pi / 180.0, "radps": 1.0}
+OVERRIDE_KEYS = {"columns", "acc_unit", "gyro_unit", "time_unit", "acc_range_g", "gyro_range_dps", "rate_hz",
+                 "mount", "sensor", "delimiter", "check_units"}
+MAX_BAD_FRACTION = 0.5
+
+
+@dataclass
+class ImportResult:
+    """A parsed, checked import, before (or after) writing it as a recording."""
+
+    source: Path
+    profile: str
+    t_s: np.ndarray
+    acc: np.ndarray  # as delivered: int16 counts, or floats in the file's unit
+    gyro: np.ndarray  # as delivered, NaN when the file has no gyro
+    acc_channel: Channel
+    gyro_channel: Channel
+    saturated: np.ndarray
+    events: list[dict]
+    meta: dict[str, Any]
+    aux: dict[str, np.ndarray] = field(default_factory=dict)
+    aux_units: dict[str, str] = field(default_factory=dict)
+    optional: dict[str, Any] = field(default_factory=dict)  # temp, temp_channel, t_device, seq (SD logs)
+    messages: list[str] = field(default_factory=list)  # what was detected / skipped, for the user
+
+    @property
+    def n(self) -> int:
+        return int(self.t_s.shape[0])
+
+    @property
+    def acc_mps2(self) -> np.ndarray:
+        return self.acc.astype(np.float64) * self.acc_channel.scale_to_si
+
+    @property
+    def gyro_radps(self) -> np.ndarray:
+        return self.gyro.astype(np.float64) * self.gyro_channel.scale_to_si
+
+    def count(self, kind: str) -> int:
+        return sum(1 for e in self.events if e["kind"] == kind)
+
+
+def _sha256(raw: bytes) -> str:
+    return hashlib.sha256(raw).hexdigest()
+
+
+def detect_profile(path: Path, table: TextTable) -> Profile | None:
+    """The one shipped profile whose detection rules match, None if none; error if several do."""
+    first = None
+    if table.n_rows:
+        try:
+            first = float(table.cell(0, 0).replace(",", "."))
+        except ValueError:
+            first = None
+    hits = [p for p in all_profiles()
+            if matches(p, path.name, table.header, table.n_fields, table.delimiter, table.trailing_delimiter, first)]
+    if len(hits) > 1:
+        raise InputError(f"{path}: several profiles match ({', '.join(p.name for p in hits)}); choose one with --profile")
+    return hits[0] if hits else None
+
+
+def _default_roles(n_fields: int, has_rate: bool) -> list[str] | None:
+    """Headerless generic files: seed-004 R2 default column map ``t, ax, ay, az, gx, gy, gz[, temp]``."""
+    return {
+        4: ["t", "ax", "ay", "az"],
+        7: ["t", "ax", "ay", "az", "gx", "gy", "gz"],
+        8: ["t", "ax", "ay", "az", "gx", "gy", "gz", "temp"],
+        6: ["ax", "ay", "az", "gx", "gy", "gz"] if has_rate else None,
+    }.get(n_fields)
+
+
+def _ranges_from_filename(profile: Profile, name: str) -> tuple[float | None, float | None]:
+    rx = profile.get("ranges_from_filename")
+    if not rx:
+        return None, None
+    m = re.search(rx, name)
+    if not m:
+        raise InputError(f"{name}: profile {profile.name} reads the ranges from the file name ({rx}) but it does "
+                         f"not match; give --acc-range and --gyro-range")
+    return float(mpu6050.ACCEL_RANGE_G[int(m["a"])]), float(mpu6050.GYRO_RANGE_DPS[int(m["g"])])
+
+
+def _parse_time_strings(col: list[str]) -> tuple[np.ndarray, str] | None:
+    """Date-time text (``2018-10-03 17:23:55.4640`` or ``17:23:55:464``) -> (s since epoch/midnight, kind)."""
+    sample = col[0].strip().strip('"')
+    try:
+        if re.match(r"^\d{4}-\d\d-\d\d[ T]\d\d:\d\d", sample):
+            t = np.array([c.strip().strip('"').replace(" ", "T") for c in col], dtype="datetime64[us]")
+            return t.astype(np.int64) * 1e-6, "utc_datetime"
+        if re.match(r"^\d\d?:\d\d:\d\d[:.]\d+$", sample):
+            parts = np.array([re.split(r"[:.]", c.strip().strip('"')) for c in col], dtype=np.float64)
+            frac = np.array([len(re.split(r"[:.]", c.strip())[-1]) for c in col[:1]])[0]
+            return parts[:, 0] * 3600 + parts[:, 1] * 60 + parts[:, 2] + parts[:, 3] / 10.0**frac, "time_of_day"
+    except ValueError:
+        return None
+    return None
+
+
+def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> ImportResult:
+    """Parse and check any supported text log (SD-card log, CSV/TXT of another IMU, canonical csv.gz)."""
+    unknown = set(overrides) - OVERRIDE_KEYS
+    if unknown:
+        raise TypeError(f"unknown override(s) {sorted(unknown)}; known: {sorted(OVERRIDE_KEYS)}")
+    overrides = {k: v for k, v in overrides.items() if v is not None}
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    text, raw = read_text(path)
+    from . import sdlog
+
+    if sdlog.looks_like_sd_log(text) and profile in (None, "bootnav_sd"):
+        return sdlog.read_sd_log(path, text, raw, **overrides)
+
+    prof: Profile | None
+    if isinstance(profile, Profile):
+        prof = profile
+    elif profile is not None:
+        prof = load_profile(profile)
+    else:
+        prof = None
+    skip = int(prof.get("skip_lines", 0)) if prof else 0
+    header_opt = prof.get("header") if prof else None
+    table = parse_table(path, text, delimiter=overrides.get("delimiter") or (prof.get("delimiter") if prof else None),
+                        header=header_opt, skip_lines=skip)
+    messages: list[str] = []
+    detected = False
+    if prof is None:
+        prof = detect_profile(path, table)
+        detected = prof is not None
+    if prof is not None:
+        prof = prof.for_sensor(overrides.get("sensor"))
+    elif overrides.get("sensor") not in (None, 1):
+        raise InputError(f"{path}: --sensor needs a profile with several sensors")
+    pget = (lambda k, d=None: prof.get(k, d)) if prof else (lambda k, d=None: d)
+    pname = prof.name if prof else "generic"
+    messages.append(f"profile: {pname}" + (" (auto-detected)" if detected else " (given)" if prof else
+                    " (no profile matched; columns and units from the header and flags)"))
+    delim_name = {"\t": "tab", "whitespace": "whitespace"}.get(table.delimiter, repr(table.delimiter))
+    messages.append(f"format: delimiter {delim_name}, header {'line ' + str(table.header_line) if table.header else 'none'}"
+                    + (", decimal comma" if table.decimal_comma else "") + (", trailing delimiter" if table.trailing_delimiter else "")
+                    + f", {table.n_fields} fields, {table.n_rows} data lines")
+
+    # ---- column roles -------------------------------------------------------------------------
+    header_units: dict[str, str] = {}
+    quantities: dict[str, str] = {}
+    rate_hz = overrides.get("rate_hz", pget("rate_hz"))
+    try:
+        if "columns" in overrides:
+            roles = colmod.parse_columns_option(overrides["columns"], table.header, table.n_fields)
+        elif pget("columns"):
+            roles = list(pget("columns"))
+            if len(roles) != table.n_fields:
+                raise InputError(f"{path}: profile {pname} expects {len(roles)} columns, the file has {table.n_fields} "
+                                 f"(line {table.line_numbers[0] if len(table.line_numbers) else '?'})")
+            if table.header:
+                _, header_units, quantities = colmod.map_header(table.header)
+                header_units = {roles[i]: header_units.get(r) for i, r in enumerate(colmod.map_header(table.header)[0])
+                                if header_units.get(r)}
+        elif table.header:
+            roles, header_units, quantities = colmod.map_header(table.header)
+            for name, role in (pget("column_names") or {}).items():
+                if name in table.header:
+                    i = table.header.index(name)
+                    old = roles[i]
+                    roles[i] = role
+                    header_units[role] = colmod.unit_of(name) or header_units.pop(old, None)
+                    header_units = {k: v for k, v in header_units.items() if v}
+        else:
+            roles = _default_roles(table.n_fields, rate_hz is not None)
+            if roles is None:
+                raise InputError(f"{path}: {table.n_fields} columns without a header and no profile matches; "
+                                 f"give --columns (e.g. t,ax,ay,az,gx,gy,gz) or --profile"
+                                 + (" and --rate (no time column)" if table.n_fields == 6 else ""))
+            messages.append("columns: no header; assumed the default order " + ",".join(roles))
+    except ValueError as exc:
+        raise InputError(f"{path}: {exc}") from exc
+    idx = {r: i for i, r in enumerate(roles) if r != "-"}
+    if not all(r in idx for r in ("ax", "ay", "az")):
+        lin = [r for r, q in quantities.items() if q == "linear"]
+        if lin and pname != "purestreams_phyphox":
+            raise InputError(f"{path}: the file holds LINEAR acceleration ({', '.join(table.header[roles.index(r)] for r in lin)}),"
+                             f" i.e. gravity removed, not specific force; use --profile purestreams_phyphox or "
+                             f"--columns to import it explicitly as linear acceleration")
+        raise InputError(f"{path}: no accelerometer x/y/z columns found (columns: {table.header or roles}); use --columns")
+    has_gyro = all(r in idx for r in ("gx", "gy", "gz"))
+    time_mode = pget("time", "column")
+    if "t" not in idx and time_mode == "column":
+        time_mode = "rate"
+    if time_mode == "rate" and not rate_hz:
+        raise InputError(f"{path}: no time column; give the sample rate with --rate HZ")
+    messages.append("columns: " + ", ".join(f"{r}={table.header[i] if table.header else i}" for r, i in idx.items()))
+
+    # ---- numbers ------------------------------------------------------------------------------
+    bad: dict[int, str] = {}  # row index -> reason
+    values: dict[str, np.ndarray] = {}
+    time_text_kind = None
+    for role, i in idx.items():
+        if role == "t":
+            arr, bad_rows = table.numeric(i)
+            if len(bad_rows) > 0.5 * len(arr):
+                parsed = _parse_time_strings(table.column(i))
+                if parsed is None:
+                    raise InputError(f"{path}: time column {i} ({table.header[i] if table.header else ''}) is not "
+                                     f"numeric (line {table.line_numbers[bad_rows[0]]}: {table.cell(bad_rows[0], i)!r})")
+                arr, time_text_kind = parsed
+                bad_rows = []
+        else:
+            arr, bad_rows = table.numeric(i)
+        for r in bad_rows:
+            bad.setdefault(r, f"column {i + 1} ({role}) is not a number: {table.cell(r, i)[:30]!r}")
+        if role in ("t", "ax", "ay", "az", "gx", "gy", "gz"):
+            for r in np.flatnonzero(~np.isfinite(arr)):
+                bad.setdefault(int(r), f"column {i + 1} ({role}) is {table.cell(r, i).strip()[:20]!r} (NaN/inf: line skipped)")
+        values[role] = arr
+    n_lines_data = table.n_rows + len(table.bad_lines)
+    skipped = [(ln, reason) for ln, reason in table.bad_lines]
+    skipped += [(int(table.line_numbers[r]), reason) for r, reason in bad.items()]
+    skipped.sort()
+    if n_lines_data == 0 or len(skipped) > MAX_BAD_FRACTION * n_lines_data:
+        first = "; ".join(f"line {ln}: {why}" for ln, why in skipped[:3])
+        raise InputError(f"{path}: {len(skipped)} of {n_lines_data} data lines are malformed ({first}); "
+                         f"wrong profile, columns or delimiter?")
+    keep = np.ones(table.n_rows, dtype=bool)
+    keep[list(bad)] = False
+    line_numbers = table.line_numbers[keep]
+    values = {k: v[keep] for k, v in values.items()}
+    n = int(keep.sum())
+    events: list[dict] = []
+    last_line = table.n_lines
+    for ln, reason in skipped:
+        truncated = table.ends_without_newline and ln == last_line
+        events.append(dict(kind="skipped_line", line=ln, count=1,
+                           detail=("truncated last line (no newline): " if truncated else "") + reason))
+    if skipped:
+        messages.append(f"skipped {len(skipped)} malformed line(s) of {path.name}: "
+                        + ", ".join(str(ln) for ln, _ in skipped[:10]) + (" ..." if len(skipped) > 10 else "")
+                        + f" (first: line {skipped[0][0]}: {skipped[0][1]})")
+
+    # ---- time ---------------------------------------------------------------------------------
+    meta: dict[str, Any] = {}
+    time_unit = overrides.get("time_unit") or header_units.get("t") or pget("time_unit")
+    if time_mode == "rate":
+        t = np.arange(n, dtype=np.float64) / float(rate_hz)
+        time_unit = "s"
+        messages.append(f"time: no time column, t = i / {rate_hz} Hz")
+        meta["time_source"] = f"sample index / {rate_hz} Hz"
+    else:
+        t_raw = values["t"]
+        if time_text_kind:
+            time_unit = "s"
+            meta["time_source"] = time_text_kind
+            if time_text_kind == "utc_datetime" and n:
+                meta["start_utc"] = _dt.datetime.fromtimestamp(t_raw[0], _dt.timezone.utc).isoformat()
+        if time_unit is None:
+            d = np.diff(t_raw)
+            med = float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
+            integral = bool(np.all(t_raw == np.round(t_raw)))
+            time_unit = "s" if med < 0.5 or not integral else ("ms" if med < 100 else "us")
+            messages.append(f"time unit: not declared, guessed {time_unit!r} from the median step {med:g} "
+                            f"(override with --time-unit)")
+            meta["time_unit_source"] = "guessed from the median time step"
+        if time_unit not in timebase.TIME_SCALE:
+            raise InputError(f"{path}: time unit {time_unit!r} unknown (use s, ms or us)")
+        if time_unit in ("ms", "us") and timebase.is_u32_counter(t_raw):
+            t_raw, wraps = timebase.unwrap_u32(t_raw)
+            for i in wraps:
+                events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
+                                   detail=f"32-bit {time_unit} counter wrapped (2**32 added)"))
+        if time_mode == "rtc_seconds":
+            t_abs, per_s = timebase.spread_coarse_seconds(t_raw * timebase.TIME_SCALE[time_unit])
+            events.append(dict(kind="note", count=n, detail=f"1-s clock: rows spread evenly inside each second "
+                               f"(median {per_s:g} rows/s)"))
+            messages.append(f"time: 1-s RTC clock, {per_s:g} rows/s spread evenly inside each second")
+            meta["time_source"] = "1-s RTC, rows spread within each second"
+            if rate_hz is None:
+                rate_hz = per_s
+        else:
+            t_abs = t_raw * timebase.TIME_SCALE[time_unit]
+        t0 = float(t_abs[0]) if n else 0.0
+        meta["t0_source_s"] = t0
+        if t0 > 1e9 and "start_utc" not in meta and time_text_kind is None:  # a UNIX epoch clock
+            meta["start_utc"] = _dt.datetime.fromtimestamp(t0, _dt.timezone.utc).isoformat()
+        t = t_abs - t0
+    nominal_dt = 1.0 / float(rate_hz) if rate_hz else None
+    if time_mode == "column":
+        events += timebase.time_events(t, line_numbers, nominal_dt=nominal_dt)
+    for e in events:
+        if e.get("sample_index", -1) >= 0 and "t_s" not in e:
+            e["t_s"] = float(t[e["sample_index"]])
+
+    # ---- units --------------------------------------------------------------------------------
+    acc_raw = np.column_stack([values[r] for r in ("ax", "ay", "az")])
+    gyro_raw = np.column_stack([values[r] for r in ("gx", "gy", "gz")]) if has_gyro else np.full((n, 3), np.nan)
+    acc_unit = overrides.get("acc_unit") or header_units.get("ax") or pget("acc_unit")
+    gyro_unit = overrides.get("gyro_unit") or header_units.get("gx") or pget("gyro_unit")
+    acc_quantity = pget("acc_quantity", "specific_force")
+    if quantities.get("ax") == "acc_g" and not overrides.get("acc_unit"):
+        acc_unit = "g"
+    fr_acc, fr_gyro = _ranges_from_filename(prof, path.name) if prof else (None, None)
+    acc_range = overrides.get("acc_range_g") or fr_acc or pget("acc_range_g")
+    gyro_range = overrides.get("gyro_range_dps") or fr_gyro or pget("gyro_range_dps")
+    rate_for_checks = float(rate_hz) if rate_hz else (timing_summary(t)["rate_measured_hz"] if n > 1 else 1.0)
+    if acc_unit is None:
+        raw_mag, _ = checks.quietest_second(acc_raw, rate_for_checks)
+        for unit, ref in (("g", 1.0), ("mps2", G)):
+            if abs(raw_mag / ref - 1) <= checks.ACC_TOLERANCE:
+                acc_unit = unit
+        if acc_unit is None:
+            raise InputError(f"{path}: accelerometer unit not declared and not recognisable (median |acc| at rest "
+                             f"{raw_mag:.4g}); give --acc-unit g|mps2|counts")
+        messages.append(f"acc unit: not declared, {acc_unit!r} from the gravity magnitude at rest ({raw_mag:.4g})")
+        meta["acc_unit_source"] = "gravity magnitude at rest"
+    if acc_unit not in ("g", "mps2", "counts"):
+        raise InputError(f"acc unit {acc_unit!r} unknown (use g, mps2 or counts)")
+    if has_gyro and gyro_unit is None:
+        if acc_unit == "counts":
+            gyro_unit = "counts"
+        else:
+            raise InputError(f"{path}: gyro unit not declared in the header or profile; give --gyro-unit dps|radps")
+    if not has_gyro:
+        gyro_unit = "radps"
+    if gyro_unit not in ("dps", "radps", "counts"):
+        raise InputError(f"gyro unit {gyro_unit!r} unknown (use dps, radps or counts)")
+
+    acc_arr, acc_ch = _channel("acc", acc_raw, acc_unit, acc_range, path)
+    gyro_arr, gyro_ch = _channel("gyro", gyro_raw, gyro_unit, gyro_range, path)
+    check_units = overrides.get("check_units", True)
+    problems = []
+    if acc_quantity == "specific_force":
+        p = checks.acc_unit_problem(acc_arr, acc_ch.scale_to_si, acc_unit, rate_for_checks)
+        if p:
+            problems.append(p)
+    if has_gyro:
+        p = checks.gyro_unit_problem(gyro_arr.astype(np.float64) * gyro_ch.scale_to_si, gyro_unit)
+        if p:
+            problems.append(p)
+    for p in problems:
+        if check_units:
+            raise InputError(f"{path}: {p}")
+        events.append(dict(kind="note", detail=("unit check overridden: " + p)[:200]))
+        messages.append("WARNING (unit check overridden): " + p)
+    if acc_quantity != "specific_force":
+        events.append(dict(kind="note", detail=f"acc is {acc_quantity} (gravity removed), NOT specific force"))
+        messages.append(f"WARNING: acc is {acc_quantity.upper()} (gravity removed), NOT specific force: fine for "
+                        f"step counting, wrong for strapdown/ZUPT (meta acc_quantity)")
+
+    sat_a, ev_a = checks.saturation(acc_arr, acc_ch.full_scale, acc_unit == "counts", 0)
+    sat_g, ev_g = checks.saturation(gyro_arr, gyro_ch.full_scale, gyro_unit == "counts", 3) if has_gyro else (
+        np.zeros(n, np.uint8), [])
+    for e in ev_a + ev_g:
+        e["t_s"] = float(t[e["sample_index"]])
+        e["line"] = int(line_numbers[e["sample_index"]]) if time_mode != "rate" or True else -1
+    events += ev_a + ev_g
+
+    # Physics Toolbox and similar apps repeat rows when no sensor updated: keep, but say how many.
+    if n > 1:
+        same = np.all(acc_raw[1:] == acc_raw[:-1], axis=1)
+        if has_gyro:
+            same &= np.all(gyro_raw[1:] == gyro_raw[:-1], axis=1)
+        n_rep = int(same.sum())
+        if n_rep > 0.01 * n:
+            events.append(dict(kind="note", count=n_rep, detail=f"{n_rep} rows repeat the previous row's sensor "
+                               "values exactly (app/logger re-sent a stale sample); kept"))
+            messages.append(f"note: {n_rep} rows repeat the previous row's values (kept)")
+
+    for note in pget("notes", []) or []:
+        events.append(dict(kind="note", detail=note))
+
+    # ---- aux and meta -------------------------------------------------------------------------
+    aux, aux_units = {}, {}
+    for role, i in idx.items():
+        if role.startswith("aux:") or role == "temp":
+            name = role[4:] if role.startswith("aux:") else "temp"
+            aux[name] = values[role]
+            aux_units[name] = header_units.get(role) or "as in file"
+    summary = timing_summary(t)
+    meta.update(
+        source_file=str(path.resolve()), source_sha256=_sha256(raw), importer_profile=pname,
+        importer_profile_file=str(prof.path) if prof and prof.path else "",
+        detected=dict(delimiter=delim_name, header=table.header or [], decimal_comma=table.decimal_comma,
+                      columns={r: (table.header[i] if table.header else i) for r, i in idx.items()},
+                      profile_auto_detected=detected),
+        acc_unit_source_file=acc_unit, gyro_unit_source_file=gyro_unit if has_gyro else "absent",
+        time_unit_source_file=time_unit, acc_quantity=acc_quantity, gyro_present=int(has_gyro),
+        accel_range_g=float(acc_range) if acc_range else float("nan"),
+        gyro_range_dps=float(gyro_range) if gyro_range else float("nan"),
+        rate_nominal_hz=float(rate_hz) if rate_hz else float("nan"),
+        mount=overrides.get("mount") or pget("mount", "unknown"), device=pget("device", "unknown"),
+        lines_total=table.n_lines, lines_skipped=len(skipped), **summary,
+    )
+    if not has_gyro:
+        messages.append("gyro: absent in this file -> stored as NaN (meta gyro_present = 0)")
+    messages.append(f"units: acc {acc_unit}, gyro {gyro_unit if has_gyro else 'absent'}, time {time_unit}; ranges "
+                    f"acc {acc_range or '?'} g, gyro {gyro_range or '?'} deg/s")
+    messages.append(f"samples: {n}, {summary['rate_measured_hz']:.4g} Hz measured"
+                    + (f" ({rate_hz} nominal)" if rate_hz else "") + f", {t[-1] if n else 0:.3f} s")
+    return ImportResult(source=path, profile=pname, t_s=t, acc=acc_arr, gyro=gyro_arr, acc_channel=acc_ch,
+                        gyro_channel=gyro_ch, saturated=(sat_a | sat_g).astype(np.uint8), events=events, meta=meta,
+                        aux=aux, aux_units=aux_units, messages=messages)
+
+
+def _channel(kind: str, raw: np.ndarray, unit: str, range_: float | None, path: Path) -> tuple[np.ndarray, Channel]:
+    """Stored array and channel description: counts stay int16 (bit-exact), floats stay in the file's unit."""
+    if unit == "counts":
+        if range_ is None:
+            flag = "--acc-range G" if kind == "acc" else "--gyro-range DPS"
+            raise InputError(f"{path}: {kind} in counts needs its full-scale range ({flag})")
+        if np.any(raw != np.round(raw)) or raw.min() < -32768 or raw.max() > 32767:
+            raise InputError(f"{path}: {kind} declared as int16 counts but has non-integer or out-of-range values")
+        code = mpu6050.accel_code(range_) if kind == "acc" else mpu6050.gyro_code(range_)
+        scale = mpu6050.accel_scale_mps2(code) if kind == "acc" else mpu6050.gyro_scale_radps(code)
+        return raw.astype(np.int16), counts_channel(kind, scale)
+    if kind == "acc":
+        fs = float(range_) * (1.0 if unit == "g" else G) if range_ else float("nan")
+        if unit == "mps2":
+            return raw.astype(np.float64), si_channel("acc", fs)
+        return raw.astype(np.float64), Channel("g", "m/s^2", G, 0.0, fs)
+    fs = float(range_) * (1.0 if unit == "dps" else math.pi / 180.0) if range_ else float("nan")
+    if unit == "radps":
+        return raw.astype(np.float64), si_channel("gyro", fs)
+    return raw.astype(np.float64), Channel("deg/s", "rad/s", math.pi / 180.0, 0.0, fs)
+
+
+def write_result(result: ImportResult, out) -> Path:
+    """Write an ``ImportResult`` as a bootnav recording (``/aux`` holds the extra columns)."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
+    opt = dict(result.optional)
+    write_recording(out, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
+                    gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
+                    saturated=result.saturated, **opt)
+    if result.aux:
+        write_group(out, "aux", result.aux, attrs={"description": "extra input columns, one per dataset, row-aligned "
+                    "with /imu/t_s"}, units=result.aux_units)
+    return out
+
+
+def import_file(path, out, profile: str | Path | Profile | None = None, **overrides) -> Path:
+    """Import ``path`` into the recording ``out``; returns ``out``. See ``read_any`` for the overrides."""
+    return write_result(read_any(path, profile, **overrides), out)
+
+
+def load_aux(path) -> dict[str, np.ndarray]:
+    """The ``/aux`` columns of an imported recording (magnetometer, heading, FSR, ...), {} if none."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        if "aux" not in f:
+            return {}
+        return {k: f["aux"][k][()] for k in f["aux"]}

@@ -1,0 +1,252 @@
+"""Our own SD-card text log (firmware-protocol/PROTOCOL.md §2).
+
+    # bootnav-sd v1 accel_fs=3 gyro_fs=3 dlpf=3 smplrt_div=4 fw=0.1.0 device_id=0x0000BEEF
+    t_us,seq,ax,ay,az,gx,gy,gz,temp*CRC
+
+CRC-16/CCITT-FALSE (``logger.crc``) over the ASCII characters before ``*``, four upper-case hex digits.
+Raw counts are stored bit-exact as int16 with the scale factors of the header's full-scale codes.
+
+Per line, in this order: a line without ``*HHHH`` or with a CRC mismatch -> ``crc_error`` event
+(line number and byte offset of the line start); fields not 9 integers in range -> ``skipped_line``;
+the last line without a newline that fails either test -> ``skipped_line`` "truncated last line".
+Then: uint32 µs clock unwrapped (``time_wrap``), backward/duplicate times, and sequence gaps
+(``gap`` with the number of missing sequence numbers, seq wraps at 2**16).
+
+CRCs are checked vectorised: lines are grouped by length and each group goes through
+``crc16_ccitt_false_rows`` (one numpy table lookup per byte column).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from pathlib import Path
+
+import numpy as np
+
+from bootnav.errors import InputError
+from logger import mpu6050
+from logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
+from logger.recording import counts_channel, timing_summary
+
+from . import checks, timebase
+
+HEADER_PREFIX = "# bootnav-sd"
+_HEADER_RE = re.compile(r"^#\s*bootnav-sd\s+v(\d+)\s*(.*)$")
+_LINE_RE = re.compile(r"^\d+,\d+(,-?\d+){7}\*[0-9A-Fa-f]{4}$")
+SAMPLE_FIELDS = ("t_us", "seq", "ax", "ay", "az", "gx", "gy", "gz", "temp")
+LIMITS = {"t_us": (0, 2**32 - 1), "seq": (0, 2**16 - 1)}
+
+
+def looks_like_sd_log(text: str) -> bool:
+    head = text.lstrip()[:4096]
+    if head.startswith(HEADER_PREFIX):
+        return True
+    lines = [ln.strip() for ln in head.splitlines()[:5] if ln.strip() and not ln.startswith("#")]
+    return bool(lines) and all(_LINE_RE.match(ln) for ln in lines[:3])
+
+
+def format_sd_line(t_us: int, seq: int, ax: int, ay: int, az: int, gx: int, gy: int, gz: int, temp: int) -> str:
+    """One SD-card data line with its CRC (no newline): the firmware's ``sprintf`` in Python."""
+    body = f"{t_us},{seq},{ax},{ay},{az},{gx},{gy},{gz},{temp}"
+    return f"{body}*{crc16_ccitt_false(body.encode('ascii')):04X}"
+
+
+def format_sd_header(accel_fs: int = 3, gyro_fs: int = 3, dlpf: int = 3, smplrt_div: int = 4, fw: str = "0.1.0",
+                     device_id: int = 0xBEEF) -> str:
+    return (f"# bootnav-sd v1 accel_fs={accel_fs} gyro_fs={gyro_fs} dlpf={dlpf} smplrt_div={smplrt_div} "
+            f"fw={fw} device_id=0x{device_id:08X}")
+
+
+def parse_header(line: str) -> dict[str, str]:
+    m = _HEADER_RE.match(line.strip())
+    if not m:
+        raise ValueError(line)
+    fields = dict(kv.split("=", 1) for kv in m.group(2).split() if "=" in kv)
+    fields["version"] = m.group(1)
+    return fields
+
+
+def _crc_ok(bodies: list[bytes], crcs: np.ndarray) -> np.ndarray:
+    """Vectorised CRC check: group equal-length bodies into 2-D uint8 arrays."""
+    ok = np.zeros(len(bodies), dtype=bool)
+    lengths = np.fromiter((len(b) for b in bodies), dtype=np.int64, count=len(bodies))
+    for length in np.unique(lengths):
+        sel = np.flatnonzero(lengths == length)
+        block = np.frombuffer(b"".join(bodies[i] for i in sel), dtype=np.uint8).reshape(sel.size, int(length))
+        ok[sel] = crc16_ccitt_false_rows(block) == crcs[sel]
+    return ok
+
+
+def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
+    from .core import ImportResult
+
+    lines = text.split("\n")
+    ends_without_newline = not text.endswith("\n")
+    if not ends_without_newline:
+        lines.pop()
+    offsets = np.zeros(len(lines), dtype=np.int64)
+    if lines:  # byte offset of each line start (ASCII file: characters == bytes)
+        offsets[1:] = np.cumsum([len(ln.encode("utf-8", "replace")) + 1 for ln in lines[:-1]])
+    header: dict[str, str] | None = None
+    headers: list[tuple[int, dict]] = []
+    events: list[dict] = []
+    bodies: list[bytes] = []
+    crcs: list[int] = []
+    cand_lines: list[int] = []  # 0-based line index of candidate data lines
+    last = len(lines) - 1
+    messages = []
+
+    def skip(i: int, why: str, kind: str = "skipped_line"):
+        trunc = ends_without_newline and i == last
+        events.append(dict(kind="skipped_line" if trunc else kind, line=i + 1, byte_offset=int(offsets[i]), count=1,
+                           detail=("truncated last line (power loss?): " if trunc else "") + why))
+
+    for i, ln in enumerate(lines):
+        s = ln.rstrip("\r").strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            if s.startswith(HEADER_PREFIX) or re.match(r"^#\s*bootnav-sd", s):
+                try:
+                    h = parse_header(s)
+                except ValueError:
+                    skip(i, f"unreadable header {s[:60]!r}")
+                    continue
+                if header is not None and any(h.get(k) != header.get(k) for k in ("accel_fs", "gyro_fs")):
+                    raise InputError(f"{path}: line {i + 1}: full-scale ranges change mid-file "
+                                     f"({header} -> {h}); split the file at this line")
+                headers.append((i, h))
+                header = header or h
+            continue
+        body, star, crc_text = s.rpartition("*")
+        if not star or len(crc_text) != 4 or not re.fullmatch(r"[0-9A-Fa-f]{4}", crc_text):
+            skip(i, f"no '*CRC' at the end: {s[:60]!r}", kind="crc_error" if not (ends_without_newline and i == last)
+                 else "skipped_line")
+            continue
+        bodies.append(body.encode("ascii", "replace"))
+        crcs.append(int(crc_text, 16))
+        cand_lines.append(i)
+    if header is None:
+        if "acc_range_g" not in overrides or "gyro_range_dps" not in overrides:
+            raise InputError(f"{path}: SD-card log without a '# bootnav-sd v1 ...' header line; "
+                             f"give --acc-range and --gyro-range")
+        header = {"accel_fs": str(mpu6050.accel_code(overrides["acc_range_g"])),
+                  "gyro_fs": str(mpu6050.gyro_code(overrides["gyro_range_dps"])), "version": "1"}
+    ok = _crc_ok(bodies, np.asarray(crcs, dtype=np.uint16)) if bodies else np.zeros(0, bool)
+    good_bodies: list[str] = []
+    good_idx: list[int] = []
+    for b, i, c_ok in zip(bodies, cand_lines, ok):
+        if not c_ok:
+            kind = "skipped_line" if (ends_without_newline and i == last) else "crc_error"
+            events.append(dict(kind=kind, line=i + 1, byte_offset=int(offsets[i]), count=1,
+                               detail=("truncated last line (power loss?): " if kind == "skipped_line" else "")
+                               + f"CRC mismatch: {b[:60].decode('ascii', 'replace')!r}"))
+            continue
+        good_bodies.append(b.decode("ascii"))
+        good_idx.append(i)
+    # fields: 9 integers within range
+    fields = [gb.split(",") for gb in good_bodies]
+    rows, row_lines = [], []
+    for f, i in zip(fields, good_idx):
+        if len(f) != 9:
+            skip(i, f"{len(f)} fields, expected 9")
+            continue
+        rows.append(f)
+        row_lines.append(i)
+    try:
+        arr = np.array(rows, dtype=np.int64).reshape(-1, 9)
+    except ValueError:
+        arr_list, keep_lines = [], []
+        for f, i in zip(rows, row_lines):
+            try:
+                arr_list.append([int(x) for x in f])
+                keep_lines.append(i)
+            except ValueError:
+                skip(i, "non-integer field")
+        arr, row_lines = np.array(arr_list, dtype=np.int64).reshape(-1, 9), keep_lines
+    lim = np.array([LIMITS.get(k, (mpu6050.INT16_MIN, mpu6050.INT16_MAX)) for k in SAMPLE_FIELDS])
+    in_range = np.all((arr >= lim[:, 0]) & (arr <= lim[:, 1]), axis=1)
+    for j in np.flatnonzero(~in_range):
+        skip(row_lines[j], "value out of range for its type (u32 t_us, u16 seq, i16 counts)")
+    arr = arr[in_range]
+    line_numbers = np.asarray(row_lines, dtype=np.int64)[in_range] + 1
+    n = arr.shape[0]
+    if n == 0:
+        raise InputError(f"{path}: no valid data line (of {len(lines)} lines)")
+
+    t_dev = arr[:, 0].astype(np.uint32)
+    t_unwrapped, wraps = timebase.unwrap_u32(arr[:, 0])
+    for i in wraps:
+        events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
+                           detail="uint32 microsecond clock wrapped (71.6 min); 2**32 us added"))
+    t = (t_unwrapped - t_unwrapped[0]) * 1e-6
+    accel_fs, gyro_fs = int(header["accel_fs"]), int(header["gyro_fs"])
+    if "acc_range_g" in overrides:
+        accel_fs = mpu6050.accel_code(overrides["acc_range_g"])
+    if "gyro_range_dps" in overrides:
+        gyro_fs = mpu6050.gyro_code(overrides["gyro_range_dps"])
+    dlpf = int(header.get("dlpf", -1))
+    div = int(header.get("smplrt_div", -1))
+    rate_nominal = (1000.0 if 1 <= dlpf <= 6 else 8000.0) / (1 + div) if div >= 0 and dlpf >= 0 else float("nan")
+    events += timebase.time_events(t, line_numbers, nominal_dt=1 / rate_nominal if np.isfinite(rate_nominal) else None,
+                                   with_gaps=False)
+    seq = arr[:, 1].astype(np.uint16)
+    dseq = (np.diff(arr[:, 1]) % 65536)
+    for j in np.flatnonzero(dseq != 1):
+        i = j + 1
+        if dseq[j] == 0:
+            events.append(dict(kind="note", sample_index=int(i), line=int(line_numbers[i]),
+                               detail=f"sequence number {seq[i]} repeated"))
+        else:
+            events.append(dict(kind="gap", sample_index=int(i), line=int(line_numbers[i]), count=int(dseq[j] - 1),
+                               detail=f"seq {seq[i - 1]} -> {seq[i]}: {dseq[j] - 1} sample(s) missing"))
+    for h_line, h in headers:
+        events.append(dict(kind="header", line=h_line + 1, byte_offset=int(offsets[h_line]),
+                           detail=" ".join(f"{k}={v}" for k, v in h.items())))
+    for e in events:
+        if e.get("sample_index", -1) >= 0:
+            e["t_s"] = float(t[e["sample_index"]])
+
+    acc = arr[:, 2:5].astype(np.int16)
+    gyro = arr[:, 5:8].astype(np.int16)
+    temp = arr[:, 8].astype(np.int16)
+    acc_ch = counts_channel("acc", mpu6050.accel_scale_mps2(accel_fs))
+    gyro_ch = counts_channel("gyro", mpu6050.gyro_scale_radps(gyro_fs))
+    rate_check = rate_nominal if np.isfinite(rate_nominal) else timing_summary(t)["rate_measured_hz"]
+    if overrides.get("check_units", True):
+        for p in (checks.acc_unit_problem(acc, acc_ch.scale_to_si, f"counts at +-{mpu6050.ACCEL_RANGE_G[accel_fs]} g",
+                                          rate_check),
+                  checks.gyro_unit_problem(gyro * gyro_ch.scale_to_si, "counts")):
+            if p:
+                raise InputError(f"{path}: {p} (header says accel_fs={accel_fs}; override with --acc-range)")
+    sat_a, ev_a = checks.saturation(acc, 32767.0, True, 0)
+    sat_g, ev_g = checks.saturation(gyro, 32767.0, True, 3)
+    for e in ev_a + ev_g:
+        e["t_s"] = float(t[e["sample_index"]])
+        e["line"] = int(line_numbers[e["sample_index"]])
+    events += ev_a + ev_g
+    n_bad = sum(1 for e in events if e["kind"] in ("crc_error", "skipped_line"))
+    if n_bad:
+        bad_lines = [e["line"] for e in events if e["kind"] in ("crc_error", "skipped_line")]
+        messages.append(f"{n_bad} bad line(s) in {path.name} (CRC or format), skipped: lines "
+                        + ", ".join(map(str, bad_lines[:10])) + (" ..." if len(bad_lines) > 10 else ""))
+    summary = timing_summary(t)
+    meta = dict(
+        source_file=str(path.resolve()), source_sha256=hashlib.sha256(raw).hexdigest(), importer_profile="bootnav_sd",
+        device="MPU6050", device_id=header.get("device_id", ""), firmware_version=header.get("fw", ""),
+        accel_range_g=float(mpu6050.ACCEL_RANGE_G[accel_fs]), gyro_range_dps=float(mpu6050.GYRO_RANGE_DPS[gyro_fs]),
+        dlpf_cfg=dlpf, smplrt_div=div, rate_nominal_hz=rate_nominal, mount=overrides.get("mount", "unknown"),
+        detected=dict(format="bootnav-sd v" + header.get("version", "?"), header=header),
+        acc_unit_source_file="counts", gyro_unit_source_file="counts", time_unit_source_file="us",
+        acc_quantity="specific_force", gyro_present=1, lines_total=len(lines),
+        lines_skipped=n_bad, crc_errors=sum(1 for e in events if e["kind"] == "crc_error"), **summary,
+    )
+    messages.insert(0, f"profile: bootnav_sd (auto-detected: '# bootnav-sd' header), accel_fs={accel_fs} "
+                       f"gyro_fs={gyro_fs}, {rate_nominal:g} Hz nominal")
+    messages.append(f"samples: {n}, {summary['rate_measured_hz']:.4g} Hz measured, {t[-1]:.3f} s; "
+                    f"{len(wraps)} clock wrap(s), {sum(1 for e in events if e['kind'] == 'gap')} seq gap(s)")
+    return ImportResult(source=path, profile="bootnav_sd", t_s=t, acc=acc, gyro=gyro, acc_channel=acc_ch,
+                        gyro_channel=gyro_ch, saturated=(sat_a | sat_g).astype(np.uint8), events=events, meta=meta,
+                        optional=dict(temp=temp, temp_channel=counts_channel("temp", 1.0 / mpu6050.TEMP_LSB_PER_DEGC),
+                                      t_device=t_dev, seq=seq), messages=messages)

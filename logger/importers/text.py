@@ -1,0 +1,270 @@
+"""Reading delimited text tables from other IMUs: sniffing and fast, line-accurate parsing.
+
+The parser never guesses silently and never drops data silently:
+
+* encoding: UTF-8 (BOM removed), gzip transparently; files with NUL bytes or mostly control bytes are
+  rejected as binary;
+* lines: split on LF, a trailing CR removed (CRLF files), blank lines ignored, comment lines
+  (``#``, ``%``, ``//``) collected as the preamble;
+* delimiter: ``;``, tab, ``,`` or runs of whitespace, chosen as the one that splits the first data lines
+  into the same number (> 1) of fields; a trailing delimiter on every line (``1;2;3;``) is dropped;
+* decimal comma: accepted when the delimiter is not a comma (``0,5;1,25``);
+* header: the last non-numeric line before the first numeric one, quotes stripped;
+* numbers: each needed column is converted by numpy in one call (C speed); a column that fails is
+  re-converted value by value only to find the bad lines, which are returned with 1-based line numbers
+  so the caller can record them as ``skipped_line`` events while keeping every good line.
+"""
+
+from __future__ import annotations
+
+import gc
+import gzip
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bootnav.errors import InputError
+
+COMMENT_PREFIXES = ("#", "%", "//")
+_NUM_RE = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$|^\s*[-+]?(nan|inf|NaN|Inf)\s*$")
+WHITESPACE = "whitespace"
+
+
+def read_text(path: Path) -> tuple[str, bytes]:
+    """Return (text, raw bytes) of a text file; gzip is undone; binary files are refused."""
+    raw = Path(path).read_bytes()
+    data = raw
+    if data[:2] == b"\x1f\x8b":
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError) as exc:
+            raise InputError(f"{path}: damaged gzip file ({exc})") from exc
+    if not data.strip():
+        raise InputError(f"{path}: file is empty (no data lines)")
+    head = data[:65536]
+    nul = head.find(b"\x00")
+    control = sum(head.count(bytes([c])) for c in range(32) if c not in (9, 10, 13))
+    if nul >= 0 or control > 0.01 * len(head):
+        where = f"first NUL byte at offset {nul}" if nul >= 0 else f"{control} control bytes in the first {len(head)}"
+        raise InputError(f"{path}: looks like a binary file, not a text log ({where})")
+    text = data.decode("utf-8", errors="replace")
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    return text, raw
+
+
+def is_number(token: str) -> bool:
+    return bool(_NUM_RE.match(token.strip().strip('"')))
+
+
+def split_line(line: str, delimiter: str) -> list[str]:
+    return line.split() if delimiter == WHITESPACE else line.split(delimiter)
+
+
+@dataclass
+class TextTable:
+    """A parsed text table: header names, data cells, 1-based line numbers per row.
+
+    Cells are either ``matrix`` (float64, the fast path: every line well-formed and numeric) or
+    ``rows`` (split strings, the careful path that finds the bad lines).
+    """
+
+    path: Path
+    delimiter: str
+    decimal_comma: bool
+    header: list[str] | None
+    header_line: int  # 1-based, -1 if none
+    preamble: list[tuple[int, str]]  # comment / non-data lines before the data (line, text)
+    rows: list[list[str]] | None  # split fields of the well-formed data lines (careful path)
+    line_numbers: np.ndarray  # (n_rows,) 1-based line numbers of the data rows
+    n_fields: int
+    bad_lines: list[tuple[int, str]] = field(default_factory=list)  # (line, reason)
+    ends_without_newline: bool = False
+    n_lines: int = 0
+    trailing_delimiter: bool = False
+    matrix: np.ndarray | None = None  # (n_rows, n_fields) float64 (fast path)
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.line_numbers.shape[0])
+
+    def cell(self, row: int, index: int) -> str:
+        if self.matrix is not None:
+            return repr(float(self.matrix[row, index]))
+        return self.rows[row][index]
+
+    def column(self, index: int) -> list[str]:
+        if self.matrix is not None:
+            return [repr(v) for v in self.matrix[:, index].tolist()]
+        return [r[index] for r in self.rows]
+
+    def numeric(self, index: int) -> tuple[np.ndarray, list[int]]:
+        """Column ``index`` as float64; returns (values with NaN at bad rows, indices of bad rows)."""
+        if self.matrix is not None:
+            return self.matrix[:, index].copy(), []
+        col = self.column(index)
+        if col and col[0].lstrip().startswith('"'):
+            col = [c.strip().strip('"') for c in col]
+        if self.decimal_comma:
+            col = [c.replace(",", ".") for c in col]
+        try:
+            return np.array(col, dtype=np.float64), []
+        except ValueError:
+            out = np.empty(len(col))
+            bad = []
+            for i, c in enumerate(col):
+                try:
+                    out[i] = float(c.strip().strip('"'))
+                except ValueError:
+                    out[i] = np.nan
+                    bad.append(i)
+            return out, bad
+
+
+def _sniff_delimiter(lines: list[str]) -> str:
+    best, best_score = WHITESPACE, -1
+    for delim in (";", "\t", ",", WHITESPACE):
+        counts = [len(split_line(ln, delim)) for ln in lines]
+        if not counts:
+            continue
+        mode = max(set(counts), key=counts.count)
+        agree = counts.count(mode)
+        if mode > 1 and agree >= 0.8 * len(counts) and agree > best_score:
+            best, best_score = delim, agree
+            if delim != WHITESPACE:
+                break  # first explicit delimiter that splits consistently wins (";" before ",": decimal comma)
+    return best
+
+
+HEAD_LINES = 200
+
+
+def _fast_matrix(region: str, delim: str, n_fields: int, trailing: bool, decimal_comma: bool) -> np.ndarray | None:
+    """The whole data block parsed by numpy in C, or None when any line is irregular (then the careful path runs).
+
+    Accepted only when there are no blank/comment/quoted lines and every line has exactly the expected
+    number of delimiters, so each value is known to sit in its own row and column.
+    """
+    if delim == WHITESPACE or any(c in region for c in ('"', "#", "%", "/", "\r", "\n\n")) or not region:
+        return None
+    if region.startswith("\n"):
+        return None
+    body = region[:-1] if region.endswith("\n") else region
+    n_lines = body.count("\n") + 1
+    per_line = n_fields if trailing else n_fields - 1
+    if body.count(delim) != n_lines * per_line:
+        return None
+    if trailing:
+        body = body.replace(delim + "\n", "\n")
+        if body.endswith(delim):
+            body = body[:-1]
+    if decimal_comma:
+        body = body.replace(",", ".")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            flat = np.fromstring(body.replace("\n", delim), sep=delim)
+        except ValueError:
+            return None
+    if flat.size != n_lines * n_fields:
+        return None
+    return flat.reshape(n_lines, n_fields)
+
+
+def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: bool | None = None,
+                skip_lines: int = 0) -> TextTable:
+    """Split ``text`` into a table. ``delimiter``/``header`` None = auto-detect."""
+    ends_without_newline = not text.endswith("\n")
+    n_total_lines = text.count("\n") + (1 if ends_without_newline else 0)
+    head = text.split("\n", HEAD_LINES)[:HEAD_LINES]
+    candidates: list[tuple[int, str]] = []  # (line, text) non-blank, non-comment lines of the head
+    preamble: list[tuple[int, str]] = []
+    for i, raw_line in enumerate(head):
+        ln = raw_line.rstrip("\r")
+        if i < skip_lines:
+            preamble.append((i + 1, ln))
+            continue
+        s = ln.strip()
+        if not s:
+            continue
+        if s.startswith(COMMENT_PREFIXES):
+            if not candidates:
+                preamble.append((i + 1, ln))
+            continue
+        candidates.append((i + 1, ln))
+    if not candidates:
+        raise InputError(f"{path}: no data lines (only blank or comment lines)")
+
+    sample = [ln for _, ln in candidates[:60]]
+    delim = delimiter or _sniff_delimiter(sample)
+    fields0 = [split_line(ln, delim) for ln in sample]
+
+    def numeric_row(fields: list[str]) -> bool:
+        real = [f for f in fields if f.strip() != ""]
+        n_num = sum(is_number(f) for f in real)
+        return bool(real) and n_num >= max(1, len(real) - 1)  # allow one text column (a date/time)
+
+    first_data = next((k for k, f in enumerate(fields0) if numeric_row(f)), None)
+    if first_data is None:
+        raise InputError(f"{path}: no numeric data line in the first {len(sample)} lines "
+                         f"(first line {candidates[0][0]}: {candidates[0][1][:80]!r})")
+    hdr: list[str] | None = None
+    header_line = -1
+    if header is not False and first_data > 0:
+        header_line, hline = candidates[first_data - 1]
+        hdr = [h.strip().strip('"').strip("'").strip() for h in split_line(hline, delim)]
+    elif header is True:
+        raise InputError(f"{path}: a header line was expected before line {candidates[0][0]}")
+    for ln_no, ln in candidates[: max(0, first_data - (1 if hdr is not None else 0))]:
+        preamble.append((ln_no, ln))
+    first_line_no = candidates[first_data][0]  # 1-based
+    head_data = candidates[first_data:]
+    trailing = delim != WHITESPACE and all(ln.rstrip().endswith(delim) for _, ln in head_data[:50])
+    head_rows = [split_line(ln.rstrip() if trailing else ln, delim) for _, ln in head_data[:200]]
+    if trailing:
+        head_rows = [r[:-1] if r and r[-1] == "" else r for r in head_rows]
+        if hdr and hdr[-1] == "":
+            hdr = hdr[:-1]
+    lengths = [len(r) for r in head_rows]
+    n_fields = max(set(lengths), key=lengths.count)
+    decimal_comma = False
+    if delim != ",":
+        decimal_comma = any(re.match(r"^\s*[-+]?\d+,\d+", f) for r in head_rows[:50] for f in r)
+    common = dict(path=Path(path), delimiter=delim, decimal_comma=decimal_comma, header=hdr,
+                  header_line=header_line, preamble=preamble, n_fields=n_fields,
+                  ends_without_newline=ends_without_newline, n_lines=n_total_lines, trailing_delimiter=trailing)
+
+    region = text.split("\n", first_line_no - 1)[-1]
+    matrix = _fast_matrix(region, delim, n_fields, trailing, decimal_comma)
+    if matrix is not None:
+        lines_no = np.arange(first_line_no, first_line_no + matrix.shape[0], dtype=np.int64)
+        return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, **common)
+
+    # Careful path: line by line, every malformed line reported with its number.
+    lines = region.split("\n")
+    if not ends_without_newline:
+        lines.pop()
+    good_rows, good_lines, bad = [], [], []
+    gc_was = gc.isenabled()
+    gc.disable()  # millions of small lists: the cyclic GC would rescan them again and again
+    try:
+        for k, raw_line in enumerate(lines):
+            ln = raw_line.rstrip("\r")
+            s = ln.strip()
+            if not s or s.startswith(COMMENT_PREFIXES):
+                continue
+            r = split_line(s if trailing else ln, delim)
+            if trailing and r and r[-1] == "":
+                r.pop()
+            if len(r) == n_fields:
+                good_rows.append(r)
+                good_lines.append(first_line_no + k)
+            else:
+                bad.append((first_line_no + k, f"{len(r)} fields, expected {n_fields}: {ln[:60]!r}"))
+    finally:
+        if gc_was:
+            gc.enable()
+    return TextTable(rows=good_rows, line_numbers=np.asarray(good_lines, dtype=np.int64), bad_lines=bad, **common)
