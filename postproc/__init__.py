@@ -1,0 +1,1 @@
+"""bootnav post-processing: calibration, stance detection, ZUPT filtering, paths, metrics; PDR in postproc.pdr."""

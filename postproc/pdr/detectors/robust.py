@@ -1,0 +1,176 @@
+"""bootnav's engineered step detector (not from a seed paper): band-pass magnitude, relative-prominence
+peaks, cadence-adaptive spacing, an activity gate and a dynamic-programming "beat tracker".
+
+All parameters are ENGINEERED defaults (chosen for generality across carrying positions: hand, pockets,
+armband, neck pouch, purse, swinging arm, lower back), not literal values of any source.
+
+Pipeline (fs = 50 Hz after resampling):
+
+1. a[n] = ||f_b[n]||  (orientation-free, seed-002 eq. 1 / seed-003 eq. 3.1), band-passed
+   x = BP_[0.3, 3.0] Hz(a) (2nd-order Butterworth, zero phase; walking cadence <= 3 Hz, seed-000 §1.2).
+2. Candidates: every local maximum of x with topographic prominence p_k.
+   Local reference R_k = 80th percentile of the prominences within +-2.5 s; salience
+   s_k = min(p_k / R_k, 1.5) - 0.5 (relative, so weak hand signals and strong pocket signals look alike).
+3. Activity gate: s_k = -1 where the 2-s RMS of x is < 0.5 m/s^2 or R_k < 0.25 m/s^2 (standing,
+   phone on a table). The same gate, together with step 5, keeps handling bumps out.
+4. First pass: candidates with p_k >= 0.45 R_k, then minimum spacing 0.6 T_loc (T_loc = local median
+   step interval, >= 0.25 s), twice; gives the local step period T(t) (median over +-5 s).
+5. Final selection by dynamic programming over candidates (beat tracking):
+       B_j = s_j + max( max_i [B_i - lambda (ln((t_j - t_i)/T_j))^2]   for 0.5 T_j <= t_j - t_i <= 1.7 T_j,
+                        max_{t_i < t_j - 1.7 T_j} B_i - c_break,  0 )
+   with lambda = 2, c_break = 1; the best chain is traced back. This picks exactly one peak per step
+   even when a step has two bumps (heel strike + push-off) and bridges a weak step.
+6. Bouts shorter than 4 steps (gap > 1.6 s) are dropped (isolated bumps are not walking).
+
+Measured on ../shared/datasets (benchmarks/pdr_table.py) -- see the report; tune for generality.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from postproc.pdr.signals import butter_filter, magnitude, resample_uniform
+from postproc.pdr.steps import StepEvents
+
+
+def _window_quantile(t_ref: np.ndarray, v: np.ndarray, t_at: np.ndarray, half_s: float, q: float,
+                     empty: float = 0.0) -> np.ndarray:
+    """q-quantile of the values v (at sorted times t_ref) within +-half_s of each time in t_at."""
+    lo = np.searchsorted(t_ref, t_at - half_s)
+    hi = np.searchsorted(t_ref, t_at + half_s, side="right")
+    return np.array([np.quantile(v[a:b], q) if b > a else empty for a, b in zip(lo, hi)])
+
+
+def _min_spacing(tp: np.ndarray, prom: np.ndarray, mind: np.ndarray) -> np.ndarray:
+    """Keep peaks greedily by prominence so that no two kept peaks are closer than mind (per peak)."""
+    sel = np.zeros(tp.size, bool)
+    for i in np.argsort(-prom, kind="stable"):
+        a = np.searchsorted(tp, tp[i] - mind[i])
+        b = np.searchsorted(tp, tp[i] + mind[i], side="right")
+        if not sel[a:b].any():
+            sel[i] = True
+    return sel
+
+
+def _bouts(tp: np.ndarray, gap_s: float, min_steps: int) -> np.ndarray:
+    keep = np.zeros(tp.size, bool)
+    if tp.size == 0:
+        return keep
+    br = np.r_[0, np.nonzero(np.diff(tp) > gap_s)[0] + 1, tp.size]
+    for a, b in zip(br[:-1], br[1:]):
+        if b - a >= min_steps:
+            keep[a:b] = True
+    return keep
+
+
+@dataclass
+class RobustDetector:
+    """Engineered default detector (see module docstring for the equations)."""
+
+    fs_hz: float = 50.0
+    band_hz: tuple = (0.3, 3.0)
+    ref_half_window_s: float = 2.5
+    ref_quantile: float = 0.8
+    first_pass_rel_prominence: float = 0.45
+    spacing_factor: float = 0.6
+    min_spacing_s: float = 0.25
+    period_half_window_s: float = 5.0
+    salience_offset: float = 0.5
+    salience_cap: float = 1.5
+    activity_rms_mps2: float = 0.5
+    activity_window_s: float = 2.0
+    ref_floor_mps2: float = 0.25
+    interval_penalty: float = 2.0
+    interval_range: tuple = (0.5, 1.7)
+    break_cost: float = 1.0
+    bout_gap_s: float = 1.6
+    min_bout_steps: int = 4
+    default_period_s: float = 0.55
+
+    name = "robust"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def _first_pass(self, tp, prom, R):
+        ok = (prom >= self.first_pass_rel_prominence * R) & (R >= self.ref_floor_mps2)
+        t1, p1 = tp[ok], prom[ok]
+        for _ in range(2):
+            if t1.size < 3:
+                break
+            iv = np.diff(t1)
+            mid = 0.5 * (t1[1:] + t1[:-1])
+            good = iv < self.bout_gap_s
+            med = (_window_quantile(mid[good], iv[good], t1, 1.5 * self.ref_half_window_s, 0.5,
+                                    self.default_period_s) if good.any() else np.full(t1.size, self.default_period_s))
+            sel = _min_spacing(t1, p1, np.maximum(self.min_spacing_s, self.spacing_factor * med))
+            t1, p1 = t1[sel], p1[sel]
+        return t1
+
+    def _local_period(self, t1, t_at):
+        if t1.size >= 3:
+            iv = np.diff(t1)
+            good = iv < self.bout_gap_s
+            if good.any():
+                mid = 0.5 * (t1[1:] + t1[:-1])
+                T = _window_quantile(mid[good], iv[good], t_at, self.period_half_window_s, 0.5, 0.0)
+                T[T <= 0] = float(np.median(iv[good]))
+                return T
+        return np.full(t_at.size, self.default_period_s)
+
+    def _beat_track(self, tp, sal, T):
+        n = tp.size
+        best = np.full(n, -np.inf)
+        prev = np.full(n, -1)
+        pref = np.full(n, -np.inf)
+        pref_arg = np.full(n, -1)
+        lo_f, hi_f = self.interval_range
+        for j in range(n):
+            a = np.searchsorted(tp, tp[j] - hi_f * T[j])
+            b = np.searchsorted(tp, tp[j] - lo_f * T[j], side="right")
+            cont, ci = -np.inf, -1
+            if b > a:
+                v = best[a:b] - self.interval_penalty * np.log((tp[j] - tp[a:b]) / T[j]) ** 2
+                k = int(np.argmax(v))
+                cont, ci = v[k], a + k
+            start, si = 0.0, -1
+            if a > 0 and pref[a - 1] - self.break_cost > 0:
+                start, si = pref[a - 1] - self.break_cost, pref_arg[a - 1]
+            if start >= cont:
+                best[j], prev[j] = sal[j] + start, si
+            else:
+                best[j], prev[j] = sal[j] + cont, ci
+            if j > 0 and pref[j - 1] >= best[j]:
+                pref[j], pref_arg[j] = pref[j - 1], pref_arg[j - 1]
+            else:
+                pref[j], pref_arg[j] = best[j], j
+        sel = []
+        j = pref_arg[-1] if n and pref[-1] > 0 else -1
+        while j >= 0:
+            sel.append(j)
+            j = prev[j]
+        return np.array(sel[::-1], int)
+
+    def detect(self, t_s, acc_b) -> StepEvents:
+        from scipy import signal
+
+        tg, a = resample_uniform(t_s, acc_b, self.fs_hz)
+        x = butter_filter(magnitude(a), self.fs_hz, list(self.band_hz), "band", order=2)
+        pk, props = signal.find_peaks(x, prominence=0)
+        prom = props["prominences"]
+        tp = tg[pk]
+        R = _window_quantile(tp, prom, tp, self.ref_half_window_s, self.ref_quantile)
+        t1 = self._first_pass(tp, prom, R)
+        T = self._local_period(t1, tp)
+        sal = np.minimum(prom / np.maximum(R, 1e-9), self.salience_cap) - self.salience_offset
+        nw = max(1, int(round(self.activity_window_s * self.fs_hz)))
+        rms = np.sqrt(np.convolve(x ** 2, np.ones(nw) / nw, mode="same"))
+        sal[(R < self.ref_floor_mps2) | (rms[pk] < self.activity_rms_mps2)] = -1.0
+        sel = self._beat_track(tp, sal, T)
+        ts = tp[sel]
+        keep = _bouts(ts, self.bout_gap_s, self.min_bout_steps)
+        return StepEvents(ts[keep], self.name,
+                          {"t_s": tg, "signal": x, "signal_label": "band-passed |a| (m/s^2)",
+                           "candidates_t_s": tp, "activity_rms": rms, "period_s": T})

@@ -1,0 +1,42 @@
+"""Step-and-heading table from a foot-mounted INS (ZUPT) trajectory, so foot and waist/phone PDR compare on
+one recording. Plain arrays in, no dependency on postproc.pipeline.
+
+For a foot sensor one "step" is a stride (one stance phase to the next, METRICS.md). With stance phases
+k = 0..K (contiguous runs of stance = True) and p_k = mean horizontal position over stance phase k:
+
+    stride k (k >= 1):  t_k = start time of stance phase k (initial contact),
+                        length_k = ||p_k - p_{k-1}||_xy,  heading_k = atan2(dE, dN)  (bearing, cw from N)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def stance_phases(stance: np.ndarray, min_samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """(start, end_exclusive) index arrays of contiguous stance runs."""
+    s = np.r_[0, np.asarray(stance, bool).astype(int), 0]
+    d = np.diff(s)
+    a = np.nonzero(d == 1)[0]
+    b = np.nonzero(d == -1)[0]
+    keep = (b - a) >= min_samples
+    return a[keep], b[keep]
+
+
+def steps_from_foot_ins(t_s, pos_n, stance, min_stance_samples: int = 3) -> dict:
+    """Returns dict with t_s, length_m, heading_rad, x_m, y_m (positions at the end of each stride)."""
+    t = np.asarray(t_s, float)
+    p = np.asarray(pos_n, float)
+    a, b = stance_phases(stance, min_stance_samples)
+    if a.size < 2:
+        z = np.zeros(0)
+        return {"t_s": z, "length_m": z, "heading_rad": z, "x_m": z, "y_m": z}
+    pk = np.array([p[i:j, :2].mean(axis=0) for i, j in zip(a, b)])
+    d = np.diff(pk, axis=0)
+    return {
+        "t_s": t[a[1:]],
+        "length_m": np.hypot(d[:, 0], d[:, 1]),
+        "heading_rad": np.arctan2(d[:, 0], d[:, 1]),
+        "x_m": pk[1:, 0] - pk[0, 0],
+        "y_m": pk[1:, 1] - pk[0, 1],
+    }

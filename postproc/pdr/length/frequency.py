@@ -1,0 +1,22 @@
+"""Frequency–step model, seed-002 §2.2 eq. 3 (after [13], [17]):  L = a f + b,
+a = 0.22 m/Hz, b = 0.28 m [literal Table 2]; f = 1 / step duration [inferred by the digest]."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+@dataclass
+class FrequencyLength:
+    a: float = 0.22
+    b: float = 0.28
+
+    name = "frequency"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def estimate(self, feat) -> np.ndarray:
+        return self.a * np.asarray(feat.freq_hz) + self.b

@@ -1,0 +1,27 @@
+"""Height–frequency model (Renaudin, Susi, Lachapelle 2012), seed-002 §2.3 eq. 4:
+
+    L = h (a f + b) + c,   h = 1.83 m, a = 0.13 s, b = 0.13, c = 0.1 m   [literal Table 2]
+
+f = 1 / step duration (the Turkish paper does not say; Renaudin used an STFT) [engineered]."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+@dataclass
+class RenaudinLength:
+    height_m: float = 1.83
+    a: float = 0.13
+    b: float = 0.13
+    c: float = 0.1
+
+    name = "renaudin"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def estimate(self, feat) -> np.ndarray:
+        return self.height_m * (self.a * np.asarray(feat.freq_hz) + self.b) + self.c

@@ -1,0 +1,40 @@
+"""Fourth-root (Weinberg) step length, seed-000 §5.2 (R13, test T4):
+
+    L = K (A_max - A_min)^(1/4)
+
+A_max, A_min = max/min vertical acceleration during the step. Literal K = 0.95 (the C# code), applied to
+the range in g (the unit that makes 0.95 plausible, seed-000 Π2 [reconstructed]); the thesis text suggests
+K ~ 0.55 (``K_TEXT``); Table 5.2.1 per-user values 0.50 / 0.55 / 0.57 (``K_TABLE_5_2_1``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from postproc.pdr.signals import G0
+
+K_CODE = 0.95
+K_TEXT = 0.55
+K_TABLE_5_2_1 = {"A": 0.50, "B": 0.55, "C": 0.57}  # leg lengths 0.94, 1.06, 1.08 m
+
+
+def weinberg(delta_a, k: float = K_CODE) -> np.ndarray:
+    """L = k * delta_a ** 0.25 (delta_a in the unit k was fitted for)."""
+    return k * np.power(np.maximum(np.asarray(delta_a, float), 0.0), 0.25)
+
+
+@dataclass
+class WeinbergLength:
+    k: float = K_CODE
+    acc_unit: str = "g"
+
+    name = "weinberg"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def estimate(self, feat) -> np.ndarray:
+        d = feat.vert_range_mps2 / (G0 if self.acc_unit == "g" else 1.0)
+        return weinberg(d, self.k)

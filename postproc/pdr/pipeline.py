@@ -1,0 +1,159 @@
+"""The PDR pipeline: detector -> step features -> step-length model -> heading -> path.
+
+    run_pdr(t_s, acc_b, gyro_b=None, settings=PdrSettings(), mag_b=None) -> PdrResult
+
+Every tunable lives in ``PdrSettings`` (saved with the results as summary.json["settings"]).
+Heading methods: "auto" (gyro if a gyro is present, else "none"), "none" (every step keeps the start
+bearing: a straight line; heading is unobservable without gyro/magnetometer), "gyro", "mag",
+"complementary". Bearing convention: clockwise from north (heading/__init__.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from bootnav.errors import InputError
+
+
+@dataclass
+class PdrSettings:
+    detector: str = "robust"
+    detector_params: dict = field(default_factory=dict)
+    length: str = "renaudin"
+    length_params: dict = field(default_factory=dict)
+    height_m: float | None = None  # used by the models that need it (footpath, renaudin)
+    heading: str = "auto"
+    heading0_deg: float = 0.0  # start bearing (clockwise from north)
+    declination_deg: float = 0.0  # east positive
+    forward_axis: tuple = (0.0, 1.0, 0.0)  # body axis pointing forward (magnetometer heading)
+    complementary_tau_s: float = 10.0
+    start_lat_lon: tuple | None = None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["forward_axis"] = list(self.forward_axis)
+        d["start_lat_lon"] = list(self.start_lat_lon) if self.start_lat_lon else None
+        return d
+
+
+@dataclass
+class PdrResult:
+    t_s: np.ndarray  # (N,) step times
+    length_m: np.ndarray
+    heading_rad: np.ndarray  # bearing, clockwise from north
+    x_m: np.ndarray  # east after each step
+    y_m: np.ndarray  # north after each step
+    events: object  # StepEvents (with the detector's trace)
+    features: object  # StepFeatures
+    settings: PdrSettings
+    lat_deg: np.ndarray | None = None
+    lon_deg: np.ndarray | None = None
+    heading_source: str = "none"
+
+    @property
+    def count(self) -> int:
+        return int(self.t_s.size)
+
+    def summary(self) -> dict:
+        d = float(np.sum(self.length_m))
+        return {
+            "steps": self.count,
+            "distance_m": d,
+            "mean_step_length_m": float(np.mean(self.length_m)) if self.count else None,
+            "cadence_steps_per_min": float(60.0 * (self.count - 1) / (self.t_s[-1] - self.t_s[0]))
+            if self.count > 2 else None,
+            "final_x_m": float(self.x_m[-1]) if self.count else 0.0,
+            "final_y_m": float(self.y_m[-1]) if self.count else 0.0,
+            "heading_source": self.heading_source,
+            "heading_convention": "bearing, rad, clockwise from north; x east, y north",
+            "settings": self.settings.to_dict(),
+        }
+
+
+def _check_inputs(t_s, acc_b):
+    t = np.asarray(t_s, float)
+    a = np.asarray(acc_b, float)
+    if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] != t.shape[0]:
+        raise InputError(f"acc_b must be (N, 3) with N = len(t_s) = {t.shape[0]}; got {a.shape}")
+    if t.size < 10 or not np.isfinite(t).any() or np.nanmax(t) - np.nanmin(t) <= 0:
+        raise InputError(f"need at least 10 samples spanning a positive time; got {t.size}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        keep = ~bad & np.isfinite(t)
+        return t[keep], a[keep], keep
+    return t, a, None
+
+
+def _length_model(settings: PdrSettings):
+    from postproc.pdr.length import LENGTH_MODELS
+
+    if settings.length not in LENGTH_MODELS:
+        raise InputError(f"unknown step-length model {settings.length!r}; choose one of {sorted(LENGTH_MODELS)}")
+    params = dict(settings.length_params)
+    cls = LENGTH_MODELS[settings.length]
+    if settings.height_m is not None and "height_m" in cls.__dataclass_fields__:
+        params.setdefault("height_m", settings.height_m)
+    return cls(**params)
+
+
+def _heading(settings, t, acc, gyro, mag, t_steps):
+    from postproc.pdr.heading.complementary import complementary_heading
+    from postproc.pdr.heading.declination import apply_declination
+    from postproc.pdr.heading.gyro import gyro_heading
+    from postproc.pdr.heading.magnetometer import tilt_compensated_heading
+    from postproc.pdr.signals import gravity_direction, nominal_rate_hz
+
+    method = settings.heading
+    if method == "auto":
+        method = "gyro" if gyro is not None else "none"
+    psi0 = np.radians(settings.heading0_deg)
+    if method == "none":
+        return np.full(t_steps.size, psi0), "none"
+    if method in ("gyro", "complementary") and gyro is None:
+        raise InputError(f"heading {method!r} needs a gyroscope; this input has none")
+    if method in ("mag", "complementary") and mag is None:
+        raise InputError(f"heading {method!r} needs a magnetometer; this input has none")
+    if method == "gyro":
+        tt, psi = gyro_heading(t, gyro, acc, psi0)
+    else:
+        up = gravity_direction(acc, nominal_rate_hz(t))
+        psi_m = np.unwrap(apply_declination(tilt_compensated_heading(mag, up, settings.forward_axis),
+                                            settings.declination_deg))
+        tt = t
+        psi = psi_m
+        if method == "complementary":
+            tg, psi_g = gyro_heading(t, gyro, acc, 0.0)
+            psi_m_g = np.interp(tg, t, psi_m)
+            psi = complementary_heading(tg, psi_g, psi_m_g, settings.complementary_tau_s)
+            tt = tg
+    if method not in ("gyro", "mag", "complementary"):
+        raise InputError(f"unknown heading method {settings.heading!r}; choose auto, none, gyro, mag, complementary")
+    return np.angle(np.exp(1j * np.interp(t_steps, tt, psi))), method
+
+
+def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=None) -> PdrResult:
+    """Step-and-heading dead reckoning on one recording (SI units, sensor frame, gravity included)."""
+    from postproc.pdr.detectors import make_detector
+    from postproc.pdr.length.features import step_features
+    from postproc.pdr.path import geodetic_path, local_path
+
+    settings = settings or PdrSettings()
+    t, acc, keep = _check_inputs(t_s, acc_b)
+    gyro = None if gyro_b is None else np.asarray(gyro_b, float)
+    mag = None if mag_b is None else np.asarray(mag_b, float)
+    if keep is not None:
+        gyro = gyro[keep] if gyro is not None else None
+        mag = mag[keep] if mag is not None else None
+    detector = make_detector(settings.detector, **settings.detector_params)
+    events = detector.detect(t, acc)
+    feats = step_features(events.t_s, t, acc)
+    length = _length_model(settings).estimate(feats)
+    heading, source = _heading(settings, t, acc, gyro, mag, events.t_s)
+    x, y = local_path(length, heading)
+    res = PdrResult(events.t_s, np.asarray(length, float), heading, x, y, events, feats, settings,
+                    heading_source=source)
+    if settings.start_lat_lon:
+        res.lat_deg, res.lon_deg = geodetic_path(settings.start_lat_lon[0], settings.start_lat_lon[1], length, heading)
+    return res
