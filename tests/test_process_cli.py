@@ -1,0 +1,129 @@
+"""``bootnav process`` end to end through the real console entry point, on a real canonical IMU file."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.conftest import REPO
+
+SHORT = "xio_ngimu_loops/short_walk/imu.csv.gz"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def bootnav(*args, timeout=240):
+    return subprocess.run([sys.executable, "-m", "bootnav.cli", "process", *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout, cwd=REPO)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array(rows[1:], dtype=float)
+
+
+@pytest.fixture(scope="module")
+def cli_run(tmp_path_factory):
+    from tests.conftest import DATASETS
+
+    src = DATASETS / SHORT
+    if not src.exists():
+        pytest.skip(f"dataset {src} not found")
+    out = tmp_path_factory.mktemp("cli") / "out"
+    proc = bootnav(src, "--out", out, "--closed-loop", "--geo-anchor", "48.137,11.575,520")
+    assert proc.returncode == 0, proc.stderr
+    return src, out, proc
+
+
+def test_every_output_file_with_documented_columns(cli_run):
+    src, out, proc = cli_run
+    header, traj = read_csv(out / "trajectory.csv")
+    assert header == ["t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance"]
+    n_input = sum(1 for _ in __import__("gzip").open(src, "rt")) - 1
+    assert len(traj) == n_input  # one row per input sample, nothing dropped
+    assert np.all(np.diff(traj[:, 0]) >= 0) and set(np.unique(traj[:, 7])) == {0.0, 1.0}
+    header, steps = read_csv(out / "steps.csv")
+    assert header == ["t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "heading_rad"]
+    assert len(steps) >= 12
+    # stride k goes from footprint k-1 to footprint k (4-decimal CSV rounding: 1e-3 m tolerance)
+    assert np.allclose(steps[1:, 4], np.hypot(*np.diff(steps[:, 1:3], axis=0).T), atol=1e-3)
+    assert np.allclose(steps[1:, 5], np.diff(steps[:, 3]), atol=1e-3)
+    assert np.all(np.abs(steps[:, 6]) <= np.pi + 1e-6)
+    for k in range(1, 8):
+        png = list(out.glob(f"{k}_*.png"))
+        assert len(png) == 1, f"chart {k} missing"
+        data = png[0].read_bytes()
+        assert data[:8] == PNG_MAGIC and len(data) > 20_000  # a real drawing, not an empty canvas
+    with h5py.File(out / "results.h5") as f:
+        assert f["results/default/pos_n_m"].shape == (len(traj), 3)
+        assert f["imu/t_s"].shape[0] == len(traj)
+
+
+def test_summary_json(cli_run):
+    _, out, proc = cli_run
+    s = json.loads((out / "summary.json").read_text())
+    for key in ("distance_m", "closure_pct", "floors_climbed", "floors_descended", "settings", "software",
+                "timings_s", "conventions", "warnings", "saturation_intervals", "files", "metrics"):
+        assert key in s, key
+    assert s["conventions"]["nav_frame"].startswith("ENU")
+    # closed loop (truth): closure bound from the paper's best Table 1 error (2.5 % of the distance)
+    assert s["metrics"]["closure_pct"] < 2.5
+    assert set(s["timings_s"]) >= {"load", "calibration", "detection", "filter", "strides", "write", "plots"}
+    assert "closure" in proc.stdout and "distance" in proc.stdout
+    assert "filter done" in proc.stderr  # progress goes to stderr, results to stdout
+
+
+def test_geojson_local_and_anchored(cli_run, tmp_path):
+    _, out, _ = cli_run
+    gj = json.loads((out / "path.geojson").read_text())
+    assert gj["type"] == "FeatureCollection" and "WGS-84" in gj["properties"]["crs"]
+    line = np.array(gj["features"][0]["geometry"]["coordinates"])
+    steps = read_csv(out / "steps.csv")[1]
+    # 1 deg latitude ~ 111.2 km: the path (+-8 m) must stay within ~1e-4 deg of the anchor
+    assert np.all(np.abs(line[:, 1] - 48.137) < 1.5e-4) and np.all(np.abs(line[:, 0] - 11.575) < 2e-4)
+    # north-south extent of the footprints: metres per degree of latitude at 48.137 deg = 111,210 m
+    extent_m = (line[:, 1].max() - line[:, 1].min()) * 111_210
+    y = np.concatenate(([0.0], steps[:, 2]))
+    assert extent_m == pytest.approx(y.max() - y.min(), rel=0.003, abs=2e-3)
+    assert line[0, 2] == pytest.approx(520.0)
+
+
+def test_settings_file_and_overrides_are_recorded(tmp_path, datasets):
+    settings = tmp_path / "s.json"
+    settings.write_text(json.dumps({"floor_height_m": 2.7, "filter": {"n_states": 15}}))
+    ref = tmp_path / "ref.json"
+    ref.write_text(json.dumps({"straight_m": 9}))
+    out = tmp_path / "o"
+    proc = bootnav(datasets / SHORT, "--out", out, "--settings", settings, "--mode", "riccati", "--states", "9",
+                   "--crop", "0", "22", "--reference", ref, "--no-plots", "--detector", "shoe", "--threshold", "3e6",
+                   "--save-settings", tmp_path / "used.json", "-q")
+    assert proc.returncode == 0, proc.stderr
+    s = json.loads((out / "summary.json").read_text())
+    assert s["settings"]["floor_height_m"] == 2.7
+    assert s["settings"]["filter"]["mode"] == "riccati" and s["settings"]["filter"]["n_states"] == 9
+    assert s["settings"]["crop_s"] == [0.0, 22.0] and s["input"]["t_end_s"] <= 22.0
+    assert s["settings"]["detector"]["method"] == "shoe" and s["stance"]["method"] == "shoe"
+    assert s["metrics"]["reference_kind"] == "straight" and "deviation_error_pct" in s["metrics"]
+    assert json.loads((tmp_path / "used.json").read_text()) == s["settings"]
+    assert not list(out.glob("*.png"))
+    assert proc.stderr == ""  # -q
+
+
+def test_bad_input_exits_1_with_a_clear_message(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n" +
+                   "".join(f"{i / 100},0,0,9.8,0,0,0\n" for i in range(50)))
+    proc = bootnav(bad, "--out", tmp_path / "o", "-q")
+    assert proc.returncode == 1
+    assert proc.stderr.startswith("bootnav process: error: ") and "bad.csv" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    proc = bootnav(tmp_path / "nope.h5", "--out", tmp_path / "o")
+    assert proc.returncode == 1 and "nope.h5: no such file" in proc.stderr
+    proc = bootnav(bad, "--out", tmp_path / "o", "--settings", tmp_path / "missing.json")
+    assert proc.returncode == 1 and "settings file not found" in proc.stderr
