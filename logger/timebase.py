@@ -56,12 +56,14 @@ class Timebase:
     _t_raw: int | None = None
     _t_cont: int = 0
     _reset_pending: bool = False
+    _host_s: float | None = None
 
     def mark_discontinuity(self) -> None:
         """The link was interrupted (disconnect): the next gap is expected, not a transmission error."""
         self._reset_pending = True
 
-    def update(self, seq, t_us) -> np.ndarray:
+    def update(self, seq, t_us, host_s: float | None = None) -> np.ndarray:
+        """Unwrap a block; ``host_s`` (receive time, s) bridges a device clock that restarted."""
         seq = np.asarray(seq, dtype=np.int64)
         t_raw = np.asarray(t_us, dtype=np.int64)
         if seq.size == 0:
@@ -72,15 +74,27 @@ class Timebase:
             dt[0] = 0
             ds[0] = 1
             self._t_cont = int(t_raw[0])
+        if host_s is not None and self._host_s is not None and dt[0] < 0:
+            # The device restarted (clock went back) between blocks: keep time monotonic with the
+            # host clock, which is what elapsed in reality.
+            dt_host = np.int64(max(1.0, (host_s - self._host_s) * 1e6))
+        else:
+            dt_host = None
+        dt_raw = dt.copy()
+        first_call = self._t_raw is None
+        dt[dt_raw < 0] = int(round(self.period_us))  # restart inside a block: assume one period
+        if dt_host is not None:
+            dt[0] = dt_host
         t_cont = self._t_cont + np.cumsum(dt)
         prev_raw = np.concatenate(([t_raw[0] if self._t_raw is None else self._t_raw], t_raw[:-1]))
         base = self.n
-        for i in np.flatnonzero((t_raw < prev_raw) & (dt > 0)).tolist():
+        for i in np.flatnonzero((t_raw < prev_raw) & (dt_raw > 0)).tolist():
             self.events.append(TimebaseEvent("time_wrap", base + i, 0, "device clock t_us wrapped (2**32 us)"))
-        for i in np.flatnonzero(dt < 0).tolist():
+        for i in np.flatnonzero(dt_raw < 0).tolist():
             self.events.append(TimebaseEvent(
-                "nonmonotonic_time", base + i, 0, f"device clock went back {-int(dt[i])} us (device reset?)"))
-        for i in np.flatnonzero(dt == 0)[(np.flatnonzero(dt == 0) > 0) | (self._t_raw is not None)].tolist():
+                "nonmonotonic_time", base + i, 0, f"device clock went back {-int(dt_raw[i])} us (device reset?)"))
+        zero = np.flatnonzero(dt_raw == 0)
+        for i in (zero[zero > 0] if first_call else zero).tolist():
             self.events.append(TimebaseEvent("duplicate_time", base + i, 0, "same t_us as previous frame"))
         for i in np.flatnonzero(ds != 1).tolist():
             d = int(ds[i])
@@ -88,14 +102,15 @@ class Timebase:
                 self.events.append(TimebaseEvent("note", base + i, 0, f"sequence went back by {1 - d} (device reset?)"))
                 continue
             missing = d - 1
-            if dt[i] > 0:  # resolve whole seq wraps hidden in a long gap with the device clock
-                frames_by_clock = dt[i] / self.period_us
+            if dt_raw[i] > 0:  # resolve whole seq wraps hidden in a long gap with the device clock
+                frames_by_clock = dt_raw[i] / self.period_us
                 missing += SEQ_MODULUS * int(round((frames_by_clock - d) / SEQ_MODULUS))
             if missing > 0:
                 self.dropped += missing
                 why = "across a disconnect" if self._reset_pending else "frames missing"
                 self.events.append(TimebaseEvent("gap", base + i, missing, f"{missing} {why} (seq)"))
         self._reset_pending = False
+        self._host_s = host_s
         self._seq = int(seq[-1])
         self._t_raw = int(t_raw[-1])
         self._t_cont = int(t_cont[-1])

@@ -1,0 +1,141 @@
+"""``bootnav info FILE.h5 [--json]``: what is in a recording and how healthy it is.
+
+Everything is computed from the data and the events table (not only from ``/meta``), so it also
+works for a file whose recorder was killed before writing its final metadata, and for imported or
+simulated recordings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+AXES = ("ax", "ay", "az", "gx", "gy", "gz")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", metavar="FILE.h5")
+    parser.add_argument("--json", action="store_true", help="print a machine-readable summary")
+
+
+def summarize(path) -> dict:
+    """The summary ``bootnav info`` prints (also used by tests and other tools)."""
+    import numpy as np
+
+    from logger.recording import load
+
+    rec = load(path, with_truth=False)
+    t = rec.t_s
+    dt = np.diff(t)
+    good = dt[np.isfinite(dt) & (dt > 0)]
+    med = float(np.median(good)) if good.size else float("nan")
+    regular = good[good < 1.5 * med] if good.size else good
+    kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in rec.events["kind"]]
+    count_of = {k: kinds.count(k) for k in sorted(set(kinds))}
+    gap_events = rec.events_of("gap")
+    if gap_events.size:
+        gaps = [{"t_s": float(e["t_s"]), "sample_index": int(e["sample_index"]), "missing": int(e["count"])}
+                for e in gap_events]
+        gap_source = "events"
+    else:  # no seq numbers (imported data): gaps from the time stamps
+        idx = np.flatnonzero(dt > 1.5 * med) if good.size else np.zeros(0, int)
+        gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(round(dt[i] / med)) - 1}
+                for i in idx]
+        gap_source = "timestamps"
+    sat = rec.saturated.astype(np.uint8)
+    sat_counts = {a: int(((sat >> i) & 1).sum()) for i, a in enumerate(AXES)}
+    meta = rec.meta
+
+    def range_of(key, channel_attrs, scale_name):
+        if meta.get(key) not in (None, ""):
+            return float(meta[key])
+        fs = float(channel_attrs.get("full_scale", float("nan")))
+        if not math.isfinite(fs):
+            return float("nan")
+        si = fs * float(channel_attrs.get("scale_to_si", 1.0))
+        return si / 9.80665 if scale_name == "g" else math.degrees(si)
+
+    duration = float(t[-1] - t[0]) if rec.n > 1 else 0.0
+    summary = {
+        "file": str(path),
+        "frames": rec.n,
+        "duration_s": duration,
+        "rate_hz": 1.0 / med if med == med else float("nan"),
+        "rate_nominal_hz": _num(meta.get("rate_nominal_hz")),
+        "jitter_s": float(np.std(regular)) if regular.size else float("nan"),
+        "dt_min_s": float(good.min()) if good.size else float("nan"),
+        "dt_max_s": float(good.max()) if good.size else float("nan"),
+        "gaps": len(gaps),
+        "gap_source": gap_source,
+        "dropped": int(sum(g["missing"] for g in gaps)),
+        "crc_errors": count_of.get("crc_error", 0),
+        "resyncs": count_of.get("resync", 0),
+        "disconnects": count_of.get("disconnect", 0),
+        "reconnects": count_of.get("reconnect", 0),
+        "skipped_lines": count_of.get("skipped_line", 0),
+        "saturated_samples": sat_counts,
+        "saturated_any": int((sat != 0).sum()),
+        "accel_range_g": range_of("accel_range_g", rec.raw["acc_attrs"], "g"),
+        "gyro_range_dps": range_of("gyro_range_dps", rec.raw["gyro_attrs"], "dps"),
+        "raw_units": {"acc": _text(rec.raw["acc_attrs"].get("units")), "gyro": _text(rec.raw["gyro_attrs"].get("units"))},
+        "events": count_of,
+        "device": meta.get("device", ""),
+        "device_id": meta.get("device_id", ""),
+        "firmware_version": meta.get("firmware_version", ""),
+        "mount": meta.get("mount", ""),
+        "start_utc": meta.get("start_utc", ""),
+        "complete": "stop_reason" in meta or "rate_measured_hz" in meta,
+        "gap_list": gaps[:100],
+    }
+    return summary
+
+
+def _num(value):
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def _text(value):
+    return value.decode() if isinstance(value, bytes) else ("" if value is None else str(value))
+
+
+def _json_safe(obj):
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
+def run(args) -> int:
+    s = summarize(args.file)
+    if args.json:
+        print(json.dumps(_json_safe(s), indent=1))
+        return 0
+    out = sys.stdout
+    sat = ", ".join(f"{a} {c}" for a, c in s["saturated_samples"].items() if c) or "none"
+    lines = [
+        f"{s['file']}",
+        f"  device      {s['device'] or '?'} id {s['device_id'] or '?'} fw {s['firmware_version'] or '?'}"
+        f"  mount {s['mount'] or '?'}  start {s['start_utc'] or '?'}",
+        f"  samples     {s['frames']} over {s['duration_s']:.3f} s",
+        f"  rate        {s['rate_hz']:.3f} Hz (nominal {s['rate_nominal_hz']:g}), jitter {s['jitter_s'] * 1e6:.1f} µs,"
+        f" dt {s['dt_min_s'] * 1e3:.3f}..{s['dt_max_s'] * 1e3:.3f} ms",
+        f"  ranges      ±{s['accel_range_g']:g} g, ±{s['gyro_range_dps']:g} °/s (raw units {s['raw_units']['acc']},"
+        f" {s['raw_units']['gyro']})",
+        f"  gaps        {s['gaps']} ({s['dropped']} samples missing, from {s['gap_source']})",
+        f"  link        {s['crc_errors']} CRC errors, {s['resyncs']} resyncs, {s['disconnects']} disconnects,"
+        f" {s['skipped_lines']} skipped lines",
+        f"  saturation  {sat}",
+        f"  events      {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}",
+    ]
+    if not s["complete"]:
+        lines.append("  note        no final metadata: the writer did not close (crash or still recording)")
+    print("\n".join(lines), file=out)
+    return 0

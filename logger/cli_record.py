@@ -1,0 +1,50 @@
+"""``bootnav record``: serial port -> HDF5 recording (see ``logger.serial_recorder``)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--port", required=True,
+                        help="serial port or pyserial URL: /dev/ttyUSB0, a pty path from `bootnav emulate`, loop://")
+    parser.add_argument("--baud", type=int, default=500_000,
+                        help="baud rate (default 500000: carries 1 kHz; see firmware-protocol/PROTOCOL.md)")
+    parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create (overwritten)")
+    parser.add_argument("--duration", type=float, default=None, metavar="S",
+                        help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
+    parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
+                        help="write to disk at least this often; a crash loses at most this much (default 0.5)")
+    parser.add_argument("--header-wait", type=float, default=1.5, metavar="S",
+                        help="wait this long for the sensor's header frame before assuming ±16 g / ±2000 °/s")
+    parser.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
+                        help="give up if the port cannot be opened at start within S seconds")
+    parser.add_argument("--mount", default="", help="where the sensor sits, e.g. left_boot, right_boot")
+    parser.add_argument("--subject", default="")
+    parser.add_argument("--notes", default="", help="free-text session notes stored in /meta")
+    parser.add_argument("--quiet", action="store_true", help="no live status line")
+
+
+def run(args) -> int:
+    from logger.serial_recorder import RecorderSettings, SerialRecorder
+
+    settings = RecorderSettings(
+        port=args.port, out=args.out, baud=args.baud, duration_s=args.duration,
+        flush_interval_s=args.flush_interval, header_wait_s=args.header_wait,
+        connect_timeout_s=args.connect_timeout, mount=args.mount, subject=args.subject,
+        session_notes=args.notes,
+    )
+    recorder = SerialRecorder(settings, status_stream=None if args.quiet else sys.stderr)
+    # SIGTERM and Ctrl-C end the loop cleanly: the pending block is written and the file closed.
+    signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
+    signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
+    stats = recorder.run()
+    if recorder._writer is None:
+        from bootnav.errors import BootnavError
+
+        raise BootnavError(f"no data received from {args.port} ({stats.stop_reason}); {args.out} not written")
+    print(f"{args.out}: {stats.frames} frames, {stats.dropped} dropped, {stats.crc_errors} CRC errors, "
+          f"{stats.resyncs} resyncs, {stats.disconnects} disconnects ({stats.stop_reason})", file=sys.stderr)
+    return 0

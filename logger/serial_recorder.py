@@ -1,0 +1,371 @@
+"""Serial recorder: protocol-v1 frames from a port -> incremental, crash-safe HDF5 recording.
+
+One loop, no threads: read what the port has (pyserial ``serial_for_url``, so ``/dev/ttyUSB0``,
+a pty path or ``loop://`` work), parse it with the vectorised ``FrameParser``, unwrap ``seq``/``t_us``
+(``Timebase``), and every ``flush_interval_s`` append the block to a ``RecordingWriter`` (SWMR) and
+flush, so a ``kill -9`` loses at most that interval and the file still opens.
+
+The sensor configuration comes from the header frame: the recorder asks for it (``H``) when it
+connects and waits up to ``header_wait_s`` before creating the file with its scale factors; with no
+header by then it assumes the recommended ±16 g / ±2000 °/s and records a ``note`` event saying so.
+
+A port that disappears (cable pulled, emulator restarted) is reopened every ``reconnect_interval_s``;
+the ``disconnect``/``reconnect`` events and the ``gap`` (frames missing by seq, resolved with the
+device clock) go into the same file. Byte offsets in events are absolute over the whole session.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from bootnav.errors import BootnavError
+from logger import mpu6050
+from logger.protocol import CMD_RESEND_HEADER, SAMPLES_DTYPE, FrameParser, HeaderFrame, ParseResult
+from logger.recording import RecordingWriter, counts_channel, make_events, timing_summary
+from logger.timebase import Timebase
+
+AXES = ("ax", "ay", "az", "gx", "gy", "gz")
+DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS = 3, 3  # ±16 g, ±2000 °/s: what a boot needs (see PROTOCOL.md)
+
+
+@dataclass
+class RecorderSettings:
+    """Every knob of the recorder (saved as JSON in /meta/recorder_settings)."""
+
+    port: str
+    out: str
+    baud: int = 500_000
+    duration_s: float | None = None  # wall-clock seconds; None = until stopped
+    flush_interval_s: float = 0.5  # crash loses at most this much
+    header_wait_s: float = 1.5  # wait this long for a header frame before assuming defaults
+    connect_timeout_s: float = 10.0  # the port must open within this at start
+    reconnect_interval_s: float = 0.2
+    read_timeout_s: float = 0.02  # latency of one read; the loop never busy-waits
+    read_size: int = 65536
+    status_interval_s: float = 0.5
+    mount: str = ""
+    subject: str = ""
+    session_notes: str = ""
+
+
+@dataclass
+class RecorderStats:
+    frames: int = 0
+    dropped: int = 0
+    crc_errors: int = 0
+    resyncs: int = 0
+    skipped_bytes: int = 0
+    unknown_frames: int = 0
+    headers: int = 0
+    status_frames: int = 0
+    disconnects: int = 0
+    bytes_in: int = 0
+    saturated_samples: list[int] = field(default_factory=lambda: [0] * 6)
+    stop_reason: str = ""
+
+
+class SerialRecorder:
+    def __init__(self, settings: RecorderSettings, status_stream=None):
+        self.s = settings
+        self.stats = RecorderStats()
+        self.status_stream = status_stream
+        self._stop = False
+        self._writer: RecordingWriter | None = None
+        self._header: HeaderFrame | None = None
+        self._config_source = ""
+        self._parser = FrameParser()
+        self._timebase: Timebase | None = None
+        self._t0_us: int | None = None
+        self._pending: list[dict] = []  # blocks of per-sample arrays not yet written
+        self._pending_events: list[dict] = []
+        self._n = 0  # samples accepted (written + pending)
+        self._last_t_s = float("nan")
+        self._open_runs: list[int | None] = [None] * 6  # start index of a saturation run per axis
+        self._first_sample_mono: float | None = None
+        self._rate_window: list[tuple[float, int]] = []
+
+    def stop(self, reason: str = "stopped") -> None:
+        self._stop = True
+        self.stats.stop_reason = self.stats.stop_reason or reason
+
+    # ------------------------------------------------------------------ main loop
+    def run(self) -> RecorderStats:
+        import serial
+
+        s = self.s
+        start = time.monotonic()
+        ser, ever_connected, down_since = None, False, None
+        last_flush = last_status = start
+        try:
+            while not self._stop:
+                now = time.monotonic()
+                if s.duration_s is not None and now - start >= s.duration_s:
+                    self.stats.stop_reason = "duration reached"
+                    break
+                if now - last_flush >= s.flush_interval_s:
+                    self._flush()
+                    last_flush = now
+                if now - last_status >= s.status_interval_s:
+                    self._status(now)
+                    last_status = now
+                if ser is None:
+                    try:
+                        ser = serial.serial_for_url(s.port, baudrate=s.baud, timeout=s.read_timeout_s)
+                        ser.write(CMD_RESEND_HEADER)
+                    except (serial.SerialException, OSError, ValueError) as exc:
+                        ser = None
+                        if not ever_connected and now - start > s.connect_timeout_s:
+                            raise BootnavError(f"cannot open serial port {s.port}: {exc}") from exc
+                        time.sleep(s.reconnect_interval_s)
+                        continue
+                    if ever_connected:
+                        self._event("reconnect", detail=f"{s.port} back after {now - down_since:.2f} s")
+                        self._parser = FrameParser(base_offset=self.stats.bytes_in)
+                    ever_connected, down_since = True, None
+                try:
+                    data = ser.read(s.read_size)
+                except (serial.SerialException, OSError) as exc:
+                    self._on_disconnect(str(exc))
+                    try:
+                        ser.close()
+                    except (serial.SerialException, OSError):
+                        pass
+                    ser, down_since = None, time.monotonic()
+                    continue
+                if data:
+                    self.stats.bytes_in += len(data)
+                    self._handle(self._parser.feed(data), time.time())
+        except KeyboardInterrupt:
+            self.stats.stop_reason = "interrupted (Ctrl-C)"
+        finally:
+            if ser is not None:
+                try:
+                    ser.close()
+                except Exception:  # noqa: BLE001 - closing a dead port must not hide the data
+                    pass
+            self._finish()
+        return self.stats
+
+    # ------------------------------------------------------------------ frame handling
+    def _handle(self, result: ParseResult, host_time: float) -> None:
+        samples = result.samples
+        offsets = samples["offset"]
+        for header in result.headers:
+            self._on_header(header, int(np.searchsorted(offsets, header.offset)))
+        for status in result.statuses:
+            self.stats.status_frames += 1
+            self._event("note", index_in_block=int(np.searchsorted(offsets, status.offset)),
+                        byte_offset=status.offset, count=status.value,
+                        detail=f"device status {status.code}: {status.meaning} (detail {status.detail}, "
+                               f"value {status.value})")
+        for ev in result.events:
+            i = int(np.searchsorted(offsets, ev.byte_offset))
+            if ev.kind == "crc_error":
+                self.stats.crc_errors += 1
+                self._event("crc_error", index_in_block=i, byte_offset=ev.byte_offset, count=ev.count,
+                            detail=f"bad CRC in a {ev.count}-byte frame of type {ev.frame_type:#04x}")
+            elif ev.kind in ("resync", "truncated"):
+                self.stats.resyncs += 1
+                self.stats.skipped_bytes += ev.count
+                self._event("resync", index_in_block=i, byte_offset=ev.byte_offset, count=ev.count,
+                            detail=f"{ev.count} bytes skipped to the next sync word" + (f" ({ev.detail})" if ev.detail else ""))
+            elif ev.kind == "unknown":
+                self.stats.unknown_frames += 1
+                self._event("note", index_in_block=i, byte_offset=ev.byte_offset,
+                            detail=f"unknown frame skipped: {ev.detail}")
+        if samples.size:
+            self._on_samples(samples, host_time)
+
+    def _on_header(self, header: HeaderFrame, index_in_block: int) -> None:
+        self.stats.headers += 1
+        if self._header is None:
+            self._header = header
+            self._config_source = "header frame"
+            self._event("header", index_in_block=index_in_block, byte_offset=header.offset,
+                        detail=json.dumps(header.config()))
+        elif header.config() != self._header.config():
+            old, new = self._header.config(), header.config()
+            changed = {k: [old[k], new[k]] for k in old if old[k] != new[k]}
+            self._event("header", index_in_block=index_in_block, byte_offset=header.offset,
+                        detail=f"configuration changed {json.dumps(changed)}; scale factors stay those of the start")
+            self._header = header
+            if self.status_stream is not None:
+                print(f"\nwarning: sensor configuration changed mid-recording: {changed}", file=self.status_stream)
+
+    def _on_samples(self, samples: np.ndarray, host_time: float) -> None:
+        if self._first_sample_mono is None:
+            self._first_sample_mono = time.monotonic()
+        if self._timebase is None:
+            rate = self._header.rate_hz if self._header else 1000.0
+            self._timebase = Timebase(period_us=1e6 / rate)
+        n_ev = len(self._timebase.events)
+        t_cont = self._timebase.update(samples["seq"], samples["t_us"], host_s=host_time)
+        if self._t0_us is None:
+            self._t0_us = int(t_cont[0])
+        for ev in self._timebase.events[n_ev:]:
+            self._event(ev.kind, sample_index=ev.index, count=ev.count, detail=ev.detail,
+                        t_s=float(t_cont[ev.index - self._n] - self._t0_us) / 1e6)
+        self.stats.dropped = self._timebase.dropped
+        t_s = (t_cont - self._t0_us) / 1e6
+        acc, gyro = samples["acc"], samples["gyro"]
+        raw = np.concatenate([acc, gyro], axis=1)
+        sat = (raw == mpu6050.INT16_MAX) | (raw == mpu6050.INT16_MIN)
+        bits = (sat.astype(np.uint8) << np.arange(6, dtype=np.uint8)).sum(axis=1).astype(np.uint8)
+        self._update_saturation_runs(sat, t_s)
+        self._pending.append({"t_s": t_s, "acc": acc.copy(), "gyro": gyro.copy(), "temp": samples["temp"].copy(),
+                              "t_device": samples["t_us"].copy(), "seq": samples["seq"].copy(),
+                              "t_host": np.full(samples.size, host_time), "saturated": bits})
+        self._n += samples.size
+        self.stats.frames = self._n
+        self._last_t_s = float(t_s[-1])
+        self._rate_window.append((time.monotonic(), self._n))
+
+    def _update_saturation_runs(self, sat: np.ndarray, t_s: np.ndarray) -> None:
+        """One ``saturation`` event per run of full-scale samples per axis (count = run length)."""
+        n = sat.shape[0]
+        for axis in range(6):
+            m = sat[:, axis]
+            self.stats.saturated_samples[axis] += int(m.sum())
+            if not m.any() and self._open_runs[axis] is None:
+                continue
+            d = np.diff(np.concatenate(([0], m.astype(np.int8), [0])))
+            starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+            if self._open_runs[axis] is not None and (starts.size == 0 or starts[0] != 0):
+                self._close_run(axis, self._n)  # the open run ended just before this block
+            for a, b in zip(starts.tolist(), ends.tolist()):
+                begin = self._open_runs[axis] if (a == 0 and self._open_runs[axis] is not None) else self._n + a
+                if b == n:
+                    self._open_runs[axis] = begin  # still at full scale at the end of the block
+                else:
+                    self._open_runs[axis] = begin
+                    self._close_run(axis, self._n + b)
+
+    def _close_run(self, axis: int, end_index: int) -> None:
+        begin = self._open_runs[axis]
+        self._open_runs[axis] = None
+        self._event("saturation", sample_index=begin, count=end_index - begin, axis=axis,
+                    detail=f"{AXES[axis]} at full scale for {end_index - begin} samples")
+
+    def _on_disconnect(self, why: str) -> None:
+        self.stats.disconnects += 1
+        self._event("disconnect", sample_index=self._n, detail=f"{self.s.port}: {why}"[:200])
+        for ev in self._parser.finish():
+            self.stats.resyncs += 1
+            self.stats.skipped_bytes += ev.count
+            self._event("resync", sample_index=self._n, byte_offset=ev.byte_offset, count=ev.count,
+                        detail=f"{ev.count} bytes lost at disconnect ({ev.detail})")
+        if self._timebase is not None:
+            self._timebase.mark_discontinuity()
+
+    def _event(self, kind: str, *, index_in_block: int | None = None, sample_index: int | None = None,
+               t_s: float | None = None, **fields) -> None:
+        if sample_index is None:
+            sample_index = self._n + (index_in_block or 0)
+        self._pending_events.append({"kind": kind, "sample_index": sample_index,
+                                     "t_s": self._last_t_s if t_s is None else t_s, **fields})
+
+    # ------------------------------------------------------------------ writing
+    def _create_writer(self) -> None:
+        if self._header is None:
+            self._config_source = (f"default ±{mpu6050.ACCEL_RANGE_G[DEFAULT_ACCEL_FS]} g / "
+                                   f"±{mpu6050.GYRO_RANGE_DPS[DEFAULT_GYRO_FS]} °/s: no header frame within "
+                                   f"{self.s.header_wait_s} s")
+            self._pending_events.insert(0, {"kind": "note", "sample_index": 0, "t_s": 0.0,
+                                            "detail": f"scale factors assumed: {self._config_source}"})
+            a_fs, g_fs = DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS
+        else:
+            a_fs, g_fs = self._header.accel_fs, self._header.gyro_fs
+        h = self._header
+        meta = {
+            "device": "MPU6050",
+            "protocol_version": 1,
+            "accel_fs": a_fs, "gyro_fs": g_fs,
+            "accel_range_g": mpu6050.ACCEL_RANGE_G[a_fs],
+            "gyro_range_dps": mpu6050.GYRO_RANGE_DPS[g_fs],
+            "config_source": self._config_source,
+            "port": self.s.port, "baud": self.s.baud,
+            "mount": self.s.mount, "subject": self.s.subject, "session_notes": self.s.session_notes,
+            "recorder_settings": json.dumps(asdict(self.s)),
+        }
+        if h is not None:
+            meta.update(device_id=f"0x{h.device_id:08X}", firmware_version=h.fw_string, dlpf_cfg=h.dlpf,
+                        smplrt_div=h.smplrt_div, rate_nominal_hz=h.rate_hz, header_flags=h.flags)
+        self._writer = RecordingWriter(
+            self.s.out,
+            counts_channel("acc", mpu6050.accel_scale_mps2(a_fs)),
+            counts_channel("gyro", mpu6050.gyro_scale_radps(g_fs)),
+            temp=counts_channel("temp", 1.0 / mpu6050.TEMP_LSB_PER_DEGC),
+            device_time=True, host_time=True, seq=True, meta=meta,
+        )
+
+    def _flush(self, final: bool = False) -> None:
+        if self._writer is None:
+            waited = (time.monotonic() - self._first_sample_mono) if self._first_sample_mono else 0.0
+            if self._header is None and not final and waited < self.s.header_wait_s:
+                return
+            if not self._pending and not self._pending_events and not final:
+                return
+            self._create_writer()
+        if self._pending:
+            block = {k: np.concatenate([p[k] for p in self._pending]) for k in self._pending[0]}
+            self._writer.append(block.pop("t_s"), block.pop("acc"), block.pop("gyro"), **block)
+            self._pending.clear()
+        if self._pending_events:
+            self._pending_events.sort(key=lambda e: e["sample_index"])  # stable: stream order within a sample
+            self._writer.add_events(make_events(self._pending_events))
+            self._pending_events.clear()
+        self._writer.flush()
+
+    def _finish(self) -> None:
+        for axis in range(6):
+            if self._open_runs[axis] is not None:
+                self._close_run(axis, self._n)
+        for ev in self._parser.finish():
+            self.stats.skipped_bytes += ev.count
+            self._event("resync", byte_offset=ev.byte_offset, count=ev.count,
+                        detail=f"{ev.count} bytes left at the end ({ev.detail})")
+        if self._writer is None and self.stats.bytes_in == 0:
+            self.stats.stop_reason = self.stats.stop_reason or "no data received"
+            return  # nothing came in: no file rather than an empty one
+        self._flush(final=True)
+        if self._status_line_shown:
+            print(file=self.status_stream)
+        t = self._writer_t_s()
+        final = timing_summary(t) if t is not None and t.size > 1 else {}
+        st = self.stats
+        final.update(frames=st.frames, dropped=st.dropped, crc_errors=st.crc_errors, resyncs=st.resyncs,
+                     skipped_bytes=st.skipped_bytes, disconnects=st.disconnects, bytes_received=st.bytes_in,
+                     saturated_samples=list(st.saturated_samples), stop_reason=st.stop_reason or "stopped",
+                     duration_s=float(t[-1] - t[0]) if t is not None and t.size else 0.0)
+        self._writer.close(final_meta=final)
+
+    _status_line_shown = False
+
+    def _writer_t_s(self):
+        w = self._writer
+        if w is None or w.n == 0:
+            return None
+        return w._arrays["t_s"][: w.n]
+
+    def _status(self, now: float) -> None:
+        if self.status_stream is None:
+            return
+        win = [(t, n) for t, n in self._rate_window if now - t <= 2.0]
+        self._rate_window = win[-200:]
+        rate = (win[-1][1] - win[0][1]) / (win[-1][0] - win[0][0]) if len(win) > 1 and win[-1][0] > win[0][0] else 0.0
+        st = self.stats
+        sat = " ".join(f"{a}:{c}" for a, c in zip(AXES, st.saturated_samples) if c) or "none"
+        line = (f"{rate:7.1f} Hz | frames {st.frames} | dropped {st.dropped} | crc {st.crc_errors} | "
+                f"resync {st.resyncs} | disc {st.disconnects} | sat {sat}")
+        tty = getattr(self.status_stream, "isatty", lambda: False)()
+        if not tty:  # a log file gets one line every 10 intervals, not a flood
+            self._status_count = getattr(self, "_status_count", 0) + 1
+            if self._status_count % 10 != 1:
+                return
+        print(("\r" + line + "  ") if tty else line, end="" if tty else "\n", file=self.status_stream, flush=True)
+        self._status_line_shown = tty

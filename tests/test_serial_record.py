@@ -1,0 +1,168 @@
+"""Serial recorder end to end through a real pseudo-terminal: emulator process -> recorder process
+-> HDF5 -> reopened in a fresh process. No mocks: the bytes go through the kernel's pty driver."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from logger import mpu6050
+from logger.recording import counts_channel, load, write_recording
+from tests.conftest import REPO, reopen_in_fresh_process, sha
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def bootnav(*args: str, **kw) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "bootnav", *args], cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+def wait_for(path: Path, timeout: float = 15.0) -> None:
+    end = time.monotonic() + timeout
+    while not os.path.lexists(path):
+        if time.monotonic() > end:
+            raise AssertionError(f"{path} did not appear")
+        time.sleep(0.02)
+
+
+def finish(proc: subprocess.Popen, timeout: float = 30.0) -> str:
+    _, err = proc.communicate(timeout=timeout)
+    assert proc.returncode == 0, f"{proc.args} exited {proc.returncode}:\n{err}"
+    return err
+
+
+def emulate_and_record(tmp_path: Path, emu_args: list[str], rec_args: list[str] = (), stop="sigterm"):
+    """Run the emulator until it ends, recording all the while; stop the recorder with SIGTERM."""
+    link, out, report = tmp_path / "tty", tmp_path / "rec.h5", tmp_path / "report.json"
+    emu = bootnav("emulate", "--out-link", str(link), "--report", str(report), "--linger", "0.5", "--quiet", *emu_args)
+    wait_for(link)
+    rec = bootnav("record", "--port", str(link), "--out", str(out), *rec_args)
+    finish(emu)
+    time.sleep(0.3)  # the recorder's last read cycle
+    rec.send_signal(signal.SIGTERM)
+    err = finish(rec)
+    return out, json.loads(report.read_text()), err
+
+
+def _source(tmp_path: Path, n: int, rate: float) -> tuple[Path, np.ndarray, np.ndarray]:
+    """An int16-count recording at ±8 g / ±1000 °/s with saturated stretches on two axes."""
+    rng = np.random.default_rng(7)
+    acc = rng.integers(-30000, 30000, size=(n, 3), dtype=np.int16)
+    gyro = rng.integers(-30000, 30000, size=(n, 3), dtype=np.int16)
+    acc[100:105, 0] = 32767  # 5 samples of ax at +full scale
+    gyro[700:703, 2] = -32768  # 3 samples of gz at -full scale
+    path = tmp_path / "source.h5"
+    write_recording(path, np.arange(n) / rate, acc, gyro,
+                    acc_channel=counts_channel("acc", mpu6050.accel_scale_mps2(2)),
+                    gyro_channel=counts_channel("gyro", mpu6050.gyro_scale_radps(2)),
+                    meta={"accel_range_g": 8, "gyro_range_dps": 1000, "rate_nominal_hz": rate})
+    return path, acc, gyro
+
+
+def test_pty_end_to_end_raw_counts_bit_exact_across_seq_and_clock_wraps(tmp_path):
+    n, rate = 1500, 1000.0
+    src, acc, gyro = _source(tmp_path, n, rate)
+    t0 = 2**32 - 700_000  # the device clock wraps 0.7 s in; seq wraps after 536 frames
+    out, report, err = emulate_and_record(tmp_path, ["--source", str(src), "--seq0", "65000", "--t0-us", str(t0)])
+    assert report["frames_sent"] == n and report["valid_index"] == list(range(n))
+    fresh = reopen_in_fresh_process(out)
+    assert fresh["n"] == n
+    assert fresh["acc_raw"] == sha(acc) and fresh["gyro_raw"] == sha(gyro)
+    rec = load(out)
+    assert rec.seq.tolist() == [(65000 + i) % 65536 for i in range(n)]
+    # Device clock unwrapped: exactly 1 ms steps through the 2**32 µs wrap.
+    np.testing.assert_array_equal(np.round(np.diff(rec.t_s) * 1e6), np.full(n - 1, 1000.0))
+    assert rec.t_device[0] == t0 and rec.t_device[-1] == (t0 + (n - 1) * 1000) % 2**32
+    kinds = rec.events["kind"].tolist()
+    assert kinds.count(b"time_wrap") == 1 and b"gap" not in kinds and b"crc_error" not in kinds
+    # Scale factors come from the header frame (±8 g, ±1000 °/s), not the ±16 g default.
+    assert rec.meta["accel_range_g"] == 8 and rec.meta["gyro_range_dps"] == 1000
+    assert rec.meta["config_source"] == "header frame" and rec.meta["device_id"] == "0x0000BEEF"
+    np.testing.assert_allclose(rec.acc_mps2, acc * 9.80665 / 4096.0, rtol=0, atol=1e-12)
+    # Saturation: bitmask per sample and one event per run with its length.
+    assert np.flatnonzero(rec.saturated & 1).tolist() == list(range(100, 105))
+    assert np.flatnonzero(rec.saturated & (1 << 5)).tolist() == [700, 701, 702]
+    sat = rec.events_of("saturation")
+    assert sorted(zip(sat["axis"].tolist(), sat["sample_index"].tolist(), sat["count"].tolist())) == [
+        (0, 100, 5), (5, 700, 3)]
+    assert rec.meta["stop_reason"] == "SIGTERM" and rec.meta["frames"] == n
+    assert "Hz | frames" in err  # the live status line
+
+
+def test_with_corruption_every_valid_frame_sent_is_in_the_file(tmp_path):
+    out, report, _ = emulate_and_record(
+        tmp_path, ["--duration", "2", "--rate", "1000", "--corrupt", "0.05", "--seed", "3"])
+    assert report["frames_corrupted"] > 10 and report["frames_dropped"] > 10 and report["garbage_bursts"] > 10
+    rec = load(out)
+    assert rec.seq.tolist() == report["valid_seqs"]  # every intact frame, nothing else, in order
+    # Every frame that was flipped or dropped is a missing seq, and counted as such.
+    assert rec.meta["dropped"] == report["frames_dropped"] + report["frames_corrupted"]
+    assert int(rec.events_of("gap")["count"].sum()) == rec.meta["dropped"]
+    # A bit flip can hit the sync word (then it is a resync, not a CRC error); never more CRC errors
+    # than damaged frames plus garbage bursts (a burst may contain a fake sync word).
+    assert 0.7 * report["frames_corrupted"] <= rec.meta["crc_errors"] <= report["frames_corrupted"] + report["garbage_bursts"]
+    assert rec.meta["resyncs"] >= report["garbage_bursts"]
+    offsets = rec.events_of("crc_error")["byte_offset"]
+    assert np.all(offsets >= 0) and np.all(np.diff(offsets) > 0)
+
+
+def test_kill_9_keeps_every_frame_up_to_the_last_flush(tmp_path):
+    link, out, report_path = tmp_path / "tty", tmp_path / "rec.h5", tmp_path / "report.json"
+    rate = 1000.0
+    emu = bootnav("emulate", "--out-link", str(link), "--duration", "20", "--rate", str(rate),
+                  "--report", str(report_path), "--quiet")
+    wait_for(link)
+    rec = bootnav("record", "--port", str(link), "--out", str(out), "--quiet")
+    time.sleep(2.5)
+    rec.kill()  # SIGKILL: no cleanup at all
+    t_kill = time.time()
+    rec.communicate(timeout=10)
+    emu.send_signal(signal.SIGTERM)
+    finish(emu)
+    report = json.loads(report_path.read_text())
+    fresh = reopen_in_fresh_process(out)  # opens although the writer never closed (SWMR flags set)
+    r = load(out)
+    n = r.n
+    assert fresh["n"] == n > 0
+    # Bit-exact prefix of what was sent, with no hole.
+    assert r.seq.tolist() == report["valid_seqs"][:n]
+    # At most the last second is lost (flush every 0.5 s): frames streamed before t_kill - 1 s are all there.
+    streamed_until_1s_before = (t_kill - 1.0 - report["stream_start_unix"]) * rate
+    assert n >= streamed_until_1s_before > 500
+    assert "stop_reason" not in r.meta  # really killed: no final metadata
+
+
+def test_disconnect_and_reconnect_one_file_with_the_gap_recorded(tmp_path):
+    out, report, _ = emulate_and_record(
+        tmp_path, ["--duration", "2.5", "--rate", "1000", "--disconnect-at", "0.8", "--disconnect-pause", "0.5"])
+    assert report["disconnects"] == 1 and report["frames_unsent_disconnected"] > 400
+    rec = load(out)
+    assert rec.seq.tolist() == report["valid_seqs"]
+    kinds = rec.events["kind"].tolist()
+    assert kinds.count(b"disconnect") >= 1 and kinds.count(b"reconnect") == 1
+    i_disc = kinds.index(b"disconnect")
+    assert i_disc < kinds.index(b"reconnect")
+    gaps = rec.events_of("gap")
+    assert len(gaps) == 1 and gaps["count"][0] == report["frames_unsent_disconnected"]
+    k = int(gaps["sample_index"][0])
+    # The device clock bridges the gap exactly: (missing + 1) periods.
+    assert round((rec.t_s[k] - rec.t_s[k - 1]) * 1e6) == (report["frames_unsent_disconnected"] + 1) * 1000
+    assert np.all(np.diff(rec.t_s) > 0)
+
+
+def test_missing_port_is_a_clear_error(tmp_path):
+    proc = bootnav("record", "--port", str(tmp_path / "nope"), "--out", str(tmp_path / "x.h5"),
+                   "--connect-timeout", "0.3", "--quiet")
+    _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 1
+    assert "cannot open serial port" in err and "nope" in err
+    assert not (tmp_path / "x.h5").exists()
