@@ -246,7 +246,7 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, prm, n, ric_u, ric_lam, ric_t,
             if seg[0] >= maxseg or k + 1 == N or end_of_stance:
                 if seg[0] > 1:
                     counters[1] += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, seg[0], n, seg[1],
-                                                pos, vel, q, ba, bg, pos_sig)
+                                                pos, vel, q, ba, bg)
                 counters[2] += 1
                 seg[0] = 0
                 seg[1] = k + 1

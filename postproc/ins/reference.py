@@ -130,9 +130,8 @@ def _smooth_segment(seg, start, n, out):
     p_post = np.array([s[1] for s in seg])
     fpar = np.array([s[2] for s in seg])
     dx_upd = np.array([s[3] for s in seg])
-    dxs, pos_var = rts_backward_numpy(p_post, p_pred, fpar, dx_upd, m, n)
+    dxs = rts_backward_numpy(p_post, p_pred, fpar, dx_upd, m, n)
     for j in range(m - 1):
         k = start + j
         apply_smoothed_correction(out["pos_n"][k], out["vel_n"][k], out["q_nb"][k], out["acc_bias_b"][k],
                                   out["gyro_bias_b"][k], dxs[j])
-        out["pos_sigma_n"][k] = np.sqrt(np.maximum(pos_var[j], 0.0))

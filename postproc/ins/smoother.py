@@ -12,12 +12,14 @@ so the path stays continuous).
 Backward recursion on the error state (Rauch, Tung & Striebel 1965; error-state form as in e.g.
 Colomar, Nilsson & Händel, "Smoothing for ZUPT-aided INSs", IPIN 2012). For the buffered samples j = 0..m−1:
 
-    δx_s(m−1) = 0,  P_s(m−1) = P⁺(m−1)                       (segment end: the filtered estimate)
+    δx_s(m−1) = 0                                               (segment end: the filtered estimate)
     G_j       = P⁺(j) F_{j+1}ᵀ P⁻(j+1)⁻¹
     δx_s(j)   = G_j (δx_s(j+1) + δx_upd(j+1))                  (δx_upd: the correction the filter applied
-    P_s(j)    = P⁺(j) + G_j (P_s(j+1) − P⁻(j+1)) G_jᵀ            at j+1, since its nominal was reset there)
+                                                                at j+1, since its nominal was reset there)
 
 and the nominal state at sample j is corrected like a filter update (p, v, biases additive; q ← exp(δθ/2) ⊗ q).
+The smoothed covariance P_s is not computed (it would cost two n×n×n products per sample):
+``NavSolution.pos_sigma_n`` stays the filter's sigma, an upper bound of the smoothed one.
 ``F_{j+1}`` is rebuilt from the stored (Δt, f_n, C_nb) of the step into j+1 (13 numbers, not n² numbers).
 
 ``rts_backward`` is the numba kernel used by ``fast.py``; ``rts_backward_numpy`` is the same algorithm in
@@ -49,18 +51,13 @@ def build_transition(fpar: np.ndarray, n: int) -> np.ndarray:
 
 
 def rts_backward_numpy(p_post, p_pred, fpar, dx_upd, m, n):
-    """Readable backward pass. Returns (δx_s (m,n), P_s diagonal of the position block (m,3))."""
+    """Readable backward pass. Returns δx_s (m, n)."""
     dxs = np.zeros((m, n))
-    pos_var = np.zeros((m, 3))
-    ps = p_post[m - 1].copy()
-    pos_var[m - 1] = np.diag(ps)[:3]
     for j in range(m - 2, -1, -1):
         f = build_transition(fpar[j + 1], n)
-        g = np.linalg.solve(p_pred[j + 1], f @ p_post[j]).T  # P⁻ symmetric ⇒ G = (P⁻⁻¹ F P⁺)ᵀ
+        g = p_post[j] @ f.T @ np.linalg.inv(p_pred[j + 1])  # RTS gain G_j
         dxs[j] = g @ (dxs[j + 1] + dx_upd[j + 1])
-        ps = p_post[j] + g @ (ps - p_pred[j + 1]) @ g.T
-        pos_var[j] = np.diag(ps)[:3]
-    return dxs, pos_var
+    return dxs
 
 
 def apply_smoothed_correction(pos, vel, q, ba, bg, dx):
@@ -137,68 +134,45 @@ def _chol_solve(lf, b, n, ncol):
 
 
 @njit(cache=True)
-def rts_backward(p_post, p_pred, fpar, dx_upd, m, n, start, pos, vel, q, ba, bg, pos_sig):
+def rts_backward(p_post, p_pred, fpar, dx_upd, m, n, start, pos, vel, q, ba, bg):
     """Numba backward pass over buffer entries 0..m−1 (= samples start..start+m−1); corrects outputs in place.
 
-    Returns the number of steps where P⁻ was not positive definite (those steps are left unsmoothed).
+    Only the vector recursion is needed: δx_s(j) = P⁺(j) Fᵀ y with P⁻(j+1) y = δx_s(j+1) + δx_upd(j+1)
+    (one Cholesky solve per sample, no n×n gain matrix). Returns the number of steps where P⁻ was not
+    positive definite (the recursion restarts from zero there).
     """
     f = np.empty((n, n))
     lf = np.empty((n, n))
-    b = np.empty((n, n))
-    g = np.empty((n, n))
-    ps = p_post[m - 1].copy()
-    tmp = np.empty((n, n))
+    y = np.empty((n, 1))
+    fty = np.empty(n)
     dxs = np.zeros(n)
-    rhs = np.empty(n)
     bad = 0
     for j in range(m - 2, -1, -1):
-        _transition_into(fpar[j + 1], n, f)
-        # B = F P⁺(j);  G = (P⁻⁻¹ B)ᵀ
         for i in range(n):
-            for c in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += f[i, k] * p_post[j, k, c]
-                b[i, c] = s
-        for i in range(n):
+            y[i, 0] = dxs[i] + dx_upd[j + 1, i]
             for c in range(n):
                 lf[i, c] = p_pred[j + 1, i, c]
         if not _cholesky_inplace(lf, n):
             bad += 1
             for i in range(n):
                 dxs[i] = 0.0
-                for c in range(n):
-                    ps[i, c] = p_post[j, i, c]
             continue
-        _chol_solve(lf, b, n, n)
-        for i in range(n):
-            for c in range(n):
-                g[i, c] = b[c, i]
-        for i in range(n):
-            rhs[i] = dxs[i] + dx_upd[j + 1, i]
+        _chol_solve(lf, y, n, 1)
+        _transition_into(fpar[j + 1], n, f)
         for i in range(n):
             s = 0.0
             for k in range(n):
-                s += g[i, k] * rhs[k]
+                s += f[k, i] * y[k, 0]
+            fty[i] = s
+        for i in range(n):
+            s = 0.0
+            for k in range(n):
+                s += p_post[j, i, k] * fty[k]
             dxs[i] = s
-        # P_s(j) = P⁺(j) + G (P_s(j+1) − P⁻(j+1)) Gᵀ
-        for i in range(n):
-            for c in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += g[i, k] * (ps[k, c] - p_pred[j + 1, k, c])
-                tmp[i, c] = s
-        for i in range(n):
-            for c in range(n):
-                s = p_post[j, i, c]
-                for k in range(n):
-                    s += tmp[i, k] * g[c, k]
-                ps[i, c] = s
         kk = start + j
         for i in range(3):
             pos[kk, i] += dxs[i]
             vel[kk, i] += dxs[3 + i]
-            pos_sig[kk, i] = math.sqrt(max(ps[i, i], 0.0))
         if n == 15:
             for i in range(3):
                 ba[kk, i] += dxs[9 + i]

@@ -1,0 +1,280 @@
+"""Benchmark of postproc.ins: filter speed (both engines, a per-sample NumPy loop), 1-h end-to-end time and
+memory, and the smoother's effect on the real developer recordings (METRICS.md definitions).
+
+    .venv/bin/python benchmarks/bench_filter.py [--quick] [--no-real]
+
+Prints figures; asserts nothing (targets are printed next to the figures).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import json
+import math
+import resource
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from postproc.ins import FilterSettings, run_filter  # noqa: E402
+from postproc.ins.quaternion import quat_multiply, quat_to_rotmat, rotvec_to_quat  # noqa: E402
+
+DATASETS = REPO.parent / "shared" / "datasets"
+
+
+# ----------------------------------------------------------------------------------------------- helpers
+class Init:
+    def __init__(self, q_nb, gyro_bias_b):
+        self.q_nb, self.gyro_bias_b = np.asarray(q_nb, float), np.asarray(gyro_bias_b, float)
+
+
+def load_imu(path: Path):
+    with gzip.open(path, "rt") as fh:
+        a = np.loadtxt(fh, delimiter=",", skiprows=1)
+    return a[:, 0].copy(), a[:, 1:4].copy(), a[:, 4:7].copy()
+
+
+def load_csv(path: Path):
+    with gzip.open(path, "rt") if str(path).endswith(".gz") else open(path) as fh:
+        return np.loadtxt(fh, delimiter=",", skiprows=1)
+
+
+def simple_shoe(acc_b, gyro_b, gravity, window=5, sigma_a=0.01, sigma_w=math.radians(0.1), gamma=8.5e7):
+    """SHOE/GLRT (Skog 2010; seed-004 eq. 2, squared form), centred window; stance where T < γ."""
+    n = acc_b.shape[0]
+    k = np.ones(window) / window
+    mean = np.stack([np.convolve(acc_b[:, i], k, mode="same") for i in range(3)], axis=1)
+    u = mean / np.linalg.norm(mean, axis=1, keepdims=True)
+    term = np.sum((acc_b - gravity * u) ** 2, axis=1) / sigma_a**2 + np.sum(gyro_b**2, axis=1) / sigma_w**2
+    t = np.convolve(term, k, mode="same")
+    return t[:n] < gamma
+
+
+def detect(t, acc, gyr, g):
+    """The project's default detector if present (postproc.detectors), else the simple SHOE above."""
+    try:
+        from postproc.detectors import detect_stance
+
+        return detect_stance(t, acc, gyr, None, g).stance, "postproc.detectors (default)"
+    except Exception as exc:  # detector package missing or failing: still benchmark the filter
+        return simple_shoe(acc, gyr, g), f"simple SHOE ({type(exc).__name__})"
+
+
+def level_init(acc, gyr, stance, n_max=400):
+    """Roll/pitch from the mean specific force, gyro bias from the mean rate, over the first stance run."""
+    idx = np.flatnonzero(stance)
+    i0 = idx[0] if idx.size else 0
+    i1 = i0
+    while i1 < len(stance) and stance[i1] and i1 - i0 < n_max:
+        i1 += 1
+    i1 = max(i1, i0 + 1)
+    f = acc[i0:i1].mean(axis=0)
+    roll, pitch = math.atan2(f[1], f[2]), math.atan2(-f[0], math.hypot(f[1], f[2]))
+    from postproc.ins.quaternion import euler_to_quat
+
+    bias = gyr[i0:i1].mean(axis=0) if i1 - i0 >= 20 else np.zeros(3)
+    return Init(euler_to_quat(roll, pitch, 0.0), bias)
+
+
+def align_2d(t_est, p_est, t_tru, p_tru):
+    """METRICS.md alignment: common origin, rotate about z at the first sample ≥ 0.8 m from the start."""
+    tru = np.stack([np.interp(t_est, t_tru, p_tru[:, i]) for i in range(3)], axis=1)
+    e = p_est - p_est[0]
+    tr = tru - tru[0]
+    far = np.flatnonzero(np.hypot(e[:, 0], e[:, 1]) >= 0.8)
+    if far.size:
+        i = far[0]
+        ang = math.atan2(tr[i, 1], tr[i, 0]) - math.atan2(e[i, 1], e[i, 0])
+        c, s = math.cos(ang), math.sin(ang)
+        e = e @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]).T
+    return e, tr
+
+
+def armse_2d(t_est, p_est, t_tru, p_tru):
+    e, tr = align_2d(t_est, p_est, t_tru, p_tru)
+    d = e[:, :2] - tr[:, :2]
+    return float(np.mean(np.sqrt((d**2).sum(axis=1) / 2)))
+
+
+def closure(pos, stance):
+    idx = np.flatnonzero(stance)
+    a, b = pos[idx[0]], pos[idx[-1]]
+    starts = np.flatnonzero(np.diff(stance.astype(int)) == 1) + 1
+    pts = pos[np.concatenate([[idx[0]], starts, [idx[-1]]])]
+    dist = float(np.sum(np.hypot(*np.diff(pts[:, :2], axis=0).T)))
+    c3 = float(np.linalg.norm(b - a))
+    return c3, dist, 100 * c3 / max(dist, 1e-9)
+
+
+# ----------------------------------------------------------------------------------------------- synthetic 1 h
+def synthetic_hour(n=720_000, rate=200.0, seed=0):
+    """A 1-h 200 Hz walk-like input: 0.55 s stance / 0.55 s swing with a rotating, accelerating foot."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / rate
+    ph = (t % 1.1) / 1.1
+    stance = ph < 0.5
+    sw = np.where(stance, 0.0, np.sin(2 * np.pi * (ph - 0.5) / 0.5 * 0.5) ** 2)
+    acc = np.zeros((n, 3))
+    acc[:, 0] = 8.0 * sw * np.sin(4 * np.pi * ph)
+    acc[:, 2] = 9.81 + 4.0 * sw * np.cos(4 * np.pi * ph)
+    gyr = np.zeros((n, 3))
+    gyr[:, 1] = 4.0 * sw * np.sin(4 * np.pi * ph)
+    acc += 0.05 * rng.standard_normal((n, 3))
+    gyr += 0.005 * rng.standard_normal((n, 3))
+    return t, acc, gyr, stance
+
+
+def numpy_loop_filter(t, acc, gyr, stance, q0, g, s: FilterSettings):
+    """A straightforward per-sample NumPy 9-state ZUPT filter (the kind of loop pyshoe runs): dense 9×9 F, Q,
+    P = F P Fᵀ + Q, K = P Hᵀ (H P Hᵀ + R)⁻¹ with np.linalg.inv, P = (I − K H) P (I − K H)ᵀ + K R Kᵀ."""
+    n = t.shape[0]
+    dtn = float(np.median(np.diff(t)))
+    P = np.diag([s.init_pos_sigma_m] * 3 + [s.init_vel_sigma_mps] * 3 + [s.init_att_sigma_rad] * 3) ** 2
+    H = np.hstack([np.zeros((3, 3)), np.eye(3), np.zeros((3, 3))])
+    R = np.eye(3) * s.sigma_zupt_mps**2
+    p, v, q = np.zeros(3), np.zeros(3), np.array(q0, float)
+    out = np.empty((n, 3))
+    eye9 = np.eye(9)
+    for k in range(n):
+        dt = t[k] - t[k - 1] if k else 0.0
+        if dt > 0:
+            q = quat_multiply(q, rotvec_to_quat(gyr[k] * dt))
+            q /= np.linalg.norm(q)
+            c = quat_to_rotmat(q)
+            fn = c @ acc[k]
+            a = fn - [0, 0, g]
+            p = p + v * dt + 0.5 * a * dt * dt
+            v = v + a * dt
+            F = eye9.copy()
+            F[0:3, 3:6] = np.eye(3) * dt
+            F[3:6, 6:9] = -np.array([[0, -fn[2], fn[1]], [fn[2], 0, -fn[0]], [-fn[1], fn[0], 0]]) * dt
+            Q = np.diag([0] * 3 + [s.sigma_acc_mps2**2 * dtn * dt] * 3 + [s.sigma_gyro_radps**2 * dtn * dt] * 3)
+            P = F @ P @ F.T + Q
+        if stance[k]:
+            K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
+            dx = K @ (-v)
+            ikh = eye9 - K @ H
+            P = ikh @ P @ ikh.T + K @ R @ K.T
+            p, v = p + dx[0:3], v + dx[3:6]
+            q = quat_multiply(rotvec_to_quat(dx[6:9]), q)
+            q /= np.linalg.norm(q)
+        out[k] = p
+    return out
+
+
+# ----------------------------------------------------------------------------------------------- sections
+def bench_speed(quick: bool):
+    from postproc.ins.fast import warm_up
+
+    t0 = time.perf_counter()
+    warm = warm_up()
+    print(f"numba warm-up (compile or cache load, all kernels): {warm:.2f} s")
+    n = 200_000 if quick else 720_000
+    t, acc, gyr, stance = synthetic_hour(n)
+    init = Init([1, 0, 0, 0], np.zeros(3))
+    rates = {}
+    print(f"\n== filter speed on {n} samples (synthetic 200 Hz walk-like input; best of 3) ==")
+    for ns in (9, 15):
+        for sm in ("none", "rts"):
+            best = min(run_filter(t, acc, gyr, stance, init, 9.81, FilterSettings(n_states=ns, smoother=sm))
+                       .info["timings"]["filter_s"] for _ in range(3))
+            rates[(ns, sm)] = n / best
+            print(f"fast engine  {ns:2d} states smoother={sm:4s}: {n / best / 1e6:6.2f} M samples/s "
+                  f"({best:.3f} s){'   target >= 1.0 M/s' if sm == 'none' else ''}")
+    best = min(run_filter(t, acc, gyr, stance, init, 9.81, FilterSettings(mode="riccati"))
+               .info["timings"]["filter_s"] for _ in range(3))
+    print(f"fast engine   9 states riccati (paper mode): {n / best / 1e6:6.2f} M samples/s")
+    m = 4000 if quick else 10_000
+    for ns in (9, 15):
+        s = FilterSettings(n_states=ns, smoother="none", engine="reference")
+        tt = run_filter(t[:m], acc[:m], gyr[:m], stance[:m], init, 9.81, s).info["timings"]["filter_s"]
+        print(f"reference engine (filterpy) {ns:2d} states on {m} samples: {m / tt:9.0f} samples/s  "
+              f"-> fast is {rates[(ns, 'none')] / (m / tt):6.0f}x faster")
+    s = FilterSettings(smoother="none")
+    t1 = time.perf_counter()
+    numpy_loop_filter(t[:m], acc[:m], gyr[:m], stance[:m], [1, 0, 0, 0], 9.81, s)
+    tt = time.perf_counter() - t1
+    print(f"per-sample NumPy loop (pyshoe-style) 9 states on {m} samples: {m / tt:9.0f} samples/s  "
+          f"-> fast is {rates[(9, 'none')] / (m / tt):6.0f}x faster")
+    print(f"(section took {time.perf_counter() - t0:.1f} s)")
+
+
+def bench_hour():
+    print("\n== 1 h at 200 Hz (720 000 samples), filter + RTS smoother, 9 states ==")
+    t, acc, gyr, stance = synthetic_hour(720_000)
+    init = Init([1, 0, 0, 0], np.zeros(3))
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    sol = run_filter(t, acc, gyr, stance, init, 9.81, FilterSettings())
+    el = time.perf_counter() - t0
+    cur, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    print(f"filter+smoother: {el:.2f} s ({720_000 / el / 1e6:.2f} M samples/s); tracemalloc peak "
+          f"{peak / 1e6:.1f} MB (NumPy outputs + buffers); process max RSS {rss1 / 1024:.0f} MB "
+          f"(+{(rss1 - rss0) / 1024:.0f} MB during the run); segments {sol.info['smoother_segments']}")
+
+
+def bench_real():
+    print("\n== real data (developer tree; METRICS.md) — smoother effect ==")
+    if not DATASETS.exists():
+        print("datasets not found:", DATASETS)
+        return
+    g = 9.80665
+    configs = [(9, "none"), (9, "rts"), (15, "none"), (15, "rts")]
+    rows = {c: [] for c in configs}
+    rows_det = {c: [] for c in configs}
+    det_name = ""
+    for d in sorted((DATASETS / "pyshoe_vicon").iterdir()):
+        if not (d / "imu.csv.gz").exists():
+            continue
+        t, acc, gyr = load_imu(d / "imu.csv.gz")
+        tru = load_csv(d / "truth_trajectory.csv.gz")
+        st_true = load_csv(d / "truth_stance.csv.gz")[:, 1] > 0.5
+        st_det, det_name = detect(t, acc, gyr, g)
+        for stance, rr in ((st_true, rows), (st_det, rows_det)):
+            init = level_init(acc, gyr, stance)
+            for ns, sm in configs:
+                sol = run_filter(t, acc, gyr, stance, init, g, FilterSettings(n_states=ns, smoother=sm))
+                rr[(ns, sm)].append(armse_2d(t, sol.pos_n, tru[:, 0], tru[:, 1:4]))
+    print(f"pyshoe_vicon ({len(rows[configs[0]])} trials) mean armse_2d [m] (pyshoe's own per-trial best "
+          f"detector: 0.03-0.2 m):")
+    for c in configs:
+        print(f"  {c[0]:2d} states smoother={c[1]:4s}: truth stance {np.mean(rows[c]):.4f}  "
+              f"median {np.median(rows[c]):.4f} | {det_name}: {np.mean(rows_det[c]):.4f}  "
+              f"median {np.median(rows_det[c]):.4f}")
+    for trial in ("xio_ngimu_loops/short_walk", "xio_ngimu_loops/long_walk", "openshoe_820/data_set_1"):
+        t, acc, gyr = load_imu(DATASETS / trial / "imu.csv.gz")
+        stance, det_name = detect(t, acc, gyr, g)
+        init = level_init(acc, gyr, stance)
+        out = []
+        for ns, sm in configs:
+            sol = run_filter(t, acc, gyr, stance, init, g, FilterSettings(n_states=ns, smoother=sm))
+            c3, dist, pct = closure(sol.pos_n, stance)
+            out.append(f"{ns}/{sm}: {c3:.3f} m ({pct:.2f} % of {dist:.1f} m)")
+        print(f"{trial} closure_3d [{det_name}]: " + "; ".join(out))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--no-real", action="store_true")
+    ap.add_argument("--only-real", action="store_true")
+    a = ap.parse_args(argv)
+    if not a.only_real:
+        bench_speed(a.quick)
+        bench_hour()
+    if not a.no_real:
+        bench_real()
+
+
+if __name__ == "__main__":
+    main()
