@@ -1,0 +1,63 @@
+"""Post-processing of a raw stance mask: hysteresis, minimum swing and minimum stance durations.
+
+* Hysteresis (two thresholds, e.g. Wahlström & Skog 2021, "Fifteen years of progress at zero velocity: a
+  review", IEEE Sensors J. 21(2)): a stance run is a maximal run with T < γ_high that contains at least
+  one sample with T < γ_low. Suppresses chatter at the threshold.
+* Minimum swing: swing gaps shorter than ``min_swing_s`` between two stance runs are filled (a foot cannot
+  complete a swing that fast; these are impacts inside the stance phase).
+* Minimum stance: stance runs shorter than ``min_stance_s`` are dropped (one quiet sample in mid-swing
+  must not zero the velocity).
+Durations use the real timestamps: run duration = t[last] − t[first] + dt_median.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import label
+
+
+def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, stops) of the True runs of ``mask``; stops are exclusive."""
+    m = np.asarray(mask, dtype=np.int8)
+    edges = np.diff(np.concatenate(([0], m, [0])))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def hysteresis(statistic: np.ndarray, low: float, high: float) -> np.ndarray:
+    """T < high runs that contain at least one sample with T < low."""
+    loose = statistic < high
+    labels, n = label(loose)
+    if n == 0:
+        return loose
+    seeded = np.zeros(n + 1, dtype=bool)
+    seeded[np.unique(labels[statistic < low])] = True
+    seeded[0] = False
+    return seeded[labels]
+
+
+def remove_short_runs(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: float, *,
+                      keep_edges: bool = False) -> np.ndarray:
+    """Set to False every True run shorter than ``min_s`` seconds (optionally keep runs touching an end)."""
+    out = np.asarray(mask, dtype=bool).copy()
+    if min_s <= 0 or not out.any():
+        return out
+    starts, stops = runs(out)
+    dur = t_s[stops - 1] - t_s[starts] + dt
+    short = dur < min_s
+    if keep_edges:
+        short &= (starts > 0) & (stops < out.size)
+    if short.any():
+        idx = np.zeros(out.size + 1, dtype=np.int32)
+        np.add.at(idx, starts[short], 1)
+        np.add.at(idx, stops[short], -1)
+        out[np.cumsum(idx[:-1]) > 0] = False
+    return out
+
+
+def clean_stance(stance: np.ndarray, t_s: np.ndarray, dt: float, *, min_swing_s: float = 0.0,
+                 min_stance_s: float = 0.0) -> np.ndarray:
+    """Fill swing gaps < min_swing_s (interior only), then drop stance runs < min_stance_s."""
+    stance = np.asarray(stance, dtype=bool)
+    if min_swing_s > 0:
+        stance = ~remove_short_runs(~stance, t_s, min_swing_s, dt, keep_edges=True)
+    return remove_short_runs(stance, t_s, min_stance_s, dt)

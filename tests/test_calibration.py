@@ -1,0 +1,105 @@
+"""Calibration and initial alignment: WGS-84 normal gravity, still period, roll/pitch, gyro bias, accel file."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from bootnav.errors import InputError
+from postproc.calibration import (
+    CalibrationSettings,
+    apply_accel_calibration,
+    find_still_period,
+    initial_alignment,
+    load_accel_calibration,
+    normal_gravity,
+    quat_from_euler_zyx,
+)
+
+
+def test_normal_gravity_matches_wgs84_equator_and_pole():
+    # TR8350.2 table 3.4: γ_e = 9.7803253359, γ_p = 9.8321849378 m/s² (given to 10 decimals)
+    assert normal_gravity(0.0) == pytest.approx(9.7803253359, abs=1e-10)
+    assert normal_gravity(90.0) == pytest.approx(9.8321849378, abs=1e-9)
+    assert normal_gravity(-90.0) == pytest.approx(normal_gravity(90.0), abs=1e-12)
+
+
+def test_free_air_correction_is_about_minus_3_086e_6_per_metre():
+    # textbook free-air gradient 0.3086 mGal/m = 3.086e-6 s^-2 (first order); 1 km changes g by ~3.09 mm/s²
+    d = normal_gravity(45.0, 1000.0) - normal_gravity(45.0, 0.0)
+    assert d == pytest.approx(-3.086e-3, rel=2e-3)
+    with pytest.raises(ValueError):
+        normal_gravity(91.0)
+
+
+def _rest_then_walk(roll, pitch, *, rest_s=3.0, fs=200.0, g=9.80665, bias=(0.01, -0.02, 0.005), seed=1):
+    rng = np.random.default_rng(seed)
+    n_rest, n_move = int(rest_s * fs), int(4 * fs)
+    t = np.arange(n_rest + n_move) / fs
+    c_nb = Rotation.from_euler("ZYX", [0.0, pitch, roll]).as_matrix()
+    f_rest = c_nb.T @ np.array([0.0, 0.0, g])
+    acc = np.tile(f_rest, (t.size, 1)) + rng.normal(0, 0.02, (t.size, 3))
+    gyro = np.tile(np.asarray(bias), (t.size, 1)) + rng.normal(0, 0.003, (t.size, 3))
+    tm = t[n_rest:] - t[n_rest]
+    acc[n_rest:, 0] += 15 * np.sin(2 * np.pi * tm)
+    gyro[n_rest:, 1] += 4 * np.sin(2 * np.pi * tm)
+    return t, acc, gyro, f_rest, n_rest
+
+
+def test_alignment_recovers_roll_pitch_exactly_from_rotated_gravity():
+    for roll, pitch in [(0.3, -0.2), (-2.5, 0.7), (1.2, 1.4), (math.pi - 0.1, -1.5)]:
+        q = quat_from_euler_zyx(roll, pitch, 0.0)
+        c_nb = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()
+        f_b = c_nb.T @ np.array([0.0, 0.0, 9.81])
+        t = np.arange(400) / 200.0
+        st = initial_alignment(t, np.tile(f_b, (400, 1)), np.zeros((400, 3)), CalibrationSettings(), 9.81)
+        assert st.roll_rad == pytest.approx(roll, abs=1e-12)
+        assert st.pitch_rad == pytest.approx(pitch, abs=1e-12)
+        c = Rotation.from_quat([st.q_nb[1], st.q_nb[2], st.q_nb[3], st.q_nb[0]]).as_matrix()
+        np.testing.assert_allclose(c @ f_b, [0, 0, 9.81], atol=1e-12)  # levelled: specific force points up
+        assert st.warnings == []
+
+
+def test_still_period_and_gyro_bias_from_it():
+    t, acc, gyro, f_rest, n_rest = _rest_then_walk(0.2, 0.1)
+    still = find_still_period(t, acc, gyro)
+    assert still is not None and still.start == 0
+    # ends within one still window (0.25 s) of the true start of motion
+    assert abs(still.stop - n_rest) <= 0.25 * 200
+    st = initial_alignment(t, acc, gyro)
+    # bias: mean of n >= 500 samples of σ = 0.003 rad/s noise -> 5σ/sqrt(n) = 7e-4 rad/s
+    np.testing.assert_allclose(st.gyro_bias_b, [0.01, -0.02, 0.005], atol=7e-4)
+    # attitude: mean of 0.02 m/s² noise over >= 500 samples -> < 1e-3 rad
+    assert st.roll_rad == pytest.approx(0.2, abs=1e-3) and st.pitch_rad == pytest.approx(0.1, abs=1e-3)
+    assert not st.warnings
+
+
+def test_warning_when_no_still_period():
+    t, acc, gyro, _, _ = _rest_then_walk(0.0, 0.0, rest_s=0.0)
+    st = initial_alignment(t, acc, gyro)
+    assert st.still is None
+    np.testing.assert_array_equal(st.gyro_bias_b, 0.0)
+    assert len(st.warnings) == 1 and "no initial still period" in st.warnings[0]
+
+
+def test_accel_calibration_file_applied_with_documented_formula(tmp_path):
+    bias = [0.1, -0.2, 0.3]
+    mat = [[1.01, 0.002, 0.0], [0.0, 0.99, -0.003], [0.001, 0.0, 1.02]]
+    p = tmp_path / "acc.json"
+    p.write_text(json.dumps({"bias_mps2": bias, "matrix": mat}))
+    raw = np.array([[0.0, 0.0, 9.81], [1.0, 2.0, 3.0]])
+    out = apply_accel_calibration(raw, p)
+    expect = np.array([np.array(mat) @ (r - np.array(bias)) for r in raw])  # f = M (f_raw − b)
+    np.testing.assert_allclose(out, expect, rtol=0, atol=1e-12)
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"bias_mps2": [1, 2], "matrix": [[1,0,0],[0,1,0],[0,0,1]]}')
+    with pytest.raises(InputError, match="bad.json"):
+        load_accel_calibration(bad)
+    broken = tmp_path / "broken.json"
+    broken.write_text("{not json")
+    with pytest.raises(InputError, match="line 1"):
+        load_accel_calibration(broken)
