@@ -11,7 +11,7 @@ Pipeline (fs = 50 Hz after resampling):
 2. Candidates: every local maximum of x with topographic prominence p_k.
    Local reference R_k = 80th percentile of the prominences within +-2.5 s; salience
    s_k = min(p_k / R_k, 1.5) - 0.5 (relative, so weak hand signals and strong pocket signals look alike).
-3. Activity gate: s_k = -1 where the 2-s RMS of x is < 0.5 m/s^2 or R_k < 0.25 m/s^2 (standing,
+3. Activity gate: s_k = -1 where the 2-s RMS of x is < 0.35 m/s^2 or R_k < 0.1 m/s^2 (standing,
    phone on a table). The same gate, together with step 5, keeps handling bumps out.
 4. First pass: candidates with p_k >= 0.45 R_k, then minimum spacing 0.6 T_loc (T_loc = local median
    step interval, >= 0.25 s), twice; gives the local step period T(t) (median over +-5 s).
@@ -79,9 +79,9 @@ class RobustDetector:
     period_half_window_s: float = 5.0
     salience_offset: float = 0.5
     salience_cap: float = 1.5
-    activity_rms_mps2: float = 0.5
+    activity_rms_mps2: float = 0.35
     activity_window_s: float = 2.0
-    ref_floor_mps2: float = 0.25
+    ref_floor_mps2: float = 0.1
     interval_penalty: float = 2.0
     interval_range: tuple = (0.5, 1.7)
     break_cost: float = 1.0

@@ -1,0 +1,139 @@
+"""PDR accuracy table in the style of seed-002 (Bayındır & Karabey) Tables 3–9, on ../shared/datasets.
+
+Rows: carrying position (Oxford phone positions, lower back of Voisard and Mobilise-D), × speed where the
+data allow (Voisard: slow < 0.9 m/s <= normal < 1.15 m/s <= fast from its truth.json walking speed).
+Cells: mean count error % (sample std, ddof = 1) per detector; then F1 on step events; step-length MAE per
+length model (Mobilise-D) and distance error on Voisard's 20 m out-and-back.
+Runs trials in 2 processes (multiprocessing). Usage:
+
+    .venv/bin/python benchmarks/pdr_table.py [--datasets DIR] [--detectors a,b] [--lengths a,b] [--engineered]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections import defaultdict
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from postproc.pdr.evaluate import evaluate_trial, list_trials, position_of  # noqa: E402
+from postproc.pdr.pipeline import PdrSettings  # noqa: E402
+
+DETECTORS = ["robust", "peak_group", "li", "leppakoski", "footpath", "peak_valley", "zero_crossing", "pan_tompkins",
+             "template"]
+LENGTHS = ["renaudin", "frequency", "footpath", "frequency_variance", "weinberg", "ladetto"]
+
+
+def speed_of(trial) -> str:
+    if trial.set != "voisard_ipol":
+        return "-"
+    tj = trial.info.get("truth_json", {})
+    v = tj["distance_m"] / (tj["t_end_s"] - tj["t_start_s"])
+    return "slow" if v < 0.9 else ("normal" if v < 1.15 else "fast")
+
+
+def _job(args):
+    trial, settings = args
+    row = evaluate_trial(trial, settings)
+    row["position"] = position_of(trial) if trial.set != "mobgap_lab" else "lower_back (mobgap)"
+    if trial.set == "voisard_ipol":
+        row["position"] = "lower_back (voisard)"
+    row["speed"] = speed_of(trial)
+    return row
+
+
+def cell(values) -> str:
+    v = np.asarray([x for x in values if x is not None and np.isfinite(x)], float)
+    if v.size == 0:
+        return "n/a"
+    sd = np.std(v, ddof=1) if v.size > 1 else 0.0
+    return f"{v.mean():+.2f} ({sd:.2f})"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--datasets", default=os.environ.get("BOOTNAV_DATASETS",
+                                                        str(Path(__file__).resolve().parents[2] / "shared" / "datasets")))
+    ap.add_argument("--detectors", default=",".join(DETECTORS))
+    ap.add_argument("--lengths", default=",".join(LENGTHS))
+    ap.add_argument("--engineered", action="store_true", help="seed detectors with literal=False")
+    ap.add_argument("--processes", type=int, default=2)
+    a = ap.parse_args(argv)
+    trials = list_trials(a.datasets)
+    dets = [d for d in a.detectors.split(",") if d]
+    lens = [x for x in a.lengths.split(",") if x]
+    jobs = []
+    for d in dets:
+        params = {"literal": False} if a.engineered and d not in ("robust", "template", "two_axis") else {}
+        jobs += [(t, PdrSettings(detector=d, detector_params=params)) for t in trials]
+    for L in lens:
+        jobs += [(t, PdrSettings(length=L)) for t in trials if t.set in ("mobgap_lab", "voisard_ipol")]
+    t0 = time.perf_counter()
+    rows = []
+    with Pool(a.processes) as pool:
+        for i, r in enumerate(pool.imap_unordered(_job, jobs, chunksize=2)):
+            rows.append(r)
+            if (i + 1) % 25 == 0 or i + 1 == len(jobs):
+                print(f"  {i + 1}/{len(jobs)} trial runs ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+    failures = [r for r in rows if r["error"]]
+    det_rows = [r for r in rows if r["length"] == "renaudin" and not r["error"]]
+
+    def table(metric, title, fmt=cell):
+        print(f"\n### {title}\n")
+        keys = sorted({(r["position"], r["speed"]) for r in det_rows})
+        print("| position | speed | n | " + " | ".join(dets) + " |")
+        print("|---|---|---|" + "---|" * len(dets))
+        allrow = defaultdict(list)
+        for pos, sp in keys:
+            cells = []
+            n = 0
+            for d in dets:
+                v = [r.get(metric) for r in det_rows if r["detector"] == d and r["position"] == pos and r["speed"] == sp]
+                n = len(v)
+                cells.append(fmt(v))
+            print(f"| {pos} | {sp} | {n} | " + " | ".join(cells) + " |")
+        for d in dets:
+            v = [r.get(metric) for r in det_rows if r["detector"] == d and r["position"].startswith(tuple(
+                p for p in {x["position"] for x in det_rows} if not p.startswith("lower_back")))]
+            allrow[d] = v
+        return allrow
+
+    print(f"# PDR benchmark ({len(trials)} trials, {len(rows)} runs, {time.perf_counter() - t0:.1f} s, "
+          f"{'engineered' if a.engineered else 'literal'} seed parameters)")
+    table("count_err_pct", "Step-count error % per detector: mean (std, ddof=1) over trials")
+    table("f1", "F1 of step events (+-0.25 s, one-to-one)", lambda v: cell(v).replace("+", ""))
+    print("\n### Oxford phone positions, all trials: mean |count error| % / mean F1 / min F1\n")
+    print("| detector | mean abs count err % | mean F1 | min F1 |")
+    print("|---|---|---|---|")
+    for d in dets:
+        ox = [r for r in det_rows if r["detector"] == d and r["set"] == "oxford_steps"]
+        if ox:
+            ce = np.mean([abs(r["count_err_pct"]) for r in ox])
+            f1 = [r["f1"] for r in ox]
+            print(f"| {d} | {ce:.2f} | {np.mean(f1):.3f} | {np.min(f1):.3f} |")
+    len_rows = [r for r in rows if r["detector"] == "robust" and not r["error"]]
+    print("\n### Step length (robust detector): Mobilise-D step-length MAE / bias (m); Voisard 20 m distance error %\n")
+    print("| model | mobgap MAE m | mobgap bias m | voisard distance err % (std) |")
+    print("|---|---|---|---|")
+    for L in lens:
+        mg = [r for r in len_rows if r["length"] == L and r["set"] == "mobgap_lab"]
+        vo = [r for r in len_rows if r["length"] == L and r["set"] == "voisard_ipol"]
+        print(f"| {L} | {np.nanmean([r.get('step_len_mae_m', np.nan) for r in mg]):.3f} | "
+              f"{np.nanmean([r.get('step_len_bias_m', np.nan) for r in mg]):+.3f} | "
+              f"{cell([r.get('distance_err_pct') for r in vo])} |")
+    if failures:
+        print("\n### Failures (counted, not skipped)\n")
+        for r in failures:
+            print(f"- {r['id']} {r['detector']}/{r['length']}: {r['error']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,70 @@
+"""Input for ``bootnav pdr``: canonical ``acc.csv.gz`` / ``imu.csv.gz``, an HDF5 recording
+(logger.recording.load) or anything logger.importers understands (Physics Toolbox, phyphox, the 20 Hz
+waist log, other IMU CSVs)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bootnav.errors import InputError
+
+
+@dataclass
+class PdrInput:
+    t_s: np.ndarray
+    acc_b: np.ndarray
+    gyro_b: np.ndarray | None
+    mag_b: np.ndarray | None
+    source: str
+    kind: str
+
+
+def _mag_from_aux(aux: dict) -> np.ndarray | None:
+    keys = [f"mag_{a}" for a in "xyz"]
+    if all(k in aux for k in keys):
+        return np.column_stack([np.asarray(aux[k], float) for k in keys])
+    return None
+
+
+def _gyro_or_none(g):
+    if g is None:
+        return None
+    g = np.asarray(g, float)
+    return None if g.size == 0 or not np.isfinite(g).any() else g
+
+
+def load_input(path) -> PdrInput:
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    name = path.name.lower()
+    if name.endswith((".h5", ".hdf5")):
+        from logger.recording import load
+
+        rec = load(path)
+        mag = None
+        try:
+            from logger.importers import load_aux
+
+            mag = _mag_from_aux(load_aux(path))
+        except ImportError:
+            pass
+        return PdrInput(rec.t_s, rec.acc_mps2, _gyro_or_none(rec.gyro_radps), mag, str(path), "hdf5")
+    if name.endswith((".csv.gz", ".csv")):
+        with (__import__("gzip").open(path, "rt") if name.endswith(".gz") else open(path)) as f:
+            header = f.readline()
+        if header.strip().startswith("t_s,ax_mps2"):
+            from postproc.pdr.evaluate import load_imu_csv
+
+            t, acc, gyro = load_imu_csv(path)
+            return PdrInput(t, acc, _gyro_or_none(gyro), None, str(path), "canonical_csv")
+    try:
+        from logger.importers import read_any
+    except ImportError as exc:
+        raise InputError(f"{path}: not a canonical acc/imu csv(.gz) or .h5 and no importer available ({exc})")
+    res = read_any(path)
+    return PdrInput(res.t_s, res.acc_mps2, _gyro_or_none(res.gyro_radps), _mag_from_aux(res.aux), str(path),
+                    f"import:{res.profile}")

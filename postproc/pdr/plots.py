@@ -1,0 +1,90 @@
+"""Figures mirroring the sources' plots (matplotlib, Agg backend):
+
+* steps.png   – the detector's processed signal with the detected steps (seed-000 Fig. 2.2.1 green lines;
+                seed-003 Figs. 3.5–3.9 clamped magnitude / main peaks / steps)
+* length.png  – step length per step and cumulative distance (seed-002 step-length apps)
+* heading.png – heading per step (seed-003 Fig. 3.10 "Heading angle")
+* path.png    – local E/N path (seed-000 Fig. 6.3.4, seed-003 Fig. 3.11); path_latlon.png when a start
+                point is given (seed-003 Fig. 3.12)
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def write_plots(res, out_dir) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    files = []
+    tr = res.events.trace
+    t0 = float(tr["t_s"][0]) if "t_s" in tr and len(tr["t_s"]) else (float(res.t_s[0]) if res.count else 0.0)
+
+    fig, ax = plt.subplots(figsize=(12, 4))
+    if "signal" in tr:
+        ax.plot(np.asarray(tr["t_s"]) - t0, tr["signal"], "k-", lw=0.6, label=tr.get("signal_label", "signal"))
+    if res.count:
+        ax.vlines(res.t_s - t0, *ax.get_ylim(), colors="g", lw=0.8, label=f"steps ({res.count})")
+    ax.set_xlabel("time since start (s)")
+    ax.set_title(f"step detection: {res.settings.detector}")
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    files.append(out / "steps.png")
+    fig.savefig(files[-1], dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    ax[0].plot(res.t_s - t0, res.length_m, ".-")
+    ax[0].set_ylabel("step length (m)")
+    ax[0].set_title(f"step length: {res.settings.length}")
+    ax[1].plot(res.t_s - t0, np.cumsum(res.length_m))
+    ax[1].set_ylabel("distance (m)")
+    ax[1].set_xlabel("time since start (s)")
+    fig.tight_layout()
+    files.append(out / "length.png")
+    fig.savefig(files[-1], dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(10, 3.5))
+    ax.plot(res.t_s - t0, np.mod(np.degrees(res.heading_rad), 360.0), ".")
+    ax.set_ylim(0, 360)
+    ax.set_ylabel("heading (deg, cw from N)")
+    ax.set_xlabel("time since start (s)")
+    ax.set_title(f"heading: {res.heading_source}")
+    fig.tight_layout()
+    files.append(out / "heading.png")
+    fig.savefig(files[-1], dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    ax.plot(np.r_[0.0, res.x_m], np.r_[0.0, res.y_m], "r.-", ms=3, lw=0.8)
+    ax.plot([0], [0], "ks", label="start")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_title("PDR path")
+    ax.legend()
+    fig.tight_layout()
+    files.append(out / "path.png")
+    fig.savefig(files[-1], dpi=110)
+    plt.close(fig)
+
+    if res.lat_deg is not None:
+        fig, ax = plt.subplots(figsize=(6, 6))
+        lat0, lon0 = res.settings.start_lat_lon
+        ax.plot(np.r_[lon0, res.lon_deg], np.r_[lat0, res.lat_deg], "r.-", ms=3, lw=0.8)
+        ax.set_xlabel("longitude (deg)")
+        ax.set_ylabel("latitude (deg)")
+        ax.set_title("PDR path on the map (seed-003 eq. 3.3)")
+        ax.ticklabel_format(useOffset=False)
+        fig.tight_layout()
+        files.append(out / "path_latlon.png")
+        fig.savefig(files[-1], dpi=110)
+        plt.close(fig)
+    return files
