@@ -1,0 +1,82 @@
+"""``bootnav info``: summaries computed from the data and events, for recorded, imported and crashed files."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from logger.recording import make_events, si_channel, write_recording
+from tests.conftest import REPO, run_python
+from tests.test_serial_record import emulate_and_record
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def info_json(path) -> dict:
+    """Run the real command in a fresh process."""
+    proc = run_python("import sys; from bootnav.cli import main; sys.exit(main(sys.argv[1:]))",
+                      "info", str(path), "--json")
+    return json.loads(proc.stdout)
+
+
+def test_info_agrees_with_what_the_emulator_sent(tmp_path):
+    out, report, _ = emulate_and_record(
+        tmp_path, ["--duration", "1.5", "--rate", "500", "--corrupt", "0.04", "--seed", "5"])
+    s = info_json(out)
+    assert s["frames"] == len(report["valid_seqs"])
+    assert s["dropped"] == report["frames_dropped"] + report["frames_corrupted"]
+    assert s["crc_errors"] >= 1 and s["resyncs"] >= report["garbage_bursts"]
+    assert s["rate_hz"] == pytest.approx(500.0, rel=1e-9)
+    # first..last valid frame on the device clock
+    first, last = report["valid_index"][0], report["valid_index"][-1]
+    assert s["duration_s"] == pytest.approx((last - first) / 500.0, abs=1e-9)
+    assert s["accel_range_g"] == 16 and s["gyro_range_dps"] == 2000 and s["complete"]
+
+
+def test_info_on_an_imported_style_si_file_finds_gaps_from_timestamps_and_saturation(tmp_path):
+    rate = 100.0
+    t = np.arange(1000) / rate
+    t = np.delete(t, np.r_[300:305])  # 5 samples missing, no seq numbers
+    n = t.size
+    sat = np.zeros(n, np.uint8)
+    sat[50:53] = 1 << 4  # gy at full scale for 3 samples
+    path = tmp_path / "imported.h5"
+    write_recording(path, t, np.zeros((n, 3)), np.zeros((n, 3)), saturated=sat,
+                    acc_channel=si_channel("acc", 16 * 9.80665), gyro_channel=si_channel("gyro", np.deg2rad(250)),
+                    events=make_events([{"kind": "skipped_line", "line": 17, "detail": "bad number"}]))
+    s = info_json(path)
+    assert s["frames"] == n and s["gaps"] == 1 and s["dropped"] == 5 and s["gap_source"] == "timestamps"
+    assert s["saturated_samples"]["gy"] == 3 and s["saturated_any"] == 3
+    assert s["accel_range_g"] == pytest.approx(16) and s["gyro_range_dps"] == pytest.approx(250)
+    assert s["skipped_lines"] == 1 and s["rate_hz"] == pytest.approx(rate)
+
+
+def test_info_on_a_file_whose_writer_died(tmp_path):
+    path = tmp_path / "crashed.h5"
+    code = (
+        "import os, sys, numpy as np\n"
+        "from logger.recording import RecordingWriter, counts_channel\n"
+        "w = RecordingWriter(sys.argv[1], counts_channel('acc', 1e-3), counts_channel('gyro', 1e-3), seq=True)\n"
+        "w.append(np.arange(300) / 200.0, np.zeros((300, 3), np.int16), np.zeros((300, 3), np.int16),"
+        " seq=np.arange(300, dtype=np.uint16))\n"
+        "w.flush()\n"
+        "os._exit(0)\n"  # no close(): SWMR flags stay set, no final metadata
+    )
+    run_python(code, str(path))
+    s = info_json(path)
+    assert s["frames"] == 300 and not s["complete"] and s["rate_hz"] == pytest.approx(200.0)
+    text = run_python("import sys; from bootnav.cli import main; sys.exit(main(sys.argv[1:]))", "info", str(path)).stdout
+    assert "did not close" in text and "300" in text
+
+
+def test_info_on_a_non_recording_is_a_clear_error(tmp_path):
+    bad = tmp_path / "not.h5"
+    bad.write_bytes(b"this is not hdf5")
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "bootnav", "info", str(bad)], capture_output=True, text=True,
+                          cwd=REPO, timeout=60)
+    assert proc.returncode == 1 and "not.h5" in proc.stderr and "cannot open" in proc.stderr
