@@ -279,7 +279,8 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
     if skipped:
         messages.append(f"skipped {len(skipped)} malformed line(s) of {path.name}: "
                         + ", ".join(str(ln) for ln, _ in skipped[:10]) + (" ..." if len(skipped) > 10 else "")
-                        + f" (first: line {skipped[0][0]}: {skipped[0][1]})")
+                        )
+        messages += [f"  {path.name}:{ln}: {why}" for ln, why in skipped[:10]]
 
     # ---- time ---------------------------------------------------------------------------------
     meta: dict[str, Any] = {}

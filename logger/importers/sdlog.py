@@ -228,9 +228,10 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
     events += ev_a + ev_g
     n_bad = sum(1 for e in events if e["kind"] in ("crc_error", "skipped_line"))
     if n_bad:
-        bad_lines = [e["line"] for e in events if e["kind"] in ("crc_error", "skipped_line")]
+        bad = sorted((e["line"], e["detail"]) for e in events if e["kind"] in ("crc_error", "skipped_line"))
         messages.append(f"{n_bad} bad line(s) in {path.name} (CRC or format), skipped: lines "
-                        + ", ".join(map(str, bad_lines[:10])) + (" ..." if len(bad_lines) > 10 else ""))
+                        + ", ".join(str(ln) for ln, _ in bad[:10]) + (" ..." if len(bad) > 10 else ""))
+        messages += [f"  {path.name}:{ln}: {why}" for ln, why in bad[:10]]
     summary = timing_summary(t)
     meta = dict(
         source_file=str(path.resolve()), source_sha256=hashlib.sha256(raw).hexdigest(), importer_profile="bootnav_sd",
