@@ -1,0 +1,117 @@
+"""Write a SimResult as a bootnav HDF5 recording (with /truth) or as the firmware's SD-card text log."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from bootnav import __version__
+from bootnav.errors import InputError
+from logger.crc import crc16_ccitt_false_rows
+from logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code
+from logger.recording import counts_channel, si_channel, write_group, write_recording
+from simulator.simulate import SimResult
+
+SIM_DEVICE_ID = 0x00051A00  # "SIM" device id in headers
+
+TRUTH_UNITS = {
+    "t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz, body->nav)", "stance": "1 (0/1)",
+    "f_b_mps2": "m/s^2", "omega_b_radps": "rad/s", "foot_pos_n_m": "m", "acc_bias_b_mps2": "m/s^2",
+    "gyro_bias_b_radps": "rad/s", "sample_index": "1",
+    "step_t_s": "s", "step_t_start_s": "s", "step_t_toe_off_s": "s", "step_t_heel_strike_s": "s",
+    "step_length_m": "m", "step_dz_m": "m", "step_heading_rad": "rad", "step_turn_rad": "rad",
+    "step_chord_heading_rad": "rad", "step_gait": "1 (index into attrs gait_parameters)",
+    "step_kind": "1 (attrs step_kind_codes)", "step_foot_pos_n_m": "m",
+}
+TRUTH_DESCRIPTION = (
+    "Exact truth, row i belongs to /imu row i. pos_n_m/vel_n_mps/q_nb: sensor (body) origin and attitude, ENU, "
+    "pos starts at the origin; foot_pos_n_m: sole origin of the boot; stance: foot flat and exactly still; "
+    "f_b_mps2/omega_b_radps: exact specific force and angular rate before sensor errors; *_bias_*: total "
+    "bias in the delivered samples (turn-on + random walk); t_s: true sample time (the /imu clock has the "
+    "simulated clock error and jitter). step_*: one row per stride (t_s = foot flat again)."
+)
+
+
+def _step_arrays(res: SimResult) -> dict[str, np.ndarray]:
+    s = res.steps
+    out = {"step_t_s": s["t_end_s"], "step_t_start_s": s["t_start_s"], "step_t_toe_off_s": s["t_toe_off_s"],
+           "step_t_heel_strike_s": s["t_heel_strike_s"]}
+    for key in ("length_m", "dz_m", "heading_rad", "turn_rad", "chord_heading_rad", "gait", "kind"):
+        out["step_" + key] = s[key]
+    if res.trajectory is not None and len(s["t_end_s"]):
+        out["step_foot_pos_n_m"] = res.trajectory.evaluate(s["t_end_s"])[0][:, :3]
+    return out
+
+
+def recording_meta(res: SimResult) -> dict:
+    p = res.profile
+    meta = {
+        "device": "MPU6050 (simulated)" if not p.ideal else "ideal IMU (simulated)",
+        "device_id": f"0x{SIM_DEVICE_ID:08X}",
+        "firmware_version": f"bootnav-simulator {__version__}",
+        "rate_nominal_hz": res.rate_hz,
+        "smplrt_div": res.decimation - 1,
+        "mount": res.mount.name,
+        "subject": "simulated",
+        "session_notes": f"simulated scenario {res.scenario} (seed {res.seed}, profile {p.name})",
+        "simulator": json.dumps({k: res.attrs[k] for k in ("scenario", "seed", "rate_hz", "internal_rate_hz")}),
+        "sensor_profile": p.name,
+    }
+    if not p.ideal:
+        meta.update(accel_range_g=p.accel_range_g, gyro_range_dps=p.gyro_range_dps,
+                    dlpf_cfg=-1 if p.dlpf_cfg is None else p.dlpf_cfg,
+                    accel_fs=accel_code(p.accel_range_g), gyro_fs=gyro_code(p.gyro_range_dps))
+    return meta
+
+
+def write_h5(res: SimResult, path: str | os.PathLike) -> Path:
+    """The recording (int16 counts + scale factors; SI floats for ``ideal``) and its /truth group."""
+    path = Path(path)
+    p = res.profile
+    kw = {}
+    if res.counts:
+        acc_ch = counts_channel("acc", p.accel_lsb_mps2)
+        gyro_ch = counts_channel("gyro", p.gyro_lsb_radps)
+        kw = dict(t_device=res.t_device, seq=res.seq, temp=res.temp,
+                  temp_channel=counts_channel("temp", 1.0 / TEMP_LSB_PER_DEGC))
+    else:
+        acc_ch, gyro_ch = si_channel("acc"), si_channel("gyro")
+    write_recording(path, res.t_s, res.acc, res.gyro, acc_channel=acc_ch, gyro_channel=gyro_ch, events=res.events,
+                    meta=recording_meta(res), saturated=res.saturated, **kw)
+    arrays = {**res.truth, **_step_arrays(res)}
+    attrs = {**res.attrs, "description": TRUTH_DESCRIPTION}
+    write_group(path, "truth", arrays, attrs=attrs, units=TRUTH_UNITS)
+    return path
+
+
+def sd_lines(res: SimResult) -> list[bytes]:
+    """Data lines ``t_us,seq,ax,ay,az,gx,gy,gz,temp*CRC`` (no newline), CRC-16/CCITT-FALSE vectorised."""
+    cols = np.column_stack([res.t_device.astype(np.int64), res.seq.astype(np.int64), res.acc.astype(np.int64),
+                            res.gyro.astype(np.int64), res.temp.astype(np.int64)])
+    bodies = [",".join(map(str, row)).encode("ascii") for row in cols.tolist()]
+    crcs = np.zeros(len(bodies), dtype=np.uint16)
+    lengths = np.fromiter(map(len, bodies), dtype=np.int64, count=len(bodies))
+    for length in np.unique(lengths):  # equal-length rows go through the numpy row CRC together
+        sel = np.flatnonzero(lengths == length)
+        block = np.frombuffer(b"".join(bodies[i] for i in sel), dtype=np.uint8).reshape(sel.size, int(length))
+        crcs[sel] = crc16_ccitt_false_rows(block)
+    return [b + b"*%04X" % c for b, c in zip(bodies, crcs.tolist())]
+
+
+def write_sd_txt(res: SimResult, path: str | os.PathLike) -> Path:
+    """The firmware's SD-card log (PROTOCOL.md section 2). Needs int16 counts: not for ``ideal``."""
+    if not res.counts:
+        raise InputError(f"{path}: the SD-card text format stores int16 counts; profile {res.profile.name!r} "
+                         "delivers floats - choose an mpu6050-* profile")
+    p = res.profile
+    header = (f"# bootnav-sd v1 accel_fs={accel_code(p.accel_range_g)} gyro_fs={gyro_code(p.gyro_range_dps)} "
+              f"dlpf={0 if p.dlpf_cfg is None else p.dlpf_cfg} smplrt_div={res.decimation - 1} fw={__version__} "
+              f"device_id=0x{SIM_DEVICE_ID:08X}")
+    path = Path(path)
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii") + b"\n")
+        f.write(b"\n".join(sd_lines(res)) + b"\n")
+    return path
