@@ -91,11 +91,11 @@ def _served_sequence(n: int, seed: int) -> np.ndarray:
 class Harness:
     """The libsimavr harness as a context manager: starts it, reads its pty path, collects its stats."""
 
-    def __init__(self, tmp: Path, samples: np.ndarray, *extra: str):
+    def __init__(self, tmp: Path, samples: np.ndarray, *extra: str, elf: Path = ELF):
         self.samples_path = tmp / "served.bin"
         samples.astype("<i2").tofile(self.samples_path)
         self.stats_path = tmp / "harness-stats.json"
-        self.cmd = [str(HARNESS), "--firmware", str(ELF), "--samples", str(self.samples_path),
+        self.cmd = [str(HARNESS), "--firmware", str(elf), "--samples", str(self.samples_path),
                     "--wait-open", "--stats", str(self.stats_path), "--max-seconds", "60", *extra]
 
     def __enter__(self) -> "Harness":
@@ -281,3 +281,20 @@ def test_sensor_missing_is_reported_and_retried(built, tmp_path, fault, detail):
     assert abs((missing[1].t_us - missing[0].t_us) - 1_000_000) <= 2_000
     assert not any(isinstance(f, SampleFrame) for f in frames)
     assert h.stats["served"] == 0
+
+
+def test_sd_enabled_build_without_card_reports_absent_and_keeps_streaming(built, tmp_path):
+    """The BOOTNAV_SD_LOG=1 firmware (SD library API from sim/sd_stub: an empty card slot) must say
+    "SD absent, card did not initialise" (status 2, detail 1) and stream as usual."""
+    from logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
+
+    _make("firmware", "BUILD=build/sdstub", "SD_LIB=sim/sd_stub")
+    n = 40
+    served = _served_sequence(n, seed=5)
+    with Harness(tmp_path, served, "--idle-when-done", elf=BUILD / "sdstub" / "bootnav_imu.elf") as h:
+        data = _read_port(h.port, until=lambda d: len(d) >= 16 + 24 + 26 * n, timeout_s=30)
+    frames = parse_stream(data).frames()
+    assert isinstance(frames[0], StatusFrame) and (frames[0].code, frames[0].detail) == (2, 1)
+    assert isinstance(frames[1], HeaderFrame) and frames[1].flags == 0b10  # SD logging not active
+    got = np.array([(*f.acc, *f.gyro, f.temp) for f in frames if isinstance(f, SampleFrame)], dtype=np.int16)
+    np.testing.assert_array_equal(got, served)
