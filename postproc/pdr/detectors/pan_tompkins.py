@@ -5,15 +5,16 @@ Ying et al. 2007 [13]: band-pass -> derivative -> squaring -> moving-window inte
     squaring    y(n) = x(n)^2
     MWI         y(n) = (1/N) sum_{k=0..N-1} x(n-k),   N = 20             [literal]
     fiducial    code rises of the MWI output as +1 and falls as -1; a (+1,-1) pair is a hump; a gait
-                cycle is two pairs [(1,-1),(1,-1)]; the step is the maximum of the ORIGINAL signal inside
-                the SECOND pair's interval (literal: one detection per gait cycle of a foot sensor).
+                cycle is two pairs [(1,-1),(1,-1)] (the rising and the falling slope of the acceleration
+                each give one hump of the squared derivative); the step is the maximum of the ORIGINAL
+                signal inside the SECOND pair's interval [literal].
 
 Band-pass: the thesis' low-pass equation is unrecoverable [R]; default = 2nd-order Butterworth
 0.5–5 Hz [engineered]; ``lowpass="pan_tompkins"`` uses the original integer low-pass
 y(n) = 2y(n-1) - y(n-2) + x(n) - 2x(n-6) + x(n-12) (NOT confirmed by the text). fs 50 Hz [engineered;
-the thesis states none for this method]. ``literal=False``: every hump is a step (waist/phone signal:
-one hump per step) and humps lower than ``min_rel_height`` x the 5-s local maximum of the MWI output are
-ignored (Pan–Tompkins' adaptive threshold, [engineered 0.2]).
+the thesis states none for this method]. ``literal=False`` additionally ignores humps lower than
+``min_rel_height`` x the 5-s local maximum of the MWI output before pairing (Pan–Tompkins' adaptive
+threshold, [engineered 0.2]), so noise wiggles do not shift the pairing.
 """
 
 from __future__ import annotations
@@ -98,7 +99,7 @@ class PanTompkinsDetector:
 
             ref = maximum_filter1d(y, int(self.local_window_s * self.fs_hz))
             h = [(s, e) for s, e in h if y[s:e + 1].max() >= self.min_rel_height * ref[(s + e) // 2]]
-        chosen = h[1::2] if self.literal else h
+        chosen = h[1::2]
         shift = int(round(delay))
         steps = []
         for s, e in chosen:

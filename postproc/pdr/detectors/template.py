@@ -9,7 +9,8 @@
 Not given by the source [engineered]: the NCC detection threshold (0.6), the template length (one step
 period from the autocorrelation of the first block, 0.3–1.2 s), the signal (band-passed |a| 0.3–5 Hz, so
 any carrying position works; the thesis' figure uses one axis), fs 50 Hz, and the initial template
-(the segment centred on the largest peak of the first block: "parameters are approximate at first").
+(the segment centred on the largest peak of the first block: "parameters are approximate at first"), and
+a minimum peak height of 0.5 m/s^2 (standing still gives no steps).
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ class TemplateDetector:
     ncc_threshold: float = 0.6
     refresh_below: float = 0.55
     min_interval_s: float = 0.25
+    min_peak_mps2: float = 0.5
 
     name = "template"
 
@@ -88,7 +90,7 @@ class TemplateDetector:
             r_all[b0:b0 + blk.size] = r
             above = r >= self.ncc_threshold
             pk, _ = signal.find_peaks(np.where(above, blk, -np.inf), distance=max(1, int(self.min_interval_s * self.fs_hz)))
-            pk = pk[above[pk]]
+            pk = pk[above[pk] & (blk[pk] >= self.min_peak_mps2)]
             steps.extend((b0 + pk).tolist())
             rp, _ = signal.find_peaks(r)
             if (rp.size == 0 or np.max(r[rp]) < self.refresh_below) and pk.size >= 2:
