@@ -298,3 +298,26 @@ def test_sd_enabled_build_without_card_reports_absent_and_keeps_streaming(built,
     assert isinstance(frames[1], HeaderFrame) and frames[1].flags == 0b10  # SD logging not active
     got = np.array([(*f.acc, *f.gyro, f.temp) for f in frames if isinstance(f, SampleFrame)], dtype=np.int16)
     np.testing.assert_array_equal(got, served)
+
+
+def test_missed_data_ready_is_reported_as_overrun(built, tmp_path):
+    """Two extra samples arrive 60 and 120 us after sample K, while the firmware still reads K over I2C
+    (~0.4 ms at 400 kHz): the registers then hold only the newest, so one sample is lost. The firmware
+    must say so (status 4, value 1), keep seq contiguous and stamp the frame with the newest pulse."""
+    from logger.protocol import SampleFrame, StatusFrame, parse_stream
+
+    n, k = 60, 20
+    served = _served_sequence(n, seed=9)
+    with Harness(tmp_path, served, "--idle-when-done", "--burst-at", str(k)) as h:
+        data = _read_port(h.port, until=lambda d: len(d) >= 16 + 24 + 16 + 26 * (n - 1), timeout_s=30)
+    assert h.stats["served"] == n
+    frames = parse_stream(data).frames()
+    samples = [f for f in frames if isinstance(f, SampleFrame)]
+    overruns = [f for f in frames if isinstance(f, StatusFrame) and f.code == 4]
+    assert [(f.value, f.seq) for f in overruns] == [(1, k + 1)]  # one missed, reported before seq k+1
+    assert [s.seq for s in samples] == list(range(n - 1))
+    got = np.array([(*s.acc, *s.gyro, s.temp) for s in samples], dtype=np.int16)
+    np.testing.assert_array_equal(got[: k + 1], served[: k + 1])
+    np.testing.assert_array_equal(got[k + 1:], served[k + 2:])  # sample k+1 is the one lost
+    assert abs((samples[k + 1].t_us - samples[k].t_us) - 120) <= T_JITTER_US
+    assert abs((samples[k + 2].t_us - samples[k].t_us) - PERIOD_US) <= T_JITTER_US

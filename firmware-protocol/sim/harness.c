@@ -19,6 +19,8 @@
  *   --realtime        never run ahead of the wall clock (default: as fast as the host CPU allows)
  *   --idle-when-done  stop the CPU 0.2 s (simulated) after the last sample was served and sent, but
  *                     keep the pty open: saves the host CPU while a recorder finishes
+ *   --burst-at K      after sample K, two more samples 60 us and 120 us later (faster than the firmware
+ *                     reads): tests the overrun report
  *   --whoami V        WHO_AM_I value of the model (a clone or a wrong chip); --absent: no device at 0x68
  * Prints "pty /dev/pts/N" on stdout (libsimavr prints its own "Loaded ..." lines there too). Exits
  * when the host closes the pty after having opened it, on SIGTERM/SIGINT, or after --max-seconds of
@@ -79,6 +81,10 @@ typedef struct {
     const int16_t *samples; /* n_samples x 7 */
     size_t n_samples;
     size_t served;
+    int16_t held[7];     /* sample that arrived during a bus transaction, latched at STOP */
+    uint8_t has_held;
+    size_t burst_at;     /* --burst-at: after serving this index, two extra samples 60 us apart */
+    uint8_t burst_left;
     avr_cycle_count_t first_drdy_cycle;
     avr_cycle_count_t period_cycles;
     uint32_t reg_writes;
@@ -121,15 +127,9 @@ static avr_cycle_count_t int_pin_low(avr_t *avr, avr_cycle_count_t when, void *p
     return 0;
 }
 
-static avr_cycle_count_t mpu_data_ready(avr_t *avr, avr_cycle_count_t when, void *param)
+/* ACCEL_XOUT_H..GYRO_ZOUT_L from one file record (ax ay az gx gy gz temp -> ACCEL X..Z, TEMP, GYRO X..Z). */
+static void mpu_latch(mpu_t *m, const int16_t *s)
 {
-    mpu_t *m = param;
-    if (!mpu_running(m) || m->served >= m->n_samples) {
-        m->ticking = 0;
-        return 0;
-    }
-    const int16_t *s = m->samples + 7 * m->served;
-    /* file order ax ay az gx gy gz temp -> registers ACCEL X..Z, TEMP, GYRO X..Z */
     uint8_t *r = m->reg + REG_ACCEL_XOUT_H;
     put_be16(r + 0, s[0]);
     put_be16(r + 2, s[1]);
@@ -138,13 +138,52 @@ static avr_cycle_count_t mpu_data_ready(avr_t *avr, avr_cycle_count_t when, void
     put_be16(r + 8, s[3]);
     put_be16(r + 10, s[4]);
     put_be16(r + 12, s[5]);
+}
+
+/* A new sample: into the data registers, or held while the bus is busy (the MPU6050 updates its
+ * registers only while the serial interface is idle, so a burst read is always one coherent sample);
+ * then the INT pulse. */
+static void mpu_new_sample(mpu_t *m, avr_cycle_count_t when)
+{
+    const int16_t *s = m->samples + 7 * m->served;
+    if (m->selected) {
+        memcpy(m->held, s, sizeof m->held);
+        m->has_held = 1;
+    } else {
+        mpu_latch(m, s);
+    }
     if (m->served == 0)
         m->first_drdy_cycle = when;
     m->served++;
     m->reg[REG_INT_STATUS] |= 0x01; /* DATA_RDY_INT */
     int active_low = (m->reg[REG_INT_PIN_CFG] & 0x80) != 0;
     avr_raise_irq(m->int_pin, active_low ? 0 : 1);
-    avr_cycle_timer_register_usec(avr, INT_PULSE_US, int_pin_low, m);
+    avr_cycle_timer_register_usec(m->avr, INT_PULSE_US, int_pin_low, m);
+}
+
+/* --burst-at: extra samples 60 us apart, faster than the firmware can read them (a stalled main loop
+ * on real hardware): the firmware must report the one it missed as an overrun. */
+static avr_cycle_count_t mpu_burst(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+    mpu_t *m = param;
+    if (!m->burst_left || m->served >= m->n_samples)
+        return 0;
+    mpu_new_sample(m, when);
+    return --m->burst_left ? when + avr_usec_to_cycles(avr, 60) : 0;
+}
+
+static avr_cycle_count_t mpu_data_ready(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+    mpu_t *m = param;
+    if (!mpu_running(m) || m->served >= m->n_samples) {
+        m->ticking = 0;
+        return 0;
+    }
+    mpu_new_sample(m, when);
+    if (m->served - 1 == m->burst_at) {
+        m->burst_left = 2;
+        avr_cycle_timer_register_usec(avr, 60, mpu_burst, m);
+    }
     m->period_cycles = mpu_period_cycles(m);
     return when + m->period_cycles;
 }
@@ -199,6 +238,10 @@ static void mpu_twi_hook(avr_irq_t *irq, uint32_t value, void *param)
 
     if (msg & TWI_COND_STOP) {
         m->selected = 0;
+        if (m->has_held) { /* bus idle again: the newest sample reaches the registers */
+            mpu_latch(m, m->held);
+            m->has_held = 0;
+        }
         return;
     }
     if (msg & TWI_COND_START) { /* address byte */
@@ -369,7 +412,7 @@ static int16_t *read_samples(const char *path, size_t *n)
 static void usage(void)
 {
     fprintf(stderr, "usage: harness --firmware F.elf --samples S.bin [--wait-open] [--realtime] "
-                    "[--whoami 0x68] [--absent] [--stats F.json] [--max-seconds N]\n");
+                    "[--idle-when-done] [--burst-at K] [--whoami 0x68] [--absent] [--stats F.json] [--max-seconds N]\n");
     exit(2);
 }
 
@@ -382,6 +425,7 @@ int main(int argc, char **argv)
     mpu.addr = 0x68;
     mpu.present = 1;
     mpu.whoami = 0x68;
+    mpu.burst_at = (size_t)-1;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--firmware") && i + 1 < argc)
             fw_path = argv[++i];
@@ -393,6 +437,8 @@ int main(int argc, char **argv)
             mpu.whoami = (uint8_t)strtoul(argv[++i], NULL, 0);
         else if (!strcmp(argv[i], "--max-seconds") && i + 1 < argc)
             max_s = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--burst-at") && i + 1 < argc)
+            mpu.burst_at = (size_t)strtoull(argv[++i], NULL, 0);
         else if (!strcmp(argv[i], "--absent"))
             mpu.present = 0;
         else if (!strcmp(argv[i], "--wait-open"))
