@@ -30,7 +30,7 @@ tables 6.1/6.2 unless marked [ENG] (engineering assumption, no datasheet figure 
   256/188/98/42/20/10/5 Hz for DLPF_CFG 0..6. A 2nd-order Butterworth has DC group delay
   sqrt(2)/(2 pi f_c): 5.1 ms at 44 Hz vs the datasheet's 4.9 ms (close; the real filter is unpublished);
 * timestamps [ENG]: Arduino ``micros()`` (4 us resolution) on a ceramic resonator, clock error sigma
-  1000 ppm, read-latency jitter sigma 20 us (truncated at 3 sigma);
+  1000 ppm, read-latency jitter sigma 20 us (clipped at +-3 sigma);
 * dropped samples [ENG]: bursts (SD-card write stalls) at 0.01 per second, mean burst 3 samples.
 """
 
