@@ -97,10 +97,9 @@ def _estimate_pdr(path: Path, settings) -> PdrEstimate:
 
     t0 = time.perf_counter()
     t, acc, gyro = read_imu(path)
-    res = run_pdr(t, acc, gyro, settings) if settings is not None else run_pdr(t, acc, gyro)
-    steps = res.steps
-    step_xy = np.column_stack([steps["x_m"], steps["y_m"]])
-    return PdrEstimate(np.asarray(steps["t_s"]), np.asarray(steps["length_m"]), step_xy, time.perf_counter() - t0)
+    res = run_pdr(t, acc, gyro, settings)
+    step_xy = np.column_stack([res.x_m, res.y_m])
+    return PdrEstimate(np.asarray(res.t_s), np.asarray(res.length_m), step_xy, time.perf_counter() - t0)
 
 
 # -------------------------------------------------------------------------------------------- score
