@@ -248,6 +248,25 @@ def check_stance(name: str, t_s, stance: np.ndarray, checks: InputChecks, method
                          f"(plausible {100 * checks.min_stance_fraction:.0f}-{100 * checks.max_stance_fraction:.0f} %); {hint}")
 
 
+def check_strides(name: str, steps: dict, checks: InputChecks, method: str) -> list[str]:
+    """Strides longer than a foot can move mean missed stance phases (drift in between): warn, or refuse
+    when they are more than ``max_long_stride_fraction`` of all strides."""
+    length = steps["stride_length_m"]
+    dist3 = np.hypot(length, steps["dz_m"])
+    long = np.flatnonzero(dist3 > checks.max_stride_length_m)
+    if len(long) == 0:
+        return []
+    worst = int(long[np.argmax(dist3[long])])
+    where = f"worst {dist3[worst]:.1f} m ending at t = {steps['t_s'][worst]:.2f} s"
+    if len(long) > checks.max_long_stride_fraction * len(length):
+        raise InputError(f"{name}: {len(long)} of {len(length)} strides are longer than {checks.max_stride_length_m:g} m "
+                         f"({where}): the stance detector '{method}' misses stance phases (running? sensor not on the "
+                         "foot?), so the path in between is unaided drift; try another detector (--detector shoe "
+                         "--threshold ...) or check the mounting")
+    return [f"{len(long)} strides longer than {checks.max_stride_length_m:g} m ({where}): stance phases were "
+            "probably missed there; the path is unaided drift in those intervals"]
+
+
 # ---------------------------------------------------------------------------------------- pipeline
 def _call_progress(progress: Progress | None, stage: str, fraction: float) -> None:
     if progress is not None:
@@ -321,6 +340,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
 
     floors = FloorSettings(settings.floor_height_m, settings.floor_hysteresis_m)
     steps = segment_strides(t_s, pos_n, stance)
+    warnings += check_strides(name, steps, settings.checks, stance_res.method)
     path_stats = path_summary(t_s, pos_n, stance, floors)
     metrics = ref = None
     if settings.reference:

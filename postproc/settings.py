@@ -32,6 +32,9 @@ class InputChecks:
         outside these bounds the detector is mis-tuned or the sensor is not on a foot.
     max_stance_gyro_radps: median |ω| over the stance samples above this means "stance" is not a resting
         foot (a foot flat on the ground turns at < 0.1 rad/s; the sensor noise is ~0.01 rad/s).
+    max_stride_length_m: a foot cannot move further than this between two stance phases (sprint strides
+        are ~5 m); longer "strides" mean missed stance phases, i.e. unbounded INS drift in between.
+    max_long_stride_fraction: more than this fraction of such strides is an error (fewer: a warning).
     gap_factor: an interval longer than ``gap_factor`` × median interval is reported as a gap.
     max_gap_s: a gap longer than this is an error (the strapdown integration cannot bridge it).
     """
@@ -41,6 +44,8 @@ class InputChecks:
     min_stance_fraction: float = 0.05
     max_stance_fraction: float = 0.98
     max_stance_gyro_radps: float = 0.5
+    max_stride_length_m: float = 6.0
+    max_long_stride_fraction: float = 0.1
     gap_factor: float = 3.0
     max_gap_s: float = 1.0
 

@@ -233,3 +233,116 @@ def test_results_of_csv_input_go_to_results_h5(tmp_path, datasets):
     with h5py.File(h5) as f:
         assert f["results/default/pos_n_m"].shape == (len(r.t_s), 3)
         assert f["results/default/sample_index"][0] == r.index.start
+
+
+# ------------------------------------------------------------------------- simulated truth (simulator/)
+def _simulate(tmp_path, scenario, profile="mpu6050-16g-2000dps", seed=0):
+    sim = pytest.importorskip("simulator.simulate")
+    writers = pytest.importorskip("simulator.writers")
+    res = sim.simulate(scenario, seed=seed, profile=profile)
+    return res, writers.write_h5(res, tmp_path / f"{scenario}-{seed}.h5")
+
+
+def error_budget(res) -> tuple[float, float]:
+    """First-order error budget (m) of a 9-state ZUPT INS for this simulated sensor: (horizontal, vertical).
+
+    Terms, each an upper bound of its contribution, from the constants the simulator drew for this seed
+    (``drawn_constants``) and the profile's datasheet figures (simulator/imu_model.py):
+
+    * heading: the gyro's effective yaw-axis scale + cross-axis error s_g = |M_zz−1| + |M_zx| + |M_zy|
+      turns a heading change Θ_k into a heading error s_g·Θ_k (the mount is level: sensor z = foot z);
+      each stride of length L_k is then displaced sideways by at most L_k·s_g·|Θ_k|;
+    * along track: accelerometer scale + cross-axis error s_a = |M_xx−1| + |M_yy−1| + |M_xy| + |M_yx| of the
+      distance L; the clock error (3σ) stretches time, so positions by 2·3σ_clock·L;
+    * gyro angle random walk N_g = n_g/√2 over the duration T: lateral 3·L·N_g·√T/√3;
+    * vertical: the up-axis specific-force error b_up = |b_z + (M_zz−1)·g| integrates during each swing
+      (t_sw) to b_up·t_sw²/2 per stride; the cross-axis terms (|M_zx| + |M_zy|) and the tilt left by the
+      levelling on biased horizontal axes ((|b_x| + |b_y|)/g) map the horizontal distance L into height;
+    * 2 cm for the unmodelled rest (DLPF delay, quantisation, ZUPT on a rolling foot).
+    """
+    import json
+    import math
+
+    c = json.loads(res.attrs["drawn_constants"]) or {}
+    mg = np.array(c.get("gyro_misalignment", np.eye(3)))
+    ma = np.array(c.get("accel_misalignment", np.eye(3)))
+    ba = np.array(c.get("accel_turn_on_bias_mps2", [0.0, 0.0, 0.0]))
+    assert res.attrs["mount_rpy_deg"] == [0.0, 0.0, 0.0]  # the heading term assumes a level mount
+    st = res.steps
+    length = np.asarray(st["length_m"])
+    theta = np.cumsum(np.asarray(st["turn_rad"]))
+    total = float(length.sum())
+    prof = res.profile
+    s_g = abs(mg[2, 2] - 1) + abs(mg[2, 0]) + abs(mg[2, 1])
+    s_a = abs(ma[0, 0] - 1) + abs(ma[1, 1] - 1) + abs(ma[0, 1]) + abs(ma[1, 0])
+    arw = math.radians(prof.gyro_noise_dps_rthz) / math.sqrt(2)
+    h = (float(np.sum(length * s_g * np.abs(theta))) + s_a * total + 6 * prof.clock_error_ppm_sigma * 1e-6 * total
+         + 3 * total * arw * math.sqrt(res.t_s[-1]) / math.sqrt(3) + 0.02)
+    g = 9.80665
+    t_sw = np.asarray(st["t_heel_strike_s"]) - np.asarray(st["t_toe_off_s"])
+    v = (abs(ba[2] + (ma[2, 2] - 1) * g) * float(np.sum(t_sw**2)) / 2
+         + (abs(ma[2, 0]) + abs(ma[2, 1]) + (abs(ba[0]) + abs(ba[1])) / g) * total + 0.02)
+    return h, v
+
+
+def _truth_errors(res, r):
+    from postproc.reference import Reference, compute_metrics
+
+    ref = Reference("trajectory", res.truth["pos_n_m"], t_s=r.t_s, has_z=True)
+    return compute_metrics(ref, r.t_s, r.pos_n, r.stance)
+
+
+@pytest.mark.parametrize("scenario", ["paper-straight", "paper-stairs", "rectangle", "three-floors"])
+def test_simulated_walks_within_the_sensor_error_budget(tmp_path, scenario):
+    res, path = _simulate(tmp_path, scenario)
+    r = process(path)
+    m = _truth_errors(res, r)
+    h_bound, v_bound = error_budget(res)
+    assert m["final_h_err_m"] <= h_bound
+    assert m["deviation_error_m"] <= h_bound
+    assert m["height_error_m"] <= v_bound
+    # ZUPT: in the true stance phases the estimated velocity is the zero-velocity measurement, whose
+    # standard deviation is sigma_zupt; 3 sigma on the median
+    truth_stance = res.truth["stance"].astype(bool)
+    assert np.median(np.linalg.norm(r.vel_n[truth_stance], axis=1)) < 3 * r.settings.filter.sigma_zupt_mps
+
+
+def test_three_floors_counted_on_a_noise_only_sensor(tmp_path):
+    """Three storeys of 3 m (54 risers x 1/6 m). With white noise only the height error budget is a few
+    cm, far inside the counting margin (h/2 - hysteresis = 1 m), so the count must be exact."""
+    res, path = _simulate(tmp_path, "three-floors", profile="mpu6050-noise-only")
+    r = process(path)
+    p = r.summary["path"]
+    assert (p["floors_climbed"], p["floors_descended"], p["final_floor"]) == (3, 0, 3)
+    assert p["height_change_m"] == pytest.approx(9.0, abs=0.2)
+    steps_up = r.steps["dz_m"] > 0.1
+    # two risers (2 x 1/6 m) per stride on the flights
+    assert np.median(r.steps["dz_m"][steps_up]) == pytest.approx(2 / 6, abs=0.03)
+
+
+@pytest.mark.parametrize("scenario", ["paper-straight", "rectangle"])
+def test_paper_riccati_mode_and_time_varying_both_run(tmp_path, scenario):
+    res, path = _simulate(tmp_path, scenario)
+    tv = process(path)
+    s = ProcessSettings()
+    s.filter.mode = "riccati"
+    ric = process(path, s)
+    assert ric.summary["filter"]["mode"] == "riccati" and tv.summary["filter"]["mode"] == "time_varying"
+    assert not np.allclose(ric.pos_n, tv.pos_n)  # really a different filter
+    h_bound, _ = error_budget(res)
+    assert _truth_errors(res, tv)["final_h_err_m"] <= h_bound
+    # the paper's constant gain must at least reach the paper's own Table 1 figure (6 % deviation)
+    m = _truth_errors(res, ric)
+    assert m["deviation_error_m"] <= 0.06 * m["distance_ref_m"]
+
+
+def test_running_never_gives_a_silent_garbage_path(tmp_path):
+    """Running: either the path is within the sensor's error budget, or process() refuses with the reason."""
+    res, path = _simulate(tmp_path, "running")
+    try:
+        r = process(path)
+    except InputError as exc:
+        assert "strides are longer than" in str(exc) or "stance" in str(exc)
+        return
+    h_bound, _ = error_budget(res)
+    assert _truth_errors(res, r)["final_h_err_m"] <= h_bound
