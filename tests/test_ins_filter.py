@@ -64,16 +64,18 @@ def test_walk_stance_velocity_and_accuracy(walk, n_states):
     assert np.all(np.isfinite(sol.pos_sigma_n)) and np.all(sol.pos_sigma_n[-1] > 5 * sol.pos_sigma_n[0])
 
 
-def test_smoother_reduces_swing_error(walk):
-    """RTS over each swing/stance segment: lower swing velocity and stride-shape errors than the filter alone."""
+@pytest.mark.parametrize("n_states,factor", [(9, 0.9), (15, 1.0)])
+def test_smoother_reduces_swing_error(walk, n_states, factor):
+    """RTS over each swing/stance segment: lower swing velocity and stride-shape errors than the filter alone
+    (9 states: by > 10 %; 15 states, whose bias states soak up part of the heel-strike innovation: lower)."""
     init = TruthInit(walk.q_nb[0], np.zeros(3))
     common = (walk.t_s, walk.acc_b, walk.gyro_b, walk.stance, init, walk.gravity)
-    filt = run_filter(*common, FilterSettings(smoother="none"))
-    smooth = run_filter(*common, FilterSettings(smoother="rts"))
+    filt = run_filter(*common, FilterSettings(smoother="none", n_states=n_states))
+    smooth = run_filter(*common, FilterSettings(smoother="rts", n_states=n_states))
     ev_f, ep_f = _swing_errors(walk, filt)
     ev_s, ep_s = _swing_errors(walk, smooth)
-    assert ev_s < 0.9 * ev_f
-    assert ep_s < 0.9 * ep_f
+    assert ev_s < factor * ev_f
+    assert ep_s < factor * ep_f
     assert smooth.info["smoother_segments"] >= 30
     # segment ends are the filtered estimate: the smoother never moves the last sample of a stance phase
     ends = np.flatnonzero(walk.stance[:-1] & ~walk.stance[1:])
@@ -108,7 +110,7 @@ def test_bad_input_and_settings_give_clear_errors(walk):
     with pytest.raises(InputError, match="q_nb"):
         run_filter(t, walk.acc_b[:200], gyr, st, SimpleNamespace(q_nb=[0, 0, 0, 0], gyro_bias_b=None), 9.81)
     for bad, msg in ((dict(n_states=12), "n_states"), (dict(sigma_zupt_mps=0.0), "sigma_zupt_mps"),
-                     (dict(zaru=True), "zaru"), (dict(heading_aid="magic"), "heading_aid")):
+                     (dict(zaru=True, n_states=9), "zaru"), (dict(heading_aid="magic"), "heading_aid")):
         with pytest.raises(ValueError, match=msg):
             run_filter(t, walk.acc_b[:200], gyr, st, init, 9.81, FilterSettings(**bad))
 

@@ -48,10 +48,10 @@ def test_observable_subsystem_is_stabilising_and_discrete_gain_is_exact_observer
         assert np.all(Kd[[0, 1, 2, 8]] == 0)  # position and yaw never corrected (open loop)
 
 
-def test_riccati_mode_pins_velocity_in_stance_and_rejects_15_states():
+def test_riccati_mode_pins_velocity_in_stance_and_runs_the_9_state_model():
     w = synthetic_walk(n_strides=8, acc_noise=0.05, gyro_noise=0.005, seed=3)
     init = TruthInit(w.q_nb[0], np.zeros(3))
-    sol = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(mode="riccati"))
+    sol = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(mode="riccati", n_states=9))
     assert sol.info["riccati"]["stabilising"]
     assert sol.info["smoother"] == "none"
     # after 5 time constants of the slowest velocity pole the residual velocity is < 1 % of its start
@@ -62,5 +62,8 @@ def test_riccati_mode_pins_velocity_in_stance_and_rejects_15_states():
     first = np.maximum.accumulate(np.where(run_start, idx, 0))
     late = idx[idx - first >= settle]
     assert np.abs(sol.vel_n[late]).max() < 0.05
-    with pytest.raises(ValueError, match="n_states=9"):
-        run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(mode="riccati", n_states=15))
+    sol15 = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(mode="riccati", n_states=15))
+    assert sol15.gyro_bias_b is None and any("9-state" in m for m in sol15.info["warnings"])
+    assert np.array_equal(sol15.pos_n, sol.pos_n)
+    with pytest.raises(ValueError, match="zaru"):
+        run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(mode="riccati", zaru=True))

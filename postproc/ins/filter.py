@@ -22,7 +22,7 @@ with that (suboptimal) gain so ``pos_sigma_n`` stays meaningful.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -76,6 +76,11 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     """
     settings = settings or FilterSettings()
     settings.validate()
+    requested = settings
+    warnings: list[str] = []
+    if settings.mode == "riccati" and settings.n_states != 9:
+        settings = replace(settings, n_states=9)
+        warnings.append("riccati (paper) mode runs the paper's 9-state model: sensor biases are not estimated")
     t_s, acc_b, gyro_b = validate_imu(t_s, acc_b, gyro_b, stance)
     stance = np.ascontiguousarray(stance, dtype=bool)
     if not (np.isfinite(gravity) and 5.0 < gravity < 15.0):
@@ -88,7 +93,6 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     bg0 = _init_vector(init, "gyro_bias_b", np.zeros(3))
     ba0 = _init_vector(init, "acc_bias_b", np.zeros(3))
     P0 = initial_covariance(settings)
-    warnings: list[str] = []
     zupt_gain = None
     ric_report = None
     smooth = settings.smoother == "rts"
@@ -135,7 +139,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
         "final_P": einfo["final_P"],
         "warnings": warnings,
-        "settings": settings.to_dict(),
+        "settings": requested.to_dict(),
     }
     return NavSolution(
         t_s=t_s,

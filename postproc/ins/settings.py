@@ -22,15 +22,19 @@ class FilterSettings:
     """Tunables of ``postproc.ins.run_filter`` (defaults: OpenShoe-like, then tuned on the developer data).
 
     n_states: 9 = (δp, δv, δθ) [Skog 2010, OpenShoe]; 15 = + accelerometer bias δb_a, gyro bias δb_g (body).
+        Default 15: on the developer data it beat 9 states (pyshoe_vicon mean armse_2d 0.070 vs 0.071 m;
+        mean closure of the three closed loops 1.0 % vs 1.2 %; benchmarks/bench_filter.py).
     mode: "time_varying" (default; discrete KF, P propagated and updated) or "riccati" (seed-004 eqs. 4–5:
         constant gain from the continuous algebraic Riccati equation on the observable subsystem
-        (velocity, roll, pitch); position and yaw propagated open loop; 9 states only).
+        (velocity, roll, pitch); position and yaw propagated open loop). It always runs the paper's 9-state
+        model: with n_states=15 the biases stay at their initial values (a warning says so).
     engine: "fast" (numba, production) or "reference" (filterpy ``KalmanFilter``, per-sample Python loop).
     sigma_acc_mps2, sigma_gyro_radps: per-sample IMU noise at the nominal rate (see module docstring).
     sigma_acc_bias_rw, sigma_gyro_bias_rw: bias random walks, m/s²/√s and rad/s/√s (15 states only).
     sigma_zupt_mps: std of the zero-velocity pseudo-measurement (how still a foot in stance really is).
-    zaru: zero-angular-rate update in stance (z = −(ω_m − b̂_g) on the gyro-bias states; needs 15 states).
-        Off by default: it assumes a perfectly still foot. sigma_zaru_radps: its measurement std.
+    zaru: zero-angular-rate update in stance (z = ω_m − b̂_g on the gyro-bias states; needs 15 states).
+        Off by default: it assumes a perfectly still foot, and on the developer data (heel/toe roll inside
+        detected stance) it made pyshoe_vicon armse_2d 8x worse. sigma_zaru_radps: its measurement std.
     init_*: initial 1-σ of the error states (all must be > 0 so the smoother's P_pred stays invertible).
     smoother: "rts" (Rauch–Tung–Striebel over segments between stance phases, bounded memory) or "none".
     smoother_max_segment_s: longest buffered segment; a longer swing is smoothed in pieces (memory bound).
@@ -40,7 +44,7 @@ class FilterSettings:
         and clearly labelled; none is implemented yet: heading is unobservable under ZUPT and is left free).
     """
 
-    n_states: int = 9
+    n_states: int = 15
     mode: str = "time_varying"
     engine: str = "fast"
     sigma_acc_mps2: float = 0.5
@@ -73,10 +77,8 @@ class FilterSettings:
             raise ValueError(f"FilterSettings.smoother must be 'rts' or 'none', got {self.smoother!r}")
         if self.heading_aid != "none":
             raise ValueError(f"FilterSettings.heading_aid: only 'none' is implemented, got {self.heading_aid!r}")
-        if self.mode == "riccati" and self.n_states != 9:
-            raise ValueError("FilterSettings.mode='riccati' (the paper's constant gain) supports n_states=9 only")
-        if self.zaru and self.n_states != 15:
-            raise ValueError("FilterSettings.zaru=True needs n_states=15 (it observes the gyro-bias states)")
+        if self.zaru and (self.n_states != 15 or self.mode == "riccati"):
+            raise ValueError("FilterSettings.zaru=True needs n_states=15 and mode='time_varying' (it observes the gyro-bias states)")
         for f in fields(self):
             if f.name.startswith(("sigma_", "init_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
                 v = getattr(self, f.name)
