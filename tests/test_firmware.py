@@ -321,3 +321,33 @@ def test_missed_data_ready_is_reported_as_overrun(built, tmp_path):
     np.testing.assert_array_equal(got[k + 1:], served[k + 2:])  # sample k+1 is the one lost
     assert abs((samples[k + 1].t_us - samples[k].t_us) - 120) <= T_JITTER_US
     assert abs((samples[k + 2].t_us - samples[k].t_us) - PERIOD_US) <= T_JITTER_US
+
+
+def test_sensor_reset_mid_run_is_detected_and_recovered(built, tmp_path):
+    """The MPU6050 browns out after sample K (back to sleep, no data-ready). The firmware must report the
+    silence (status 4, detail 1) 0.5 s after the last sample, re-initialise the sensor and carry on with
+    seq K+1 = the next served sample."""
+    from logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
+
+    n, k = 40, 14
+    served = _served_sequence(n, seed=13)
+    need = 16 + 24 + 16 + 26 * n
+    with Harness(tmp_path, served, "--idle-when-done", "--brownout-at", str(k)) as h:
+        data = _read_port(h.port, until=lambda d: len(d) >= need, timeout_s=30)
+    result = parse_stream(data)
+    assert not result.events
+    frames = result.frames()
+    samples = [f for f in frames if isinstance(f, SampleFrame)]
+    statuses = [f for f in frames if isinstance(f, StatusFrame)]
+    assert [(s.code, s.detail, s.value) for s in statuses] == [(2, 0, 0), (4, 1, 1)], statuses
+    assert [s.seq for s in samples] == list(range(n))
+    got = np.array([(*s.acc, *s.gyro, s.temp) for s in samples], dtype=np.int16)
+    np.testing.assert_array_equal(got, served)
+    silent = statuses[1]
+    assert silent.seq == k + 1
+    # reported after 500 ms without a sample (millis() ticks in 1.024 ms steps; loop latency << 1 ms)
+    assert 500_000 < silent.t_us - samples[k].t_us <= 503_000
+    # recovery: 100 ms reset wait + set-up over I2C, then the first new sample one period later
+    gap = samples[k + 1].t_us - silent.t_us
+    assert 100_000 + PERIOD_US <= gap <= 100_000 + PERIOD_US + 5_000, gap
+    assert not any(isinstance(f, HeaderFrame) for f in frames[2:])  # configuration unchanged

@@ -21,6 +21,8 @@
  *                     keep the pty open: saves the host CPU while a recorder finishes
  *   --burst-at K      after sample K, two more samples 60 us and 120 us later (faster than the firmware
  *                     reads): tests the overrun report
+ *   --brownout-at K   one period after sample K the model resets to its power-on state (a supply
+ *                     dip): tests that the firmware notices the silence and re-initialises it
  *   --whoami V        WHO_AM_I value of the model (a clone or a wrong chip); --absent: no device at 0x68
  * Prints "pty /dev/pts/N" on stdout (libsimavr prints its own "Loaded ..." lines there too). Exits
  * when the host closes the pty after having opened it, on SIGTERM/SIGINT, or after --max-seconds of
@@ -85,6 +87,8 @@ typedef struct {
     uint8_t has_held;
     size_t burst_at;     /* --burst-at: after serving this index, two extra samples 60 us apart */
     uint8_t burst_left;
+    size_t brownout_at;  /* --brownout-at: power-on reset one period after serving this index */
+    uint8_t browned_out;
     avr_cycle_count_t first_drdy_cycle;
     avr_cycle_count_t period_cycles;
     uint32_t reg_writes;
@@ -176,6 +180,13 @@ static avr_cycle_count_t mpu_data_ready(avr_t *avr, avr_cycle_count_t when, void
 {
     mpu_t *m = param;
     if (!mpu_running(m) || m->served >= m->n_samples) {
+        m->ticking = 0;
+        return 0;
+    }
+    if (!m->browned_out && m->served > 0 && m->served - 1 == m->brownout_at) {
+        /* supply dip: the chip resets to its power-on state (asleep, data-ready off) */
+        m->browned_out = 1;
+        mpu_reset_regs(m);
         m->ticking = 0;
         return 0;
     }
@@ -412,7 +423,7 @@ static int16_t *read_samples(const char *path, size_t *n)
 static void usage(void)
 {
     fprintf(stderr, "usage: harness --firmware F.elf --samples S.bin [--wait-open] [--realtime] "
-                    "[--idle-when-done] [--burst-at K] [--whoami 0x68] [--absent] [--stats F.json] [--max-seconds N]\n");
+                    "[--idle-when-done] [--burst-at K] [--brownout-at K] [--whoami 0x68] [--absent] [--stats F.json] [--max-seconds N]\n");
     exit(2);
 }
 
@@ -426,6 +437,7 @@ int main(int argc, char **argv)
     mpu.present = 1;
     mpu.whoami = 0x68;
     mpu.burst_at = (size_t)-1;
+    mpu.brownout_at = (size_t)-1;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--firmware") && i + 1 < argc)
             fw_path = argv[++i];
@@ -439,6 +451,8 @@ int main(int argc, char **argv)
             max_s = atof(argv[++i]);
         else if (!strcmp(argv[i], "--burst-at") && i + 1 < argc)
             mpu.burst_at = (size_t)strtoull(argv[++i], NULL, 0);
+        else if (!strcmp(argv[i], "--brownout-at") && i + 1 < argc)
+            mpu.brownout_at = (size_t)strtoull(argv[++i], NULL, 0);
         else if (!strcmp(argv[i], "--absent"))
             mpu.present = 0;
         else if (!strcmp(argv[i], "--wait-open"))

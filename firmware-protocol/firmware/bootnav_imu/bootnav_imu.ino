@@ -29,6 +29,8 @@ static uint16_t g_since_header;  /* sample frames since the last periodic header
 static uint8_t g_flags;          /* BN_FLAG_* */
 static uint8_t g_sensor_ok;
 static uint32_t g_retry_ms;      /* next sensor retry while it is missing */
+static uint32_t g_last_sample_ms; /* millis() of the last sample read (or of the sensor start) */
+static uint16_t g_silences;      /* times the data-ready pulses stopped */
 static uint16_t g_i2c_errors;
 static uint32_t g_device_id;
 static bn_sdlog_t g_sdlog;
@@ -80,8 +82,10 @@ static uint8_t start_sensor()
         g_drdy_handled = g_drdy_count;
         interrupts();
         uint8_t err = mpu_enable_data_ready(&g_mpu);
-        if (err == 0)
+        if (err == 0) {
+            g_last_sample_ms = millis();
             return 1;
+        }
         code = BN_STATUS_I2C_ERROR;
         detail = err;
     }
@@ -133,7 +137,7 @@ static void handle_sample()
     if (pending == 0)
         return;
     if (pending > 1) /* the data registers hold only the newest sample: the others are gone */
-        send_status(BN_STATUS_OVERRUN, 0, (uint16_t)(pending - 1));
+        send_status(BN_STATUS_OVERRUN, BN_OVERRUN_DETAIL_MISSED, (uint16_t)(pending - 1));
 
     bn_sample_t s;
     uint8_t err = mpu_read_sample(&g_mpu, &s);
@@ -141,6 +145,7 @@ static void handle_sample()
         send_status(BN_STATUS_I2C_ERROR, err, ++g_i2c_errors);
         return;
     }
+    g_last_sample_ms = millis();
     s.seq = g_seq++;
     s.t_us = t_us;
     uint8_t buf[BN_SAMPLE_LEN];
@@ -175,6 +180,14 @@ void loop()
     }
     if (g_sensor_ok) {
         handle_sample();
+        if (millis() - g_last_sample_ms > BOOTNAV_SILENCE_MS) {
+            /* No data-ready for 0.5 s: the sensor lost power and reset (a boot impact on a loose
+             * connector), the INT wire broke, or the sensor is gone. Say so, then re-initialise: that
+             * recovers a reset sensor and reports a missing one (status 1). */
+            send_status(BN_STATUS_OVERRUN, BN_OVERRUN_DETAIL_SILENT, ++g_silences);
+            g_sensor_ok = start_sensor();
+            g_retry_ms = millis() + 1000;
+        }
     } else if ((int32_t)(millis() - g_retry_ms) >= 0) {
         /* A loose connector: keep reporting and retrying once per second. */
         g_retry_ms += 1000;

@@ -49,6 +49,12 @@
 #define BOOTNAV_SD_CS_PIN 10
 #endif
 
+/* Data-ready silence after which the sensor is re-initialised: 100 periods at 200 Hz, and longer than
+ * the slowest period the MPU6050 can be set to (256 ms). */
+#ifndef BOOTNAV_SILENCE_MS
+#define BOOTNAV_SILENCE_MS 500u
+#endif
+
 #ifndef BOOTNAV_HEADER_EVERY
 #define BOOTNAV_HEADER_EVERY 1000u /* sample frames between header frames (PROTOCOL.md 1.2) */
 #endif

@@ -29,7 +29,11 @@ extern "C" {
 #define BN_STATUS_SENSOR_MISSING 1u /* detail = WHO_AM_I read (0xFF: no I2C answer) */
 #define BN_STATUS_SD_ABSENT 2u      /* detail: 0 no SD support in this build, 1 card init failed, 2 file open failed */
 #define BN_STATUS_SD_FULL 3u        /* detail: 1 write short/failed; value = lines lost */
-#define BN_STATUS_OVERRUN 4u        /* value = data-ready interrupts missed since the last report */
+#define BN_STATUS_OVERRUN 4u        /* detail 0: value = data-ready pulses missed between two reads;
+                                       detail 1: no data-ready for BOOTNAV_SILENCE_MS, sensor re-initialised,
+                                       value = how often this happened */
+#define BN_OVERRUN_DETAIL_MISSED 0u
+#define BN_OVERRUN_DETAIL_SILENT 1u
 #define BN_STATUS_I2C_ERROR 5u      /* detail = Wire error code; value = error count */
 
 /* Header flags (PROTOCOL.md 1.2). */
