@@ -434,6 +434,9 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         mount=overrides.get("mount") or pget("mount", "unknown"), device=pget("device", "unknown"),
         lines_total=table.n_lines, lines_skipped=len(skipped), **summary,
     )
+    meta.setdefault("start_utc", "")  # unknown: the source has no absolute clock (never the import time)
+    if table.preamble:
+        meta["source_preamble"] = "\n".join(ln for _, ln in table.preamble)[:2000]
     if not has_gyro:
         messages.append("gyro: absent in this file -> stored as NaN (meta gyro_present = 0)")
     messages.append(f"units: acc {acc_unit}, gyro {gyro_unit if has_gyro else 'absent'}, time {time_unit}; ranges "

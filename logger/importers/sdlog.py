@@ -18,8 +18,10 @@ CRCs are checked vectorised: lines are grouped by length and each group goes thr
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +80,30 @@ def _crc_ok(bodies: list[bytes], crcs: np.ndarray) -> np.ndarray:
     return ok
 
 
+def _parse_fields(bodies: list[str], line_idx: list[int], skip) -> tuple[np.ndarray, list[int]]:
+    """9 integers per body -> (n, 9) int64. Fast path: one numpy parse of the joined text; otherwise
+    line by line, reporting each bad line through ``skip``."""
+    joined = "\n".join(bodies)
+    if bodies and joined.count(",") == 8 * len(bodies) and ",," not in joined and ",\n" not in joined:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            flat = np.fromstring(joined.replace("\n", ","), sep=",", dtype=np.int64)
+        if flat.size == 9 * len(bodies):
+            return flat.reshape(-1, 9), list(line_idx)
+    rows, keep = [], []
+    for b, i in zip(bodies, line_idx):
+        f = b.split(",")
+        if len(f) != 9:
+            skip(i, f"{len(f)} fields, expected 9")
+            continue
+        try:
+            rows.append([int(x) for x in f])
+            keep.append(i)
+        except ValueError:
+            skip(i, "non-integer field")
+    return np.array(rows, dtype=np.int64).reshape(-1, 9), keep
+
+
 def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
     from .core import ImportResult
 
@@ -102,31 +128,41 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
         events.append(dict(kind="skipped_line" if trunc else kind, line=i + 1, byte_offset=int(offsets[i]), count=1,
                            detail=("truncated last line (power loss?): " if trunc else "") + why))
 
-    for i, ln in enumerate(lines):
-        s = ln.rstrip("\r").strip()
-        if not s:
-            continue
-        if s.startswith("#"):
-            if s.startswith(HEADER_PREFIX) or re.match(r"^#\s*bootnav-sd", s):
-                try:
-                    h = parse_header(s)
-                except ValueError:
-                    skip(i, f"unreadable header {s[:60]!r}")
-                    continue
-                if header is not None and any(h.get(k) != header.get(k) for k in ("accel_fs", "gyro_fs")):
-                    raise InputError(f"{path}: line {i + 1}: full-scale ranges change mid-file "
-                                     f"({header} -> {h}); split the file at this line")
-                headers.append((i, h))
-                header = header or h
-            continue
-        body, star, crc_text = s.rpartition("*")
-        if not star or len(crc_text) != 4 or not re.fullmatch(r"[0-9A-Fa-f]{4}", crc_text):
-            skip(i, f"no '*CRC' at the end: {s[:60]!r}", kind="crc_error" if not (ends_without_newline and i == last)
-                 else "skipped_line")
-            continue
-        bodies.append(body.encode("ascii", "replace"))
-        crcs.append(int(crc_text, 16))
-        cand_lines.append(i)
+    gc_was = gc.isenabled()
+    gc.disable()  # hundreds of thousands of small strings: the cyclic GC would rescan them repeatedly
+    try:
+        for i, ln in enumerate(lines):
+            s = ln.rstrip("\r").strip()
+            if not s:
+                continue
+            if s.startswith("#"):
+                if s.startswith(HEADER_PREFIX) or re.match(r"^#\s*bootnav-sd", s):
+                    try:
+                        h = parse_header(s)
+                    except ValueError:
+                        skip(i, f"unreadable header {s[:60]!r}")
+                        continue
+                    if header is not None and any(h.get(k) != header.get(k) for k in ("accel_fs", "gyro_fs")):
+                        raise InputError(f"{path}: line {i + 1}: full-scale ranges change mid-file "
+                                         f"({header} -> {h}); split the file at this line")
+                    headers.append((i, h))
+                    header = header or h
+                continue
+            body, star, crc_text = s.rpartition("*")
+            try:
+                crc_value = int(crc_text, 16) if len(crc_text) == 4 and crc_text.isalnum() else -1
+            except ValueError:
+                crc_value = -1
+            if not star or crc_value < 0:
+                skip(i, f"no '*CRC' at the end: {s[:60]!r}", kind="crc_error" if not (ends_without_newline and i == last)
+                     else "skipped_line")
+                continue
+            bodies.append(body.encode("ascii", "replace"))
+            crcs.append(crc_value)
+            cand_lines.append(i)
+    finally:
+        if gc_was:
+            gc.enable()
     if header is None:
         if "acc_range_g" not in overrides or "gyro_range_dps" not in overrides:
             raise InputError(f"{path}: SD-card log without a '# bootnav-sd v1 ...' header line; "
@@ -146,25 +182,7 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
         good_bodies.append(b.decode("ascii"))
         good_idx.append(i)
     # fields: 9 integers within range
-    fields = [gb.split(",") for gb in good_bodies]
-    rows, row_lines = [], []
-    for f, i in zip(fields, good_idx):
-        if len(f) != 9:
-            skip(i, f"{len(f)} fields, expected 9")
-            continue
-        rows.append(f)
-        row_lines.append(i)
-    try:
-        arr = np.array(rows, dtype=np.int64).reshape(-1, 9)
-    except ValueError:
-        arr_list, keep_lines = [], []
-        for f, i in zip(rows, row_lines):
-            try:
-                arr_list.append([int(x) for x in f])
-                keep_lines.append(i)
-            except ValueError:
-                skip(i, "non-integer field")
-        arr, row_lines = np.array(arr_list, dtype=np.int64).reshape(-1, 9), keep_lines
+    arr, row_lines = _parse_fields(good_bodies, good_idx, skip)
     lim = np.array([LIMITS.get(k, (mpu6050.INT16_MIN, mpu6050.INT16_MAX)) for k in SAMPLE_FIELDS])
     in_range = np.all((arr >= lim[:, 0]) & (arr <= lim[:, 1]), axis=1)
     for j in np.flatnonzero(~in_range):

@@ -211,25 +211,32 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
     if first_data is None:
         raise InputError(f"{path}: no numeric data line in the first {len(sample)} lines "
                          f"(first line {candidates[0][0]}: {candidates[0][1][:80]!r})")
-    hdr: list[str] | None = None
-    header_line = -1
-    if header is not False and first_data > 0:
-        header_line, hline = candidates[first_data - 1]
-        hdr = [h.strip().strip('"').strip("'").strip() for h in split_line(hline, delim)]
-    elif header is True:
-        raise InputError(f"{path}: a header line was expected before line {candidates[0][0]}")
-    for ln_no, ln in candidates[: max(0, first_data - (1 if hdr is not None else 0))]:
-        preamble.append((ln_no, ln))
     first_line_no = candidates[first_data][0]  # 1-based
     head_data = candidates[first_data:]
     trailing = delim != WHITESPACE and all(ln.rstrip().endswith(delim) for _, ln in head_data[:50])
     head_rows = [split_line(ln.rstrip() if trailing else ln, delim) for _, ln in head_data[:200]]
     if trailing:
         head_rows = [r[:-1] if r and r[-1] == "" else r for r in head_rows]
-        if hdr and hdr[-1] == "":
-            hdr = hdr[:-1]
     lengths = [len(r) for r in head_rows]
     n_fields = max(set(lengths), key=lengths.count)
+    # Header: the last non-numeric line before the data with as many fields as the data (a stray line
+    # such as "logger started" between header and data is preamble, not the header).
+    hdr: list[str] | None = None
+    header_line = -1
+    header_k = -1
+    if header is not False:
+        for k in range(first_data - 1, -1, -1):
+            fields = [h.strip().strip('"').strip("'").strip() for h in split_line(candidates[k][1], delim)]
+            if trailing and fields and fields[-1] == "":
+                fields = fields[:-1]
+            if len(fields) == n_fields:
+                hdr, header_line, header_k = fields, candidates[k][0], k
+                break
+        if header is True and hdr is None:
+            raise InputError(f"{path}: a header line with {n_fields} fields was expected before line {first_line_no}")
+    for k, (ln_no, ln) in enumerate(candidates[:first_data]):
+        if k != header_k:
+            preamble.append((ln_no, ln))
     decimal_comma = False
     if delim != ",":
         decimal_comma = any(re.match(r"^\s*[-+]?\d+,\d+", f) for r in head_rows[:50] for f in r)
