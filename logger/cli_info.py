@@ -35,10 +35,10 @@ def summarize(path) -> dict:
     kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in rec.events["kind"]]
     count_of = {k: kinds.count(k) for k in sorted(set(kinds))}
     gap_events = rec.events_of("gap")
-    if gap_events.size:
+    if gap_events.size or rec.seq is not None:  # sequence numbers: the recorder's gap events are exact
         gaps = [{"t_s": float(e["t_s"]), "sample_index": int(e["sample_index"]), "missing": int(e["count"])}
                 for e in gap_events]
-        gap_source = "events"
+        gap_source = "sequence numbers"
     else:  # no seq numbers (imported data): gaps from the time stamps
         idx = np.flatnonzero(dt > 1.5 * med) if good.size else np.zeros(0, int)
         gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(round(dt[i] / med)) - 1}

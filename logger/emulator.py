@@ -19,9 +19,12 @@ lists every intact frame sent so a test can prove that none was lost.
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import select
+import struct
+import termios
 import time
 import tty
 from dataclasses import asdict, dataclass, field
@@ -84,6 +87,7 @@ class EmulatorReport:
     duration_s: float = 0.0
     rate_hz: float = 0.0
     stream_start_unix: float = 0.0  # wall time of the first frame
+    bytes_unread_at_close: int = 0  # bytes the host had not read when the port was closed (lost)
     valid_seqs: list[int] = field(default_factory=list)  # seq of every intact sample frame, in order
     valid_index: list[int] = field(default_factory=list)  # index into the source of each intact frame
     settings: dict = field(default_factory=dict)
@@ -192,6 +196,20 @@ class PtyPort:
                 select.select([], [self.master], [], 0.01)
         return sent
 
+    def pending(self) -> int:
+        """Bytes written but not yet read by the host (FIONREAD on our slave end)."""
+        try:
+            return struct.unpack("i", fcntl.ioctl(self._slave, termios.FIONREAD, b"\0\0\0\0"))[0]
+        except OSError:
+            return 0
+
+    def drain(self, timeout_s: float) -> int:
+        """Wait until the host has read everything (or timeout); return the bytes still unread."""
+        end = time.monotonic() + timeout_s
+        while self.pending() and time.monotonic() < end:
+            time.sleep(0.005)
+        return self.pending()
+
     def read_commands(self) -> bytes:
         try:
             return os.read(self.master, 256)
@@ -253,13 +271,14 @@ class Emulator:
         n_src = sig.acc.shape[0]
         period_us = 1e6 / self.rate_hz
         port = PtyPort(s.out_link)
+        port_up = True
         try:
             if s.wait_for_host and not self._wait_for_host(port):
                 raise TimeoutError(f"no host opened {s.out_link} within {s.host_timeout_s} s")
             t_start = time.monotonic()
             rep.stream_start_unix = time.time()
             sent_header_at = None
-            port_up, reconnect_at = True, None
+            reconnect_at = None
             disconnect_at = s.disconnect_at_s
             host_ready = True
             k = 0  # frames emitted so far (index of the next frame in device time)
@@ -269,6 +288,9 @@ class Emulator:
                 now = time.monotonic() - t_start
                 due = min(self.n_frames, int(now * self.rate_hz) + 1)
                 if disconnect_at is not None and port_up and now >= disconnect_at:
+                    # Let the host read what is in flight, so the report's valid frames are exactly
+                    # those it could receive (bytes still unread are counted, not hidden).
+                    rep.bytes_unread_at_close += port.drain(1.0)
                     port.close()
                     port_up, disconnect_at = False, None
                     rep.disconnects += 1
@@ -310,6 +332,8 @@ class Emulator:
                     self._send(port, self.header(s.seq0 + k, int(s.t0_us + k * period_us)).pack(), rep, header=True)
                 time.sleep(0.02)
         finally:
+            if port_up:
+                rep.bytes_unread_at_close += port.drain(1.0)
             port.close()
         return rep
 

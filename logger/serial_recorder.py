@@ -127,19 +127,21 @@ class SerialRecorder:
                         self._event("reconnect", detail=f"{s.port} back after {now - down_since:.2f} s")
                         self._parser = FrameParser(base_offset=self.stats.bytes_in)
                     ever_connected, down_since = True, None
-                try:
-                    data = ser.read(s.read_size)
-                except (serial.SerialException, OSError) as exc:
-                    self._on_disconnect(str(exc))
+                t_read = time.monotonic()
+                data, error = self._read(ser)
+                if data:
+                    self.stats.bytes_in += len(data)
+                    self._handle(self._parser.feed(data), time.time())
+                if error is not None:
+                    self._on_disconnect(str(error))
                     try:
                         ser.close()
                     except (serial.SerialException, OSError):
                         pass
                     ser, down_since = None, time.monotonic()
                     continue
-                if data:
-                    self.stats.bytes_in += len(data)
-                    self._handle(self._parser.feed(data), time.time())
+                if len(data) < 1024:  # little traffic: batch reads instead of waking per frame
+                    time.sleep(max(0.0, t_read + s.read_timeout_s - time.monotonic()))
         except KeyboardInterrupt:
             self.stats.stop_reason = "interrupted (Ctrl-C)"
         finally:
@@ -150,6 +152,25 @@ class SerialRecorder:
                     pass
             self._finish()
         return self.stats
+
+    def _read(self, ser):
+        """Whatever the port holds, waiting up to the read timeout for the first byte.
+
+        Only ever asks for bytes already waiting (``in_waiting``): pyserial's ``read(n)`` drops what
+        it has collected when the port dies half-way through a longer wait, and those frames would be
+        lost at a disconnect. Returns (data, exception or None); data read before an error is kept.
+        """
+        import serial
+
+        data = b""
+        try:
+            data = ser.read(max(1, min(ser.in_waiting, self.s.read_size)))
+            more = ser.in_waiting if data else 0
+            if more:
+                data += ser.read(min(more, self.s.read_size))
+        except (serial.SerialException, OSError) as exc:
+            return data, exc
+        return data, None
 
     # ------------------------------------------------------------------ frame handling
     def _handle(self, result: ParseResult, host_time: float) -> None:
