@@ -40,6 +40,8 @@ VARIANTS = {
     "whitespace_comments_blank_lines": dict(delim="   ", end="\n", header="# logger v2, 100 Hz\n\n"
                                             "time_s ax_mps2 ay_mps2 az_mps2 gx_radps gy_radps gz_radps", blank=True),
     "headerless_seed004_default_order": dict(delim=",", end="\n", header=None),
+    "comma_quoted_decimal_comma": dict(delim=",", end="\n", header='"time","ax (m/s^2)","ay (m/s^2)","az (m/s^2)",'
+                                       '"wx (rad/s)","wy (rad/s)","wz (rad/s)"', comma=True, quote=True),
 }
 
 
@@ -49,13 +51,16 @@ def test_delimiters_headers_line_ends_give_identical_numbers(tmp_path, variant):
     ref = sample_rows()
     lines = [v["header"]] if v["header"] else []
     for k, row in enumerate(ref):
-        s = v["delim"].join(f"{x:.4f}" for x in row) + (v["delim"] if v.get("trailing") else "")
-        lines.append(s.replace(".", ",") if v.get("comma") else s)
+        cells = [f"{x:.4f}".replace(".", ",") if v.get("comma") else f"{x:.4f}" for x in row]
+        cells = [f'"{c}"' for c in cells] if v.get("quote") else cells
+        lines.append(v["delim"].join(cells) + (v["delim"] if v.get("trailing") else ""))
         if v.get("blank") and k % 10 == 0:
             lines.append("")
     path = tmp_path / f"{variant}.txt"
     path.write_bytes(v["end"].join(lines).encode() + v["end"].encode())
     overrides = dict(acc_unit="mps2", gyro_unit="radps") if v["header"] is None else {}
+    if v.get("quote"):
+        overrides["time_unit"] = "s"
     r = read_any(path, **overrides)
     np.testing.assert_allclose(r.t_s, ref[:, 0] - ref[0, 0], atol=1e-12)
     np.testing.assert_allclose(r.acc_mps2, ref[:, 1:4], rtol=0, atol=1e-12)

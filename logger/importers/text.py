@@ -17,6 +17,7 @@ The parser never guesses silently and never drops data silently:
 
 from __future__ import annotations
 
+import csv
 import gc
 import gzip
 import re
@@ -60,8 +61,12 @@ def is_number(token: str) -> bool:
     return bool(_NUM_RE.match(token.strip().strip('"')))
 
 
-def split_line(line: str, delimiter: str) -> list[str]:
-    return line.split() if delimiter == WHITESPACE else line.split(delimiter)
+def split_line(line: str, delimiter: str, quoted: bool = False) -> list[str]:
+    if delimiter == WHITESPACE:
+        return line.split()
+    if quoted and '"' in line:  # "0,005","1,25": a delimiter inside quotes is part of the value
+        return [f.strip() for f in next(csv.reader([line], delimiter=delimiter, skipinitialspace=True))]
+    return line.split(delimiter)
 
 
 @dataclass
@@ -127,7 +132,7 @@ class TextTable:
 def _sniff_delimiter(lines: list[str]) -> str:
     best, best_score = WHITESPACE, -1
     for delim in (";", "\t", ",", WHITESPACE):
-        counts = [len(split_line(ln, delim)) for ln in lines]
+        counts = [len(split_line(ln, delim, quoted=True)) for ln in lines]
         if not counts:
             continue
         mode = max(set(counts), key=counts.count)
@@ -200,7 +205,7 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
 
     sample = [ln for _, ln in candidates[:60]]
     delim = delimiter or _sniff_delimiter(sample)
-    fields0 = [split_line(ln, delim) for ln in sample]
+    fields0 = [split_line(ln, delim, quoted=True) for ln in sample]
 
     def numeric_row(fields: list[str]) -> bool:
         real = [f for f in fields if f.strip() != ""]
@@ -214,7 +219,8 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
     first_line_no = candidates[first_data][0]  # 1-based
     head_data = candidates[first_data:]
     trailing = delim != WHITESPACE and all(ln.rstrip().endswith(delim) for _, ln in head_data[:50])
-    head_rows = [split_line(ln.rstrip() if trailing else ln, delim) for _, ln in head_data[:200]]
+    quoted = any('"' in ln for _, ln in head_data[:50])
+    head_rows = [split_line(ln.rstrip() if trailing else ln, delim, quoted) for _, ln in head_data[:200]]
     if trailing:
         head_rows = [r[:-1] if r and r[-1] == "" else r for r in head_rows]
     lengths = [len(r) for r in head_rows]
@@ -226,7 +232,7 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
     header_k = -1
     if header is not False:
         for k in range(first_data - 1, -1, -1):
-            fields = [h.strip().strip('"').strip("'").strip() for h in split_line(candidates[k][1], delim)]
+            fields = [h.strip().strip('"').strip("'").strip() for h in split_line(candidates[k][1], delim, True)]
             if trailing and fields and fields[-1] == "":
                 fields = fields[:-1]
             if len(fields) == n_fields:
@@ -238,8 +244,8 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
         if k != header_k:
             preamble.append((ln_no, ln))
     decimal_comma = False
-    if delim != ",":
-        decimal_comma = any(re.match(r"^\s*[-+]?\d+,\d+", f) for r in head_rows[:50] for f in r)
+    if delim != "," or quoted:
+        decimal_comma = any(re.match(r"^\s*\"?[-+]?\d+,\d+", f) for r in head_rows[:50] for f in r)
     common = dict(path=Path(path), delimiter=delim, decimal_comma=decimal_comma, header=hdr,
                   header_line=header_line, preamble=preamble, n_fields=n_fields,
                   ends_without_newline=ends_without_newline, n_lines=n_total_lines, trailing_delimiter=trailing)
@@ -263,7 +269,7 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
             s = ln.strip()
             if not s or s.startswith(COMMENT_PREFIXES):
                 continue
-            r = split_line(s if trailing else ln, delim)
+            r = split_line(s if trailing else ln, delim, quoted)
             if trailing and r and r[-1] == "":
                 r.pop()
             if len(r) == n_fields:
