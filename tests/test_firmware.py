@@ -116,21 +116,20 @@ class Harness:
         self.stats = json.loads(self.stats_path.read_text()) if self.stats_path.exists() else {}
 
 
-def _read_port(port: str, *, until, timeout_s: float, send: dict[float, bytes] | None = None) -> bytes:
+def _read_port(port: str, *, until, timeout_s: float, send_when=None, send: bytes = b"") -> bytes:
     """Read raw bytes from the pty with pyserial until ``until(data)`` is true (or fail on timeout);
-    ``send`` maps seconds after opening to bytes written to the device."""
+    once ``send_when(data)`` is true, write ``send`` to the device (once)."""
     import serial
 
-    send = dict(send or {})
     data = b""
     with serial.Serial(port, 500_000, timeout=0.05) as ser:
         t0 = time.monotonic()
         while not until(data):
             if time.monotonic() - t0 > timeout_s:
                 raise AssertionError(f"timed out after {timeout_s} s with {len(data)} bytes from {port}")
-            for t in sorted(send):
-                if time.monotonic() - t0 >= t:
-                    ser.write(send.pop(t))
+            if send_when is not None and send_when(data):
+                ser.write(send)
+                send_when = None
             data += ser.read(65536)
     return data
 
@@ -230,7 +229,9 @@ def test_frames_header_schedule_request_and_status(built, tmp_path):
     served = _served_sequence(n, seed=11)
     need = 16 + 24 * 3 + 26 * n  # SD status + start, requested and periodic headers + samples
     with Harness(tmp_path, served, "--idle-when-done") as h:
-        data = _read_port(h.port, until=lambda d: len(d) >= need, timeout_s=40, send={1.0: b"H"})
+        # ask for a header once ~100 samples are in: far from the periodic one after sample 999
+        data = _read_port(h.port, until=lambda d: len(d) >= need, timeout_s=40,
+                          send_when=lambda d: len(d) >= 40 + 26 * 100, send=b"H")
     assert h.stats["served"] == n
     result = parse_stream(data)
     assert not result.events, result.events  # no CRC error, no resync: every byte was a good frame
@@ -256,6 +257,7 @@ def test_frames_header_schedule_request_and_status(built, tmp_path):
     # The requested header: exactly one more, somewhere in the stream, with seq = the next sample.
     requested = [hd for hd in headers[1:] if hd.seq != 1000]
     assert len(requested) == 1 and len(headers) == 3, headers
+    assert 100 <= requested[0].seq < 1000  # answered while streaming, not at start-up
     nxt = next(s for s in samples if s.offset > requested[0].offset)
     assert nxt.seq == requested[0].seq
     assert h.stats["uart_bytes_in"] == 1
