@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import json
 import os
+import queue
 import re
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -100,11 +102,21 @@ class Harness:
 
     def __enter__(self) -> "Harness":
         self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        for line in self.proc.stdout:  # libsimavr prints "Loaded ..." lines first
-            if line.startswith("pty "):
-                self.port = line.split(None, 1)[1].strip()
-                return self
-        raise AssertionError(f"harness printed no pty: {self.proc.stderr.read()}")
+        self.lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=lambda: [self.lines.put(ln.strip()) for ln in self.proc.stdout], daemon=True).start()
+        self.port = self.wait_for("pty ", timeout_s=10)[4:]  # libsimavr prints "Loaded ..." lines first
+        return self
+
+    def wait_for(self, prefix: str, timeout_s: float) -> str:
+        """The harness's next stdout line starting with prefix ("idle": all samples served and sent)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                line = self.lines.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                raise AssertionError(f"harness did not print {prefix!r} within {timeout_s} s") from None
+            if line.startswith(prefix):
+                return line
 
     def __exit__(self, *exc) -> None:
         try:
@@ -171,12 +183,21 @@ def test_recorded_counts_equal_served_samples_bit_for_bit(built, tmp_path):
     served = _served_sequence(n, seed=7)
     out = tmp_path / "sim.h5"
     with Harness(tmp_path, served, "--idle-when-done") as h:
-        rec = subprocess.run(
+        # --duration is only a cap: SIGTERM (a clean stop) once the harness has sent every sample
+        rec = subprocess.Popen(
             [sys.executable, "-m", "bootnav", "record", "--port", h.port, "--out", str(out),
-             "--duration", "6", "--quiet"],
-            capture_output=True, text=True, timeout=60, cwd=REPO,
+             "--duration", "40", "--quiet"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
         )
-    assert rec.returncode == 0, rec.stderr
+        try:
+            h.wait_for("idle", timeout_s=40)
+            time.sleep(0.5)  # the recorder polls the port every 20 ms
+            rec.terminate()
+            _, err = rec.communicate(timeout=30)
+        finally:
+            if rec.poll() is None:
+                rec.kill()
+    assert rec.returncode == 0, err
     assert h.stats.get("served") == n, f"harness served {h.stats}: {h.stderr}"
     assert h.stats["uart_bytes_dropped"] == 0
     assert h.stats["period_cycles"] == F_CPU / RATE_HZ  # the firmware programmed 200 Hz into the sensor

@@ -18,7 +18,7 @@
  *                     input flush a serial library does right after opening)
  *   --realtime        never run ahead of the wall clock (default: as fast as the host CPU allows)
  *   --idle-when-done  stop the CPU 0.2 s (simulated) after the last sample was served and sent, but
- *                     keep the pty open: saves the host CPU while a recorder finishes
+ *                     keep the pty open: saves the host CPU while a recorder finishes; prints "idle"
  *   --burst-at K      after sample K, two more samples 60 us and 120 us later (faster than the firmware
  *                     reads): tests the overrun report
  *   --brownout-at K   one period after sample K the model resets to its power-on state (a supply
@@ -559,8 +559,11 @@ int main(int argc, char **argv)
         if (idle_when_done && mpu.served == mpu.n_samples && !mpu.ticking) {
             if (!done_cycle)
                 done_cycle = avr->cycle;
-            else if (avr->cycle - done_cycle > F_CPU_HZ / 5 && uart.out_len == 0)
+            else if (avr->cycle - done_cycle > F_CPU_HZ / 5 && uart.out_len == 0) {
                 idle = 1;
+                printf("idle\n"); /* tells a test that every sample was served and sent */
+                fflush(stdout);
+            }
         }
         if (realtime) { /* never run ahead of the wall clock by more than 2 ms */
             double ahead = (double)avr->cycle / F_CPU_HZ - wall;
