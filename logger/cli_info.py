@@ -38,7 +38,7 @@ def summarize(path) -> dict:
     if gap_events.size or rec.seq is not None:  # sequence numbers: the recorder's gap events are exact
         gaps = [{"t_s": float(e["t_s"]), "sample_index": int(e["sample_index"]), "missing": int(e["count"])}
                 for e in gap_events]
-        gap_source = "sequence numbers"
+        gap_source = "sequence numbers" if rec.seq is not None else "events"
     else:  # no seq numbers (imported data): gaps from the time stamps
         idx = np.flatnonzero(dt > 1.5 * med) if good.size else np.zeros(0, int)
         gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(round(dt[i] / med)) - 1}
@@ -92,6 +92,10 @@ def summarize(path) -> dict:
     return summary
 
 
+def _fmt(value) -> str:
+    return f"{value:g}" if isinstance(value, float) and math.isfinite(value) else "?"
+
+
 def _num(value):
     try:
         return float(value)
@@ -125,10 +129,10 @@ def run(args) -> int:
         f"  device      {s['device'] or '?'} id {s['device_id'] or '?'} fw {s['firmware_version'] or '?'}"
         f"  mount {s['mount'] or '?'}  start {s['start_utc'] or '?'}",
         f"  samples     {s['frames']} over {s['duration_s']:.3f} s",
-        f"  rate        {s['rate_hz']:.3f} Hz (nominal {s['rate_nominal_hz']:g}), jitter {s['jitter_s'] * 1e6:.1f} µs,"
+        f"  rate        {s['rate_hz']:.3f} Hz (nominal {_fmt(s['rate_nominal_hz'])}), jitter {s['jitter_s'] * 1e6:.1f} µs,"
         f" dt {s['dt_min_s'] * 1e3:.3f}..{s['dt_max_s'] * 1e3:.3f} ms",
-        f"  ranges      ±{s['accel_range_g']:g} g, ±{s['gyro_range_dps']:g} °/s (raw units {s['raw_units']['acc']},"
-        f" {s['raw_units']['gyro']})",
+        f"  ranges      ±{_fmt(s['accel_range_g'])} g, ±{_fmt(s['gyro_range_dps'])} °/s (raw units"
+        f" {s['raw_units']['acc']}, {s['raw_units']['gyro']})",
         f"  gaps        {s['gaps']} ({s['dropped']} samples missing, from {s['gap_source']})",
         f"  link        {s['crc_errors']} CRC errors, {s['resyncs']} resyncs, {s['disconnects']} disconnects,"
         f" {s['skipped_lines']} skipped lines",

@@ -48,6 +48,7 @@ class RecorderSettings:
     read_timeout_s: float = 0.02  # latency of one read; the loop never busy-waits
     read_size: int = 65536
     status_interval_s: float = 0.5
+    silence_s: float = 2.0  # note an open port that delivers nothing for this long
     mount: str = ""
     subject: str = ""
     session_notes: str = ""
@@ -101,6 +102,7 @@ class SerialRecorder:
         start = time.monotonic()
         ser, ever_connected, down_since = None, False, None
         last_flush = last_status = start
+        last_data, silence_noted = start, False
         try:
             while not self._stop:
                 now = time.monotonic()
@@ -127,11 +129,19 @@ class SerialRecorder:
                         self._event("reconnect", detail=f"{s.port} back after {now - down_since:.2f} s")
                         self._parser = FrameParser(base_offset=self.stats.bytes_in)
                     ever_connected, down_since = True, None
+                    last_data, silence_noted = time.monotonic(), False
                 t_read = time.monotonic()
                 data, error = self._read(ser)
                 if data:
+                    if silence_noted:
+                        self._event("note", detail=f"data resumed after {t_read - last_data:.1f} s of silence")
+                    last_data, silence_noted = t_read, False
                     self.stats.bytes_in += len(data)
                     self._handle(self._parser.feed(data), time.time())
+                elif not silence_noted and t_read - last_data >= s.silence_s:
+                    # Port open but nothing arrives: device hung, wrong baud, or streaming off.
+                    silence_noted = True
+                    self._event("note", detail=f"port open but no data for {s.silence_s:g} s")
                 if error is not None:
                     self._on_disconnect(str(error))
                     try:
