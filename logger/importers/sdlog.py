@@ -154,8 +154,8 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
             except ValueError:
                 crc_value = -1
             if not star or crc_value < 0:
-                skip(i, f"no '*CRC' at the end: {s[:60]!r}", kind="crc_error" if not (ends_without_newline and i == last)
-                     else "skipped_line")
+                skip(i, f"truncated line, no '*CRC' at the end: {s[:60]!r}",
+                     kind="crc_error" if not (ends_without_newline and i == last) else "skipped_line")
                 continue
             bodies.append(body.encode("ascii", "replace"))
             crcs.append(crc_value)
@@ -173,11 +173,9 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
     good_bodies: list[str] = []
     good_idx: list[int] = []
     for b, i, c_ok in zip(bodies, cand_lines, ok):
-        if not c_ok:
-            kind = "skipped_line" if (ends_without_newline and i == last) else "crc_error"
-            events.append(dict(kind=kind, line=i + 1, byte_offset=int(offsets[i]), count=1,
-                               detail=("truncated last line (power loss?): " if kind == "skipped_line" else "")
-                               + f"CRC mismatch: {b[:60].decode('ascii', 'replace')!r}"))
+        if not c_ok:  # a complete '*HHHH' that does not match: corruption, even on the last line
+            events.append(dict(kind="crc_error", line=i + 1, byte_offset=int(offsets[i]), count=1,
+                               detail=f"CRC mismatch: {b[:60].decode('ascii', 'replace')!r}"))
             continue
         good_bodies.append(b.decode("ascii"))
         good_idx.append(i)
