@@ -291,6 +291,7 @@ typedef struct {
     uint8_t in_buf[256];
     size_t in_len;
     int rx_full;              /* AVR's receive FIFO is full (XOFF) */
+    int host_seen;            /* a host has had the slave side open */
     avr_irq_t *uart_in;
 } uart_bridge_t;
 
@@ -335,9 +336,12 @@ static int uart_service(uart_bridge_t *u)
         u->out_len -= (size_t)n;
     }
     struct pollfd p = {u->master, POLLIN, 0};
-    if (poll(&p, 1, 0) > 0) {
+    int r = poll(&p, 1, 0);
+    if (r >= 0 && !(p.revents & POLLHUP))
+        u->host_seen = 1;
+    if (r > 0) {
         if (p.revents & POLLHUP)
-            return 1;
+            return u->host_seen; /* HUP before any host opened the port is just "nobody yet" */
         if ((p.revents & POLLIN) && u->in_len < sizeof u->in_buf) {
             ssize_t n = read(u->master, u->in_buf + u->in_len, sizeof u->in_buf - u->in_len);
             if (n > 0)
