@@ -184,3 +184,33 @@ def test_cli_error_is_one_clear_line(tmp_path):
     assert proc.returncode == 1
     assert "x.csv: gravity check failed" in proc.stderr and "--acc-unit g" in proc.stderr
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_rad_per_s_declared_as_deg_per_s_is_warned(tmp_path):
+    t, a, g = walk_rows()
+    write_csv(tmp_path / "x.csv", t, a, g, header="t,ax,ay,az,gx,gy,gz")  # rad/s
+    r = read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="dps")
+    assert any("suspiciously small" in e["detail"] and "--gyro-unit radps" in e["detail"] for e in r.events)
+    r = read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="radps")
+    assert not any("suspiciously" in e["detail"] for e in r.events)
+
+
+def test_cp1252_header_with_degree_sign(tmp_path):
+    t, a, g = walk_rows(300)
+    lines = ["time (s);acc x (m/s²);acc y (m/s²);acc z (m/s²);gyro x (°/s);gyro y (°/s);gyro z (°/s)"]
+    lines += [";".join(f"{v:.5f}".replace(".", ",") for v in (t[i], *a[i], *np.degrees(g[i]))) for i in range(300)]
+    (tmp_path / "w.csv").write_bytes("\r\n".join(lines).encode("cp1252"))
+    r = read_any(tmp_path / "w.csv")
+    assert r.meta["gyro_unit_source_file"] == "dps" and r.meta["acc_unit_source_file"] == "mps2"
+    np.testing.assert_allclose(r.gyro_radps, np.round(np.degrees(g), 5) * math.pi / 180, atol=1e-9)
+
+
+def test_time_of_day_text_column(tmp_path):
+    t, a, g = walk_rows(300)
+    stamps = [f"17:23:{55 + int(x // 1):02d}:{int(round((x % 1) * 1000)):03d}" for x in t]
+    lines = ["time,ax (m/s^2),ay (m/s^2),az (m/s^2),wx (rad/s),wy (rad/s),wz (rad/s)"]
+    lines += [stamps[i] + "," + ",".join(f"{v:.5f}" for v in (*a[i], *g[i])) for i in range(300)]
+    (tmp_path / "tod.csv").write_text("\n".join(lines) + "\n")
+    r = read_any(tmp_path / "tod.csv")
+    assert r.meta["time_source"] == "time_of_day"
+    np.testing.assert_allclose(r.t_s, t, atol=1e-6)

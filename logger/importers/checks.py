@@ -10,6 +10,9 @@ says which unit *would* fit: |acc| ≈ 1 means g, ≈ 9.81 means m/s², ≈ 3276
 2000 °/s = 34.9 rad/s. A 99.9th-percentile |ω| above 35 rad/s after conversion is physically absurd and
 almost always deg/s declared as rad/s (x57.3); the error suggests ``--gyro-unit dps``.
 
+A gyro that barely turns (99.9th percentile below 0.3 rad/s = 17 deg/s) while the accelerometer shows motion is
+only a warning (``note`` event): rad/s declared as deg/s, or a genuinely quiet recording.
+
 **Saturation.** A sample is saturated on an axis when its raw value is at full scale: for int16 counts
 ≥ 32767 or ≤ -32768; for values in physical units |v| ≥ (1 - 0.5 %) · range (the margin absorbs the
 rounding of printed values, e.g. 19.62 for 2 g). Bits as in ``logger.recording.SATURATION_BITS``;
@@ -67,6 +70,24 @@ def gyro_unit_problem(gyro_si: np.ndarray, declared: str) -> str | None:
     hint = "--gyro-unit dps" if declared == "radps" else "--gyro-unit radps or check --gyro-range"
     return (f"gyro check failed: 99.9th percentile of |rate| is {p:.4g} rad/s with the declared unit {declared!r}, "
             f"more than any foot or MEMS gyro reaches ({GYRO_ABSURD_RADPS} rad/s = 2000 deg/s); try {hint}")
+
+
+def gyro_too_small(acc_si: np.ndarray, gyro_si: np.ndarray) -> str | None:
+    """A warning (not an error) when the accelerometer shows walking but the gyro barely turns.
+
+    A walking foot, waist or phone turns at > 1 rad/s; rad/s data declared as deg/s is 57x too small.
+    """
+    acc_mag = np.linalg.norm(np.asarray(acc_si, dtype=np.float64), axis=1)
+    gyro_mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
+    ok = np.isfinite(acc_mag) & np.isfinite(gyro_mag)
+    if ok.sum() < 100:
+        return None
+    moving = float(np.std(acc_mag[ok])) > 2.0  # m/s^2: clearly more than sensor noise at rest
+    p = float(np.percentile(gyro_mag[ok], 99.9))
+    if moving and p < 0.3:
+        return (f"gyro suspiciously small: 99.9th percentile of |rate| is {p:.3g} rad/s while the accelerometer "
+                f"shows motion; if the file is in rad/s, use --gyro-unit radps")
+    return None
 
 
 def saturation(raw: np.ndarray, full_scale: float, counts: bool, first_bit: int) -> tuple[np.ndarray, list[dict]]:

@@ -380,6 +380,12 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         p = checks.gyro_unit_problem(gyro_arr.astype(np.float64) * gyro_ch.scale_to_si, gyro_unit)
         if p:
             problems.append(p)
+    if has_gyro and not problems:
+        w = checks.gyro_too_small(acc_arr.astype(np.float64) * acc_ch.scale_to_si,
+                                  gyro_arr.astype(np.float64) * gyro_ch.scale_to_si)
+        if w:
+            events.append(dict(kind="note", detail=w[:200]))
+            messages.append("WARNING: " + w)
     for p in problems:
         if check_units:
             raise InputError(f"{path}: {p}")

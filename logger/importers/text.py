@@ -51,7 +51,10 @@ def read_text(path: Path) -> tuple[str, bytes]:
     if nul >= 0 or control > 0.01 * len(head):
         where = f"first NUL byte at offset {nul}" if nul >= 0 else f"{control} control bytes in the first {len(head)}"
         raise InputError(f"{path}: looks like a binary file, not a text log ({where})")
-    text = data.decode("utf-8", errors="replace")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:  # Windows loggers: "°/s" in cp1252/latin-1 headers
+        text = data.decode("cp1252", errors="replace")
     if text.startswith("\ufeff"):
         text = text[1:]
     return text, raw
