@@ -1,6 +1,6 @@
 """ZUPT-aided strapdown navigation: mechanization, error-state Kalman filter, Riccati mode, RTS smoothing.
 
-Public API (docs/POSTPROC_API contract):
+Public API (the postproc API contract):
     run_filter(t_s, acc_b, gyro_b, stance, init, gravity, settings, progress=None) -> NavSolution
     FilterSettings, NavSolution, steady_state_gain(...) -> RiccatiReport
 """

@@ -134,7 +134,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "gaps": tb.gaps,
         "gap_mask": tb.gap_mask,
         "n_updates": einfo["n_updates"],
-        "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"]},
+        "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
         "final_P": einfo["final_P"],
