@@ -18,6 +18,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--format", choices=("h5", "sd-txt"), default=None,
                         help="output format (default: from the file extension, .txt -> sd-txt, else h5)")
     parser.add_argument("--out", help="output file")
+    parser.add_argument("--plot", metavar="PNG", help="also save a figure of the truth and the signals")
 
 
 def _list() -> int:
@@ -65,6 +66,10 @@ def run(args) -> int:
     if sys.stderr.isatty():
         print("\r" + " " * 40 + "\r", end="", file=sys.stderr)
     path = write_sd_txt(res, args.out) if fmt == "sd-txt" else write_h5(res, args.out)
+    if args.plot:
+        from simulator.plot import plot_result
+
+        plot_result(res, args.plot)
     tr = res.truth
     import numpy as np
 

@@ -44,6 +44,7 @@ class Gait:
     toe_off_fraction: float = 0.22  # end of the toe-off roll, share of the moving part
     heel_strike_fraction: float = 0.82  # contact, share of the moving part
     mid_swing_fraction: float = 0.50  # where in the swing the clearance knot sits
+    mid_swing_progress: float = 0.50  # share of the swing's forward distance covered at that knot
     clearance_m: float = 0.10  # height of the foot origin above the higher floor at mid-swing
     toe_off_pitch_deg: float = -40.0  # nose-down at toe-off (negative: rotation about the toe)
     toe_off_rate_dps: float = -150.0
@@ -87,12 +88,12 @@ RUN = Gait(
     roll_amplitude_deg=5.0,
 )
 STAIRS_UP = Gait(
-    "stairs_up", stride_length_m=0.56, cadence_spm=90, still_fraction=0.35, clearance_m=0.06,
+    "stairs_up", stride_length_m=0.56, cadence_spm=90, still_fraction=0.35, clearance_m=0.06, mid_swing_progress=0.3,
     toe_off_pitch_deg=-25, toe_off_rate_dps=-100, heel_strike_pitch_deg=4, heel_strike_rate_dps=-60,
     impact_speed_mps=0.2, roll_amplitude_deg=2.0,
 )
 STAIRS_DOWN = Gait(
-    "stairs_down", stride_length_m=0.56, cadence_spm=95, still_fraction=0.35, clearance_m=0.05,
+    "stairs_down", stride_length_m=0.56, cadence_spm=95, still_fraction=0.35, clearance_m=0.05, mid_swing_progress=0.7,
     toe_off_pitch_deg=-15, toe_off_rate_dps=-80, heel_strike_pitch_deg=-8, heel_strike_rate_dps=60,
     impact_speed_mps=0.35, roll_amplitude_deg=2.0,
 )
@@ -213,7 +214,8 @@ class PathBuilder:
         mean_speed = (p_imp[0] - u_to) / (t_imp - t_to)
         w_mid = (t_mid - t_to) / (t_hs - t_to)
         th_mid = (th_to + w_mid * (th_hs - th_to), 1.5 * (th_hs - th_to) / (t_hs - t_to), 0.0, nan)
-        sag.append((t_mid, (u_to + w_mid * (p_imp[0] - u_to), gait.swing_peak_speed_ratio * mean_speed, 0.0, nan),
+        u_mid = u_to + gait.mid_swing_progress * (p_imp[0] - u_to)
+        sag.append((t_mid, (u_mid, gait.swing_peak_speed_ratio * mean_speed, 0.0, nan),
                     (z_top, 0.0, 0.0, nan), th_mid))
         sag.append((t_imp, (p_imp[0], v_imp[0], 0.0, nan), (p_imp[1], v_imp[1], 0.0, nan),
                     (th_hs - w_hs * d, w_hs, 0.0, nan)))

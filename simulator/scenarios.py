@@ -119,10 +119,13 @@ def mixed(rng: np.random.Generator, duration=1800.0) -> PathBuilder:
 def long_loop(rng: np.random.Generator, duration=3600.0) -> PathBuilder:
     """Benchmark generator: laps of a 20 m x 10 m loop with one 8-riser flight up and down per lap."""
     pb = PathBuilder().stand(10.0)
-    while pb.t < duration - 10.0:
-        pb.walk_to(20.0, 0.0).walk_to(20.0, 10.0)
-        pb.stairs(8, 0.17, 0.28, up=True).turn_in_place(math.pi).stairs(8, 0.17, 0.28, up=False)
-        pb.walk_to(0.0, 10.0).walk_to(0.0, 0.0)
+    legs = (lambda: pb.walk_to(20.0, 0.0), lambda: pb.walk_to(20.0, 10.0),
+            lambda: pb.stairs(8, 0.17, 0.28, up=True), lambda: pb.turn_in_place(math.pi),
+            lambda: pb.stairs(8, 0.17, 0.28, up=False), lambda: pb.walk_to(0.0, 10.0), lambda: pb.walk_to(0.0, 0.0))
+    i = 0
+    while pb.t < duration - 10.0:  # stop after the leg that reaches the duration
+        legs[i % len(legs)]()
+        i += 1
     return pb.stand(10.0)
 
 

@@ -41,15 +41,20 @@ def hermite_coefficients(t: np.ndarray, knots: np.ndarray) -> np.ndarray:
     return np.concatenate([np.stack([c0, c1, c2, c3], axis=-1), high], axis=-1)
 
 
+# falling factorials k! / (k - n)! for derivative order n <= 3 and power k <= 7
+_FALL = np.array([[float(np.prod(np.arange(k - n + 1, k + 1))) if k >= n else 0.0 for k in range(DEGREE + 1)]
+                  for n in range(4)])
+
+
 def poly_eval(c: np.ndarray, tau: np.ndarray, h: np.ndarray, order: int = 2) -> list[np.ndarray]:
     """Value and time derivatives up to ``order`` of monomials ``c[..., k]`` at ``tau`` (Horner)."""
     out = []
     deg = c.shape[-1] - 1
     for n in range(order + 1):
-        fac = lambda k: float(np.prod(np.arange(k - n + 1, k + 1))) if n else 1.0  # noqa: E731  k!/(k-n)!
-        acc = fac(deg) * c[..., deg]
+        f = _FALL[n]
+        acc = f[deg] * c[..., deg]
         for k in range(deg - 1, n - 1, -1):
-            acc = acc * tau + fac(k) * c[..., k]
+            acc = acc * tau + f[k] * c[..., k]
         out.append(acc / h**n)
     return out
 
@@ -84,7 +89,14 @@ class Trajectory:
         """(value, d/dt, d2/dt2) each (N, 6), and stance (N,) bool, at times ``t``."""
         t = np.asarray(t, dtype=np.float64)
         idx = self.piece_index(t)
-        h = self._h[idx][:, None]
-        tau = ((t - self.t_knots[idx]) / self._h[idx])[:, None]
-        p, d1, d2 = poly_eval(self._coef[idx], tau, h, 2)
-        return p, d1, d2, self.piece_still[idx]
+        still = self.piece_still[idx]
+        p = self._coef[idx, :, 0]  # stance pieces are constant: value c0, derivatives exactly 0
+        d1 = np.zeros_like(p)
+        d2 = np.zeros_like(p)
+        move = np.flatnonzero(~still)
+        if move.size:
+            im = idx[move]
+            h = self._h[im][:, None]
+            tau = ((t[move] - self.t_knots[im]) / self._h[im])[:, None]
+            p[move], d1[move], d2[move] = poly_eval(self._coef[im], tau, h, 2)
+        return p, d1, d2, still

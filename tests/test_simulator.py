@@ -275,3 +275,41 @@ def test_cli_lists_scenarios_and_writes_files(tmp_path):
     bad = run("--scenario", "paper-straight", "--duration", "100", "--out", str(tmp_path / "x.h5"))
     assert bad.returncode == 1 and "fixed path" in bad.stderr
     assert not (tmp_path / "x.h5").exists()
+
+
+def _sole_heights(res, points=np.linspace(-0.07, 0.15, 12)):
+    """(s along +x, z) of sole points between the heel and toe pivots, for every truth sample."""
+    from simulator.imu_synth import _rot_zyx
+
+    val = res.trajectory.evaluate(res.truth["t_s"])[0]
+    R = _rot_zyx(val[:, 3], val[:, 4], val[:, 5])
+    return [val[:, :3] + R @ np.array([sp, 0.0, 0.0]) for sp in points]
+
+
+@pytest.mark.parametrize("up", [True, False])
+def test_swing_clears_the_stair_edges(up):
+    # flight along +x; on step k the foot origin is at s = k * tread and the tread spans
+    # [k tread - 0.10, k tread + 0.18] (the 22 cm foot plus 3 cm to the next riser)
+    riser, tread, n = 0.17, 0.28, 10
+    res = simulate(custom("flight", lambda pb: pb.stand(1.0).stairs(n, riser, tread, up=up).stand(1.0)),
+                   profile="ideal", rate_hz=1000.0)
+    worst = np.inf
+    for p in _sole_heights(res):
+        s = p[:, 0]
+        if up:
+            surface = np.clip(np.floor((s + 0.10) / tread), 0, n) * riser
+        else:
+            surface = -np.clip(np.floor((s - 0.18) / tread) + 1, 0, n) * riser
+        worst = min(worst, float(np.min(p[:, 2] - surface)))
+    assert worst > -1e-3, f"sole {'climbing' if up else 'descending'} cuts a step by {-worst * 1e3:.1f} mm"
+
+
+def test_level_gaits_never_go_below_the_floor_and_lift_the_foot():
+    from simulator.gait import RUN, SHUFFLE, WALK
+
+    for gait in (WALK, RUN, SHUFFLE):
+        res = simulate(custom("level", lambda pb: pb.stand(1.0).walk(8.0, gait).stand(1.0)), profile="ideal",
+                       rate_hz=1000.0)
+        z_min = min(float(p[:, 2].min()) for p in _sole_heights(res))
+        assert z_min > -1e-4, gait.name
+        assert res.truth["foot_pos_n_m"][:, 2].max() >= gait.clearance_m - 1e-9

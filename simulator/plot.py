@@ -1,0 +1,56 @@
+"""One-page figure of a simulated recording: truth path and the synthesised signals."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simulator.simulate import SimResult
+
+
+def plot_result(res: SimResult, path, zoom_s: tuple[float, float] | None = None) -> None:
+    """Top view + height of the truth path, and acc / gyro (truth and as delivered) with stance shaded."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tr = res.truth
+    t = tr["t_s"]
+    pos = tr["pos_n_m"]
+    fig = plt.figure(figsize=(14, 11), constrained_layout=True)
+    gs = fig.add_gridspec(4, 2)
+    ax = fig.add_subplot(gs[0:2, 0])
+    sc = ax.scatter(pos[:, 0], pos[:, 1], c=pos[:, 2], s=1, cmap="viridis")
+    fig.colorbar(sc, ax=ax, label="height z (m)")
+    ax.set_aspect("equal")
+    ax.set(xlabel="east x (m)", ylabel="north y (m)", title=f"{res.scenario}: truth path (sensor), top view")
+    ax = fig.add_subplot(gs[0, 1])
+    ax.plot(t, pos[:, 2], lw=1)
+    ax.set(xlabel="t (s)", ylabel="z (m)", title="truth height")
+    ax = fig.add_subplot(gs[1, 1])
+    ax.plot(t, np.linalg.norm(tr["vel_n_mps"], axis=1), lw=0.8)
+    ax.set(xlabel="t (s)", ylabel="|v| (m/s)", title="truth speed of the sensor")
+    if zoom_s is None:
+        mid = np.flatnonzero(np.diff(res.steps["dz_m"] != 0))
+        t0 = res.steps["t_start_s"][mid[0] + 1] - 0.5 if mid.size else t[0]
+        zoom_s = (t0, t0 + 4.0)
+    m = (t >= zoom_s[0]) & (t <= zoom_s[1])
+    acc_si, gyro_si = res.acc_mps2, res.gyro_radps
+    for row, (name, true, meas, unit, k) in enumerate(
+        (("specific force", tr["f_b_mps2"], acc_si, "m/s^2", 1.0),
+         ("angular rate", tr["omega_b_radps"], gyro_si, "deg/s", 180 / np.pi)), start=2):
+        for col, sel in enumerate((slice(None), m)):
+            ax = fig.add_subplot(gs[row, col])
+            for a, color in zip(range(3), ("C0", "C1", "C2")):
+                ax.plot(t[sel], meas[sel, a] * k, color=color, lw=0.6, label=f"{'xyz'[a]} delivered")
+                if col == 1:
+                    ax.plot(t[sel], true[sel, a] * k, color=color, lw=1.2, ls="--", alpha=0.7)
+            st = tr["stance"][sel] == 1
+            ax.fill_between(t[sel], 0, 1, where=st, transform=ax.get_xaxis_transform(), color="0.85", zorder=0)
+            ax.set(xlabel="t (s)", ylabel=unit, title=f"{name} (body){' - zoom, dashed = truth' if col else ''}")
+            if col == 0:
+                ax.legend(loc="upper right", fontsize=7, ncol=3)
+    fig.suptitle(f"bootnav simulate: {res.scenario}, seed {res.seed}, profile {res.profile.name}, "
+                 f"{res.rate_hz:g} Hz, mount {res.mount.name} (grey = stance)")
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
