@@ -146,6 +146,23 @@ def _read_port(port: str, *, until, timeout_s: float, send_when=None, send: byte
     return data
 
 
+def _record_until_idle(h: Harness, out: Path) -> None:
+    """`bootnav record` on the harness's pty; --duration is only a cap: a clean SIGTERM stop once the
+    harness has sent every sample."""
+    rec = subprocess.Popen([sys.executable, "-m", "bootnav", "record", "--port", h.port, "--out", str(out),
+                            "--duration", "40", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, cwd=REPO)
+    try:
+        h.wait_for("idle", timeout_s=40)
+        time.sleep(0.5)  # the recorder polls the port every 20 ms
+        rec.terminate()
+        _, err = rec.communicate(timeout=30)
+    finally:
+        if rec.poll() is None:
+            rec.kill()
+    assert rec.returncode == 0, err
+
+
 def _size_figures(make_stdout: str) -> tuple[int, int]:
     m = re.search(r"flash (\d+) / 30720 bytes .*RAM (\d+) / 2048 bytes", make_stdout)
     assert m, f"no flash/RAM line in the build output:\n{make_stdout}"
@@ -183,21 +200,7 @@ def test_recorded_counts_equal_served_samples_bit_for_bit(built, tmp_path):
     served = _served_sequence(n, seed=7)
     out = tmp_path / "sim.h5"
     with Harness(tmp_path, served, "--idle-when-done") as h:
-        # --duration is only a cap: SIGTERM (a clean stop) once the harness has sent every sample
-        rec = subprocess.Popen(
-            [sys.executable, "-m", "bootnav", "record", "--port", h.port, "--out", str(out),
-             "--duration", "40", "--quiet"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
-        )
-        try:
-            h.wait_for("idle", timeout_s=40)
-            time.sleep(0.5)  # the recorder polls the port every 20 ms
-            rec.terminate()
-            _, err = rec.communicate(timeout=30)
-        finally:
-            if rec.poll() is None:
-                rec.kill()
-    assert rec.returncode == 0, err
+        _record_until_idle(h, out)
     assert h.stats.get("served") == n, f"harness served {h.stats}: {h.stderr}"
     assert h.stats["uart_bytes_dropped"] == 0
     assert h.stats["period_cycles"] == F_CPU / RATE_HZ  # the firmware programmed 200 Hz into the sensor
@@ -373,3 +376,34 @@ def test_sensor_reset_mid_run_is_detected_and_recovered(built, tmp_path):
     gap = samples[k + 1].t_us - silent.t_us
     assert 100_000 + PERIOD_US <= gap <= 100_000 + PERIOD_US + 5_000, gap
     assert not any(isinstance(f, HeaderFrame) for f in frames[2:])  # configuration unchanged
+
+
+def test_simulated_walk_passes_through_the_firmware_unchanged(built, tmp_path):
+    """`bootnav simulate` (running, ±16 g / ±2000 °/s) -> its int16 counts served by the MPU6050 model ->
+    firmware -> `bootnav record`: the recording holds the simulated counts, and the same SI values."""
+    from logger.recording import load
+
+    sim = tmp_path / "walk.h5"
+    proc = subprocess.run([sys.executable, "-m", "bootnav", "simulate", "--scenario", "running", "--duration", "4",
+                           "--seed", "1", "--out", str(sim)], capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    walk = load(sim)
+    assert walk.meta["accel_range_g"] == 16 and walk.meta["gyro_range_dps"] == 2000  # = the firmware's config
+    import h5py
+
+    with h5py.File(sim, "r") as f:
+        temp = f["imu/temp"][()]
+    mid, half = walk.n // 2, 300  # 3 s of running from the middle: high dynamics, no still period
+    sl = slice(mid - half, mid + half)
+    served = np.column_stack([walk.raw["acc"][sl], walk.raw["gyro"][sl], temp[sl]]).astype("<i2")
+    assert np.ptp(served[:, 0:3], axis=0).max() > 4 * 2048  # really moving: > 4 g peak to peak
+
+    out = tmp_path / "rec.h5"
+    with Harness(tmp_path, served, "--idle-when-done") as h:
+        _record_until_idle(h, out)
+    r = load(out)
+    assert r.n == 2 * half
+    np.testing.assert_array_equal(r.raw["acc"], walk.raw["acc"][sl])
+    np.testing.assert_array_equal(r.raw["gyro"], walk.raw["gyro"][sl])
+    np.testing.assert_allclose(r.acc_mps2, walk.acc_mps2[sl], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(r.gyro_radps, walk.gyro_radps[sl], rtol=1e-12, atol=0)
