@@ -90,7 +90,7 @@ def test_zaru_estimates_gyro_bias():
     init = TruthInit(w.q_nb[0], np.zeros(3))
     sol = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity,
                      FilterSettings(n_states=15, zaru=True, sigma_zaru_radps=GYRO_NOISE))
-    sigma = np.sqrt(np.diag(sol.info["final_P"])[12:15])
+    sigma = np.sqrt(np.diag(np.array(sol.info["final_P"]))[12:15])
     assert np.all(sigma < 0.5 * np.abs(GYRO_BIAS))
     assert np.all(np.abs(sol.gyro_bias_b[-1] - GYRO_BIAS) < 3 * sigma)
     no_zaru = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(n_states=15))
@@ -124,3 +124,6 @@ def test_no_stance_warns_and_progress_is_reported_a_few_times(walk):
     assert 1 <= len(calls) <= 11 and calls[-1] == 1.0 and calls == sorted(calls)
     assert sol.info["n_updates"] == 0
     assert sol.info["settings"]["sigma_acc_mps2"] == FilterSettings().sigma_acc_mps2
+    import json
+
+    json.dumps(sol.info)  # info is saved with the results

@@ -42,7 +42,7 @@ class NavSolution:
     acc_bias_b: np.ndarray | None
     gyro_bias_b: np.ndarray | None
     pos_sigma_n: np.ndarray
-    info: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)  # JSON-serialisable: mode, engine, riccati report, timings, ...
 
 
 def initial_covariance(settings: FilterSettings) -> np.ndarray:
@@ -132,12 +132,11 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "nominal_dt_s": tb.nominal_dt_s,
         "n_duplicates": tb.n_duplicates,
         "gaps": tb.gaps,
-        "gap_mask": tb.gap_mask,
         "n_updates": einfo["n_updates"],
         "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
-        "final_P": einfo["final_P"],
+        "final_P": np.asarray(einfo["final_P"]).tolist(),  # JSON-friendly, like the rest of info
         "warnings": warnings,
         "settings": requested.to_dict(),
     }
