@@ -242,7 +242,13 @@ class Emulator:
         self.accel_fs, self.gyro_fs = signal.accel_fs, signal.gyro_fs
         n_src = signal.acc.shape[0]
         self.n_frames = n_src if s.duration_s is None else int(round(s.duration_s * self.rate_hz))
-        self.rng = np.random.default_rng(s.seed)
+        # The fault plan is drawn once per frame index, so what gets corrupted does not depend on
+        # how the real-time loop happens to batch frames (runs are reproducible from the seed).
+        rng = np.random.default_rng(s.seed)
+        kinds = np.array([FAULT_KINDS.index(k) for k in s.corrupt_kinds] or [0], dtype=np.int8)
+        hit = rng.random(self.n_frames) < s.corrupt_rate
+        self._fault = np.where(hit, kinds[rng.integers(0, kinds.size, self.n_frames)], -1).astype(np.int8)
+        self._fault_bit = rng.integers(0, SAMPLE_DTYPE.itemsize * 8, self.n_frames).astype(np.uint8)
         self.report = EmulatorReport(rate_hz=self.rate_hz, settings=_jsonable(asdict(s)))
         self.progress = progress
         self._stop = False
@@ -351,12 +357,8 @@ class Emulator:
         t_us = (s.t0_us + np.round(idx * period_us).astype(np.int64)) & 0xFFFFFFFF
         data = np.frombuffer(pack_samples(seq, t_us, sig.acc[src], sig.gyro[src], sig.temp[src]), np.uint8)
         frames = data.reshape(-1, SAMPLE_DTYPE.itemsize).copy()
-        fault = np.full(idx.size, -1)
-        if s.corrupt_rate > 0:
-            hit = self.rng.random(idx.size) < s.corrupt_rate
-            kinds = [FAULT_KINDS.index(k) for k in s.corrupt_kinds]
-            fault[hit] = self.rng.choice(kinds, size=int(hit.sum()))
-        if s.corrupt_rate <= 0:  # fast path: the packed block as is
+        fault = self._fault[k0:k1]
+        if not np.any(fault >= 0):  # fast path: the packed block as is
             rep.valid_seqs.extend(seq.tolist())
             rep.valid_index.extend(idx.tolist())
             rep.frames_sent += idx.size
@@ -375,13 +377,14 @@ class Emulator:
                 rep.status_sent += 1
                 dropped_run = 0
             if kind == 1:  # garbage before the frame
-                junk = self.rng.integers(0, 256, int(self.rng.integers(1, 17)), dtype=np.uint8).tobytes()
+                g = np.random.default_rng([s.seed, int(idx[i])])
+                junk = g.integers(0, 256, int(g.integers(1, 17)), dtype=np.uint8).tobytes()
                 out += junk
                 rep.garbage_bytes += len(junk)
                 rep.garbage_bursts += 1
             frame = frames[i]
             if kind == 0:  # one bit flipped anywhere in the frame
-                bit = int(self.rng.integers(0, frame.size * 8))
+                bit = int(self._fault_bit[idx[i]])
                 frame[bit // 8] ^= np.uint8(1 << (bit % 8))
                 rep.frames_corrupted += 1
             else:

@@ -209,3 +209,28 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
     assert "no header frame" in r.meta["config_source"]
     assert any(b"scale factors assumed" in d for d in r.events_of("note")["detail"])
     np.testing.assert_allclose(r.acc_mps2[:, 2], 9.80665)  # 2048 LSB = 1 g at ±16 g
+
+
+def test_saturation_runs_are_counted_whole_across_read_blocks():
+    """Runs of full-scale samples split over arbitrary read blocks give one event each, exact length."""
+    from logger.serial_recorder import RecorderSettings, SerialRecorder
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n = int(rng.integers(1, 60))
+        sat = rng.random((n, 6)) < 0.3
+        rec = SerialRecorder(RecorderSettings(port="unused", out="unused"))
+        cuts = sorted({0, n, *rng.integers(0, n, int(rng.integers(0, 5))).tolist()})
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            rec._update_saturation_runs(sat[a:b], np.zeros(b - a))
+            rec._n += b - a
+        for axis in range(6):
+            if rec._open_runs[axis] is not None:
+                rec._close_run(axis, rec._n)
+        got = sorted((e["axis"], e["sample_index"], e["count"]) for e in rec._pending_events)
+        expected = []
+        for axis in range(6):
+            d = np.diff(np.r_[0, sat[:, axis].astype(int), 0])
+            expected += [(axis, int(s), int(e - s)) for s, e in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1))]
+        assert got == sorted(expected)
+        assert rec.stats.saturated_samples == sat.sum(axis=0).tolist()
