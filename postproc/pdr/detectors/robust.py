@@ -1,28 +1,33 @@
 """bootnav's engineered step detector (not from a seed paper): band-pass magnitude, relative-prominence
-peaks, cadence-adaptive spacing, an activity gate and a dynamic-programming "beat tracker".
+peaks, an activity gate, a periodicity gate and a dynamic-programming "beat tracker" at the local cadence.
 
-All parameters are ENGINEERED defaults (chosen for generality across carrying positions: hand, pockets,
-armband, neck pouch, purse, swinging arm, lower back), not literal values of any source.
+All parameters are ENGINEERED defaults, chosen for generality across carrying positions (hand, pockets,
+armband, neck pouch, purse, swinging arm, lower back) with one fixed configuration; none is a literal
+value of a source.
 
-Pipeline (fs = 50 Hz after resampling):
+Pipeline (fs = 50 Hz after resampling the recording's own clock):
 
-1. a[n] = ||f_b[n]||  (orientation-free, seed-002 eq. 1 / seed-003 eq. 3.1), band-passed
+1. a[n] = ||f_b[n]|| (orientation-free, seed-002 eq. 1 / seed-003 eq. 3.1), band-passed
    x = BP_[0.3, 3.0] Hz(a) (2nd-order Butterworth, zero phase; walking cadence <= 3 Hz, seed-000 §1.2).
 2. Candidates: every local maximum of x with topographic prominence p_k.
    Local reference R_k = 80th percentile of the prominences within +-2.5 s; salience
-   s_k = min(p_k / R_k, 1.5) - 0.5 (relative, so weak hand signals and strong pocket signals look alike).
-3. Activity gate: s_k = -1 where the 2-s RMS of x is < 0.35 m/s^2 or R_k < 0.1 m/s^2 (standing,
-   phone on a table). The same gate, together with step 5, keeps handling bumps out.
+   s_k = min(p_k / R_k, 1.5) - 0.25 (relative, so weak hand/lower-back and strong pocket signals look
+   alike).
+3. Gates (s_k := -1, the DP then never picks the peak):
+   activity: 2-s RMS of x < 0.2 m/s^2 or R_k < 0.1 m/s^2 (standing, phone on a table);
+   periodicity: rho(t) = max over the 2.5-s window before and the one after t of
+   max_{lag in [0.3, 1.5] s} Pearson(x[w], x[w + lag]) < 0.45 -- walking repeats itself every step or
+   stride, handling a phone / sitting down / single bumps do not.
 4. First pass: candidates with p_k >= 0.45 R_k, then minimum spacing 0.6 T_loc (T_loc = local median
    step interval, >= 0.25 s), twice; gives the local step period T(t) (median over +-5 s).
 5. Final selection by dynamic programming over candidates (beat tracking):
        B_j = s_j + max( max_i [B_i - lambda (ln((t_j - t_i)/T_j))^2]   for 0.5 T_j <= t_j - t_i <= 1.7 T_j,
                         max_{t_i < t_j - 1.7 T_j} B_i - c_break,  0 )
-   with lambda = 2, c_break = 1; the best chain is traced back. This picks exactly one peak per step
-   even when a step has two bumps (heel strike + push-off) and bridges a weak step.
+   lambda = 2, c_break = 1; the best chain is traced back. This picks one peak per step even when a step
+   has two bumps (heel strike + push-off) and bridges a weak step.
 6. Bouts shorter than 4 steps (gap > 1.6 s) are dropped (isolated bumps are not walking).
 
-Measured on ../shared/datasets (benchmarks/pdr_table.py) -- see the report; tune for generality.
+Step time = time of the chosen peak of x (no offset). Figures on ../shared/datasets: benchmarks/pdr_table.py.
 """
 
 from __future__ import annotations
@@ -65,6 +70,33 @@ def _bouts(tp: np.ndarray, gap_s: float, min_steps: int) -> np.ndarray:
     return keep
 
 
+def periodicity(x: np.ndarray, fs: float, window_s: float, lag_range_s: tuple) -> np.ndarray:
+    """Per sample: the larger of the best Pearson autocorrelations (over lags in lag_range_s) of the
+    window just before and the window just after the sample. Walking is periodic (r ~ 0.7-1 at the step
+    or stride lag); handling a phone, sitting down, single bumps are not. O(N) per lag (cumulative sums)."""
+    x = np.asarray(x, float)
+    n = x.size
+    W = int(round(window_s * fs))
+    out_r = np.full(n, -1.0)
+    out_l = np.full(n, -1.0)
+    S1 = np.r_[0.0, np.cumsum(x)]
+    S2 = np.r_[0.0, np.cumsum(x * x)]
+    for L in range(max(1, int(lag_range_s[0] * fs)), int(lag_range_s[1] * fs) + 1):
+        m = n - W - L + 1  # window starts with both windows inside the data
+        if m <= 0:
+            break
+        P = np.r_[0.0, np.cumsum(x[:-L] * x[L:])]
+        st = np.arange(m)
+        sa, sb = S1[st + W] - S1[st], S1[st + L + W] - S1[st + L]
+        saa, sbb = S2[st + W] - S2[st], S2[st + L + W] - S2[st + L]
+        sab = P[st + W] - P[st]
+        den = np.sqrt(np.maximum((W * saa - sa * sa) * (W * sbb - sb * sb), 1e-18))
+        r = (W * sab - sa * sb) / den
+        np.maximum(out_r[:m], r, out=out_r[:m])  # window pair starting at the sample
+        np.maximum(out_l[W + L - 1:W + L - 1 + m], r, out=out_l[W + L - 1:W + L - 1 + m])  # ending there
+    return np.maximum(out_r, out_l)
+
+
 @dataclass
 class RobustDetector:
     """Engineered default detector (see module docstring for the equations)."""
@@ -77,9 +109,9 @@ class RobustDetector:
     spacing_factor: float = 0.6
     min_spacing_s: float = 0.25
     period_half_window_s: float = 5.0
-    salience_offset: float = 0.5
+    salience_offset: float = 0.25
     salience_cap: float = 1.5
-    activity_rms_mps2: float = 0.35
+    activity_rms_mps2: float = 0.2
     activity_window_s: float = 2.0
     ref_floor_mps2: float = 0.1
     interval_penalty: float = 2.0
@@ -88,6 +120,12 @@ class RobustDetector:
     bout_gap_s: float = 1.6
     min_bout_steps: int = 4
     default_period_s: float = 0.55
+    periodicity_min: float = 0.45
+    periodicity_window_s: float = 2.5
+    periodicity_lags_s: tuple = (0.3, 1.5)
+    refine_window_s: tuple | None = None
+    refine_lowpass_hz: float = 6.0
+    event_offset_s: float = 0.0
 
     name = "robust"
 
@@ -168,9 +206,21 @@ class RobustDetector:
         nw = max(1, int(round(self.activity_window_s * self.fs_hz)))
         rms = np.sqrt(np.convolve(x ** 2, np.ones(nw) / nw, mode="same"))
         sal[(R < self.ref_floor_mps2) | (rms[pk] < self.activity_rms_mps2)] = -1.0
+        per = None
+        if self.periodicity_min > 0:
+            per = periodicity(x, self.fs_hz, self.periodicity_window_s, self.periodicity_lags_s)
+            sal[per[pk] < self.periodicity_min] = -1.0
         sel = self._beat_track(tp, sal, T)
         ts = tp[sel]
+        if self.refine_window_s is not None and ts.size:
+            # move each event to the impact peak of the lightly filtered magnitude near the smooth peak
+            mf = butter_filter(magnitude(a), self.fs_hz, self.refine_lowpass_hz, "low", order=2)
+            lo = np.searchsorted(tg, ts + self.refine_window_s[0])
+            hi = np.searchsorted(tg, ts + self.refine_window_s[1], side="right")
+            ts = np.array([tg[a_ + int(np.argmax(mf[a_:b_]))] if b_ > a_ else t_ for a_, b_, t_ in zip(lo, hi, ts)])
+        ts = ts + self.event_offset_s
         keep = _bouts(ts, self.bout_gap_s, self.min_bout_steps)
         return StepEvents(ts[keep], self.name,
                           {"t_s": tg, "signal": x, "signal_label": "band-passed |a| (m/s^2)",
-                           "candidates_t_s": tp, "activity_rms": rms, "period_s": T})
+                           "candidates_t_s": tp, "activity_rms": rms, "period_s": T,
+                           "periodicity": per})
