@@ -136,7 +136,8 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
-        "final_P": np.asarray(einfo["final_P"]).tolist(),  # JSON-friendly, like the rest of info
+        # 1-σ of every error state at the last sample (δp, δv, δθ[, δb_a, δb_g]), filter (not smoothed)
+        "final_state_sigma": np.sqrt(np.maximum(np.diag(einfo["final_P"]), 0.0)).tolist(),
         "warnings": warnings,
         "settings": requested.to_dict(),
     }
