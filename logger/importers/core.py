@@ -318,8 +318,7 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
                                f"(median {per_s:g} rows/s)"))
             messages.append(f"time: 1-s RTC clock, {per_s:g} rows/s spread evenly inside each second")
             meta["time_source"] = "1-s RTC, rows spread within each second"
-            if rate_hz is None:
-                rate_hz = per_s
+            meta["rows_per_second_median"] = per_s
         else:
             t_abs = t_raw * timebase.TIME_SCALE[time_unit]
         t0 = float(t_abs[0]) if n else 0.0
@@ -352,8 +351,10 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
             if abs(raw_mag / ref - 1) <= checks.ACC_TOLERANCE:
                 acc_unit = unit
         if acc_unit is None:
+            hint = (" - gravity seems removed (linear acceleration?), which is not specific force"
+                    if raw_mag < 0.3 else "")
             raise InputError(f"{path}: accelerometer unit not declared and not recognisable (median |acc| at rest "
-                             f"{raw_mag:.4g}); give --acc-unit g|mps2|counts")
+                             f"{raw_mag:.4g}{hint}); give --acc-unit g|mps2|counts")
         messages.append(f"acc unit: not declared, {acc_unit!r} from the gravity magnitude at rest ({raw_mag:.4g})")
         meta["acc_unit_source"] = "gravity magnitude at rest"
     if acc_unit not in ("g", "mps2", "counts"):
@@ -401,7 +402,7 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         np.zeros(n, np.uint8), [])
     for e in ev_a + ev_g:
         e["t_s"] = float(t[e["sample_index"]])
-        e["line"] = int(line_numbers[e["sample_index"]]) if time_mode != "rate" or True else -1
+        e["line"] = int(line_numbers[e["sample_index"]])
     events += ev_a + ev_g
 
     # Physics Toolbox and similar apps repeat rows when no sensor updated: keep, but say how many.

@@ -156,6 +156,8 @@ def _fast_matrix(region: str, delim: str, n_fields: int, trailing: bool, decimal
     Accepted only when there are no blank/comment/quoted lines and every line has exactly the expected
     number of delimiters, so each value is known to sit in its own row and column.
     """
+    if "\r" in region:
+        region = region.replace("\r\n", "\n")  # CRLF files
     if delim == WHITESPACE or any(c in region for c in ('"', "#", "%", "/", "\r", "\n\n")) or not region:
         return None
     if region.startswith("\n"):
@@ -180,6 +182,48 @@ def _fast_matrix(region: str, delim: str, n_fields: int, trailing: bool, decimal
     if flat.size != n_lines * n_fields:
         return None
     return flat.reshape(n_lines, n_fields)
+
+
+CHUNK_LINES = 20_000
+
+
+def _chunked_matrix(lines: list[str], first_line_no: int, delim: str, n_fields: int, trailing: bool,
+                    decimal_comma: bool) -> tuple[np.ndarray, np.ndarray, list[tuple[int, str]]] | None:
+    """A few bad lines in a big file: numpy fast path per chunk of lines, line-by-line only inside the
+    chunks that fail. Returns None when most lines are not plain numbers (e.g. a date-time column), so the
+    string-based careful path handles the file."""
+    blocks, numbers, bad = [], [], []
+    for a in range(0, len(lines), CHUNK_LINES):
+        chunk = lines[a : a + CHUNK_LINES]
+        m = _fast_matrix("\n".join(chunk) + "\n", delim, n_fields, trailing, decimal_comma)
+        if m is not None:
+            blocks.append(m)
+            numbers.append(np.arange(first_line_no + a, first_line_no + a + m.shape[0], dtype=np.int64))
+            continue
+        rows, nums = [], []
+        for k, raw_line in enumerate(chunk):
+            ln = raw_line.rstrip("\r")
+            s = ln.strip()
+            if not s or s.startswith(COMMENT_PREFIXES):
+                continue
+            f = (s if trailing else ln).split(delim)
+            if trailing and f and f[-1] == "":
+                f.pop()
+            if len(f) != n_fields:
+                bad.append((first_line_no + a + k, f"{len(f)} fields, expected {n_fields}: {ln[:60]!r}"))
+                continue
+            try:
+                rows.append([float(x.replace(",", ".") if decimal_comma else x) for x in f])
+            except ValueError:
+                j = next((j for j, x in enumerate(f) if not is_number(x)), 0)
+                bad.append((first_line_no + a + k, f"column {j + 1} is not a number: {f[j][:30]!r}"))
+                continue
+            nums.append(first_line_no + a + k)
+        blocks.append(np.array(rows, dtype=np.float64).reshape(-1, n_fields))
+        numbers.append(np.asarray(nums, dtype=np.int64))
+        if len(bad) > 0.5 * (a + len(chunk)):
+            return None
+    return np.concatenate(blocks), np.concatenate(numbers), bad
 
 
 def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: bool | None = None,
@@ -259,10 +303,16 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
         lines_no = np.arange(first_line_no, first_line_no + matrix.shape[0], dtype=np.int64)
         return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, **common)
 
-    # Careful path: line by line, every malformed line reported with its number.
     lines = region.split("\n")
     if not ends_without_newline:
         lines.pop()
+    if not quoted and delim != WHITESPACE:
+        chunked = _chunked_matrix(lines, first_line_no, delim, n_fields, trailing, decimal_comma)
+        if chunked is not None:
+            matrix, lines_no, bad = chunked
+            return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, bad_lines=bad, **common)
+
+    # Careful path: line by line, every malformed line reported with its number.
     good_rows, good_lines, bad = [], [], []
     gc_was = gc.isenabled()
     gc.disable()  # millions of small lists: the cyclic GC would rescan them again and again
