@@ -124,6 +124,8 @@ def test_purestreams_linear_acceleration_is_flagged(raw, tmp_path, folder, rows,
     assert rec.n == rows
     assert rec.t_s[-1] + rec.meta["t0_source_s"] == pytest.approx(t_end, abs=0.01)
     assert rec.meta["t0_source_s"] < 0  # first value slightly negative
+    # meta/time.csv: START at 2026-04-08 12:14:0x UTC+08:00 -> 04:14 UTC; meta/device.csv: iPhone18,2
+    assert rec.meta["start_utc"].startswith("2026-04-08T04:1") and "iPhone18,2" in rec.meta["device"]
     assert rec.meta["acc_quantity"] == "linear_acceleration"
     assert rec.meta["gyro_present"] == 0 and np.all(np.isnan(rec.gyro_radps))
     assert any(b"NOT specific force" in e["detail"] for e in rec.events_of("note"))

@@ -441,6 +441,11 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         mount=overrides.get("mount") or pget("mount", "unknown"), device=pget("device", "unknown"),
         lines_total=table.n_lines, lines_skipped=len(skipped), **summary,
     )
+    if pname in ("purestreams_phyphox", "phyphox_csv"):
+        meta.update(_phyphox_meta(path))
+        if "phyphox_start_unix_s" in meta and n:
+            meta["start_utc"] = _dt.datetime.fromtimestamp(meta["phyphox_start_unix_s"] + meta.get("t0_source_s", 0.0),
+                                                           _dt.timezone.utc).isoformat()
     meta.setdefault("start_utc", "")  # unknown: the source has no absolute clock (never the import time)
     if table.preamble:
         meta["source_preamble"] = "\n".join(ln for _, ln in table.preamble)[:2000]
@@ -453,6 +458,30 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
     return ImportResult(source=path, profile=pname, t_s=t, acc=acc_arr, gyro=gyro_arr, acc_channel=acc_ch,
                         gyro_channel=gyro_ch, saturated=(sat_a | sat_g).astype(np.uint8), events=events, meta=meta,
                         aux=aux, aux_units=aux_units, messages=messages)
+
+
+def _phyphox_meta(path: Path) -> dict[str, Any]:
+    """phyphox exports carry ``meta/time.csv`` (START event: experiment time and UNIX system time) and
+    ``meta/device.csv`` next to the data: absolute start time and phone model."""
+    import csv
+
+    out: dict[str, Any] = {}
+    time_csv, device_csv = path.parent / "meta" / "time.csv", path.parent / "meta" / "device.csv"
+    try:
+        if time_csv.is_file():
+            for row in csv.DictReader(time_csv.read_text().splitlines()):
+                if row.get("event") == "START":
+                    # system time of experiment time 0; our t_s = 0 is the first sample (t0_source_s)
+                    out["phyphox_start_unix_s"] = float(row["system time"])
+                    out["phyphox_start_text"] = row.get("system time text", "")
+                    break
+        if device_csv.is_file():
+            props = {r["property"]: r["value"] for r in csv.DictReader(device_csv.read_text().splitlines())}
+            out["device"] = f"{props.get('deviceBrand', '')} {props.get('deviceModel', '')}".strip() or "phone"
+            out["phyphox_version"] = props.get("version", "")
+    except (OSError, KeyError, ValueError):
+        pass  # the side files are optional; the data file alone is complete
+    return out
 
 
 def _channel(kind: str, raw: np.ndarray, unit: str, range_: float | None, path: Path) -> tuple[np.ndarray, Channel]:
