@@ -124,8 +124,14 @@ def test_purestreams_linear_acceleration_is_flagged(raw, tmp_path, folder, rows,
     assert rec.n == rows
     assert rec.t_s[-1] + rec.meta["t0_source_s"] == pytest.approx(t_end, abs=0.01)
     assert rec.meta["t0_source_s"] < 0  # first value slightly negative
-    # meta/time.csv: START at 2026-04-08 12:14:0x UTC+08:00 -> 04:14 UTC; meta/device.csv: iPhone18,2
-    assert rec.meta["start_utc"].startswith("2026-04-08T04:1") and "iPhone18,2" in rec.meta["device"]
+    # meta/time.csv: START "2026-04-08 HH:MM:SS.fff UTC+08:00" (experiment time 0); meta/device.csv: iPhone18,2
+    import datetime as dt
+
+    start_text = (src.parent / "meta" / "time.csv").read_text().splitlines()[1].split(",")[3].strip('"')
+    local = dt.datetime.strptime(start_text[:23], "%Y-%m-%d %H:%M:%S.%f").replace(tzinfo=dt.timezone(dt.timedelta(hours=8)))
+    first_sample = local + dt.timedelta(seconds=rec.meta["t0_source_s"])
+    assert abs(dt.datetime.fromisoformat(rec.meta["start_utc"]) - first_sample).total_seconds() < 0.002
+    assert "iPhone18,2" in rec.meta["device"]
     assert rec.meta["acc_quantity"] == "linear_acceleration"
     assert rec.meta["gyro_present"] == 0 and np.all(np.isnan(rec.gyro_radps))
     assert any(b"NOT specific force" in e["detail"] for e in rec.events_of("note"))
