@@ -36,6 +36,7 @@ CASES = [
     dict(n_states=15, smoother="none"),
     dict(n_states=15, smoother="rts", zaru=True),
     dict(n_states=9, mode="riccati"),
+    dict(n_states=15, smoother="rts", smoother_max_segment_s=0.3),  # segments split mid-swing (memory bound)
 ]
 
 

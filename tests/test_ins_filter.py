@@ -127,3 +127,18 @@ def test_no_stance_warns_and_progress_is_reported_a_few_times(walk):
     import json
 
     json.dumps(sol.info)  # info is saved with the results
+
+
+def test_smoother_memory_bound_splits_segments_without_jumps(walk):
+    """A 0.3 s segment limit (60 samples, shorter than one swing + stance) forces early flushes: more segments,
+    the path stays continuous (no step larger than the true foot speed allows) and still beats the filter."""
+    init = TruthInit(walk.q_nb[0], np.zeros(3))
+    common = (walk.t_s, walk.acc_b, walk.gyro_b, walk.stance, init, walk.gravity)
+    full = run_filter(*common, FilterSettings(n_states=9))
+    short = run_filter(*common, FilterSettings(n_states=9, smoother_max_segment_s=0.3))
+    filt = run_filter(*common, FilterSettings(n_states=9, smoother="none"))
+    assert short.info["smoother_segments"] > 2 * full.info["smoother_segments"]
+    dt = walk.t_s[1] - walk.t_s[0]
+    vmax = np.linalg.norm(walk.vel_n, axis=1).max()
+    assert np.linalg.norm(np.diff(short.pos_n, axis=0), axis=1).max() < 1.2 * vmax * dt
+    assert _swing_errors(walk, short)[0] < _swing_errors(walk, filt)[0]
