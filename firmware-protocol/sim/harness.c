@@ -66,7 +66,14 @@ enum {
     REG_GYRO_ZOUT_L = 0x48,
     REG_PWR_MGMT_1 = 0x6B,
     REG_WHO_AM_I = 0x75,
+    REG_FIFO_EN = 0x23,
+    REG_USER_CTRL = 0x6A,
+    REG_FIFO_COUNTH = 0x72,
+    REG_FIFO_COUNTL = 0x73,
+    REG_FIFO_R_W = 0x74,
 };
+
+#define FIFO_SIZE 1024u
 
 typedef struct {
     avr_t *avr;
@@ -76,6 +83,9 @@ typedef struct {
     uint8_t present;
     uint8_t whoami;
     uint8_t reg[128];
+    uint8_t fifo[FIFO_SIZE]; /* ring: fifo_head = oldest byte */
+    uint16_t fifo_head, fifo_count, fifo_count_latched;
+    uint32_t fifo_overflows;
     uint8_t ptr;         /* register pointer */
     uint8_t selected;    /* addressed in the current transaction */
     uint8_t expect_ptr;  /* next written byte sets the register pointer */
@@ -97,6 +107,7 @@ typedef struct {
 static void mpu_reset_regs(mpu_t *m)
 {
     memset(m->reg, 0, sizeof m->reg);
+    m->fifo_head = m->fifo_count = 0;
     m->reg[REG_PWR_MGMT_1] = 0x40; /* SLEEP after power-up / reset */
     m->reg[REG_WHO_AM_I] = m->whoami;
 }
@@ -144,12 +155,54 @@ static void mpu_latch(mpu_t *m, const int16_t *s)
     put_be16(r + 12, s[5]);
 }
 
-/* A new sample: into the data registers, or held while the bus is busy (the MPU6050 updates its
+/* FIFO (register map 4.6, 4.17, 4.30-4.32): with USER_CTRL.FIFO_EN each sample appends the sensors
+ * selected in FIFO_EN, in register order (accel X..Z, temp, gyro X..Z, big-endian); when full the
+ * oldest byte is overwritten and INT_STATUS.FIFO_OFLOW_INT is set. */
+static void fifo_push(mpu_t *m, uint8_t b)
+{
+    if (m->fifo_count == FIFO_SIZE) {
+        m->fifo_head = (uint16_t)((m->fifo_head + 1) % FIFO_SIZE);
+        m->fifo_count--;
+        m->reg[REG_INT_STATUS] |= 0x10;
+        m->fifo_overflows++;
+    }
+    m->fifo[(m->fifo_head + m->fifo_count) % FIFO_SIZE] = b;
+    m->fifo_count++;
+}
+
+static void fifo_push16(mpu_t *m, int16_t v)
+{
+    fifo_push(m, (uint8_t)((uint16_t)v >> 8));
+    fifo_push(m, (uint8_t)v);
+}
+
+static void fifo_sample(mpu_t *m, const int16_t *s)
+{
+    uint8_t en = m->reg[REG_FIFO_EN];
+    if (!(m->reg[REG_USER_CTRL] & 0x40))
+        return;
+    if (en & 0x08) { /* ACCEL_FIFO_EN */
+        fifo_push16(m, s[0]);
+        fifo_push16(m, s[1]);
+        fifo_push16(m, s[2]);
+    }
+    if (en & 0x80) /* TEMP_FIFO_EN */
+        fifo_push16(m, s[6]);
+    if (en & 0x40)
+        fifo_push16(m, s[3]);
+    if (en & 0x20)
+        fifo_push16(m, s[4]);
+    if (en & 0x10)
+        fifo_push16(m, s[5]);
+}
+
+/* A new sample: into the FIFO (if enabled) and the data registers, or held while the bus is busy (the MPU6050 updates its
  * registers only while the serial interface is idle, so a burst read is always one coherent sample);
  * then the INT pulse. */
 static void mpu_new_sample(mpu_t *m, avr_cycle_count_t when)
 {
     const int16_t *s = m->samples + 7 * m->served;
+    fifo_sample(m, s);
     if (m->selected) {
         memcpy(m->held, s, sizeof m->held);
         m->has_held = 1;
@@ -219,6 +272,10 @@ static void mpu_write(mpu_t *m, uint8_t reg, uint8_t v)
         return; /* read-only */
     if (reg == REG_PWR_MGMT_1 && (v & 0x80)) {
         mpu_reset_regs(m); /* DEVICE_RESET: registers back to defaults, bit clears itself */
+    } else if (reg == REG_USER_CTRL) {
+        if (v & 0x04) /* FIFO_RESET, clears itself */
+            m->fifo_head = m->fifo_count = 0;
+        m->reg[reg] = v & (uint8_t)~0x07;
     } else {
         m->reg[reg] = v;
     }
@@ -229,6 +286,20 @@ static uint8_t mpu_read(mpu_t *m, uint8_t reg)
 {
     if (reg >= 128)
         return 0xFF;
+    if (reg == REG_FIFO_COUNTH) { /* the count is latched when its high byte is read */
+        m->fifo_count_latched = m->fifo_count;
+        return (uint8_t)(m->fifo_count_latched >> 8);
+    }
+    if (reg == REG_FIFO_COUNTL)
+        return (uint8_t)m->fifo_count_latched;
+    if (reg == REG_FIFO_R_W) {
+        if (!m->fifo_count)
+            return 0;
+        uint8_t b = m->fifo[m->fifo_head];
+        m->fifo_head = (uint16_t)((m->fifo_head + 1) % FIFO_SIZE);
+        m->fifo_count--;
+        return b;
+    }
     uint8_t v = m->reg[reg];
     if (reg == REG_INT_STATUS)
         m->reg[REG_INT_STATUS] = 0; /* cleared by reading */
@@ -274,7 +345,9 @@ static void mpu_twi_hook(avr_irq_t *irq, uint32_t value, void *param)
         }
         avr_raise_irq(m->twi_in, avr_twi_irq_msg(TWI_COND_ACK, addr, 1));
     } else if (msg & TWI_COND_READ) {
-        uint8_t byte = mpu_read(m, m->ptr++);
+        uint8_t byte = mpu_read(m, m->ptr);
+        if (m->ptr != REG_FIFO_R_W) /* burst reads of FIFO_R_W keep draining the FIFO */
+            m->ptr++;
         avr_raise_irq(m->twi_in, avr_twi_irq_msg(TWI_COND_READ, addr, byte));
     }
 }
@@ -587,11 +660,11 @@ int main(int argc, char **argv)
             fprintf(f,
                     "{\"served\": %zu, \"n_samples\": %zu, \"period_cycles\": %llu, \"first_drdy_cycle\": %llu, "
                     "\"f_cpu_hz\": %u, \"sim_seconds\": %.6f, \"wall_seconds\": %.6f, \"uart_bytes_out\": %llu, "
-                    "\"uart_bytes_dropped\": %llu, \"uart_bytes_in\": %llu, \"mpu_reg_writes\": %u, \"exit\": \"%s\"}\n",
+                    "\"uart_bytes_dropped\": %llu, \"uart_bytes_in\": %llu, \"mpu_reg_writes\": %u, \"fifo_overflows\": %u, \"exit\": \"%s\"}\n",
                     mpu.served, mpu.n_samples, (unsigned long long)mpu.period_cycles,
                     (unsigned long long)mpu.first_drdy_cycle, F_CPU_HZ, sim_s, wall,
                     (unsigned long long)uart.out_total, (unsigned long long)uart.out_dropped,
-                    (unsigned long long)uart.in_total, mpu.reg_writes, why);
+                    (unsigned long long)uart.in_total, mpu.reg_writes, mpu.fifo_overflows, why);
             fclose(f);
         }
     }
