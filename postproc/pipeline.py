@@ -89,7 +89,7 @@ def load_source(source: str | Path | Recording) -> tuple[Recording, Path | None,
     if path.is_dir():
         raise InputError(f"{path}: is a directory; give a recording (.h5) or an IMU file (e.g. imu.csv.gz)")
     if is_hdf5(path):
-        return load(path), path, True
+        return load(path, with_truth=False), path, True  # /truth (simulator) is not for the processor
     return _import(path), path, False
 
 

@@ -53,9 +53,29 @@ def gravity_free_acc_n(q_nb: np.ndarray, acc_b: np.ndarray, gravity: float) -> n
 
 
 def _shade(ax, t, mask, color, label):
-    if mask.any():
-        ax.fill_between(t, 0, 1, where=mask, step="mid", transform=ax.get_xaxis_transform(), color=color,
-                        alpha=0.13, linewidth=0, label=label)
+    """Shade the samples where ``mask`` is True as one background image (thousands of stance phases would
+    be thousands of polygons: slow to draw and to place a legend around)."""
+    if not mask.any():
+        return
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
+    grid = np.linspace(t[0], t[-1], 4000)  # one column per ~pixel
+    idx = np.clip(np.searchsorted(t, grid), 0, len(t) - 1)
+    img = np.ma.masked_equal(mask[idx].astype(float), 0.0)
+    ylim = ax.get_ylim()  # imshow would reset the data limits to its extent
+    ax.imshow(img[None, :], aspect="auto", extent=(t[0], t[-1], 0, 1), transform=ax.get_xaxis_transform(),
+              cmap=ListedColormap([color]), alpha=0.13, interpolation="nearest", zorder=0)
+    ax.set_ylim(ylim)
+    if label:
+        ax._bootnav_legend_extra = getattr(ax, "_bootnav_legend_extra", []) + [Patch(color=color, alpha=0.25, label=label)]
+
+
+def _legend(ax, **kw):
+    """Legend of the drawn lines plus the shading entries (images have no legend entry of their own)."""
+    handles, labels = ax.get_legend_handles_labels()
+    extra = getattr(ax, "_bootnav_legend_extra", [])
+    ax.legend(handles + extra, labels + [p.get_label() for p in extra], **kw)
 
 
 def _time_axes(ax, t, stance, sat, ylabel, first=False):
@@ -74,6 +94,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     """Write charts 1-7 into ``out_dir``; returns {name: path}."""
     plt = _pyplot()
     out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
     step = max(1, int(np.ceil(len(result.t_s) / max(result.settings.output.plot_max_points, 100))))
     d = slice(None, None, step)
     t = result.t_s[d]
@@ -92,10 +113,10 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1]})
     _lines(a1, t, result.acc_b[d], ["acc x", "acc y", "acc z"])
     _time_axes(a1, t, stance, sat, "specific force (m/s²)", first=True)
-    a1.legend(loc="upper right", ncol=5)
+    _legend(a1, loc="upper right", ncol=5)
     _lines(a2, t, result.gyro_b[d], ["gyro x", "gyro y", "gyro z"])
     _time_axes(a2, t, stance, sat, "angular rate (rad/s)")
-    a2.legend(loc="upper right", ncol=3)
+    _legend(a2, loc="upper right", ncol=3)
     a3.step(t, stance.astype(int), where="mid", color="k", lw=0.8)
     a3.set_ylim(-0.2, 1.2)
     a3.set_yticks([0, 1])
@@ -112,7 +133,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     _time_axes(ax, t, stance, sat, "acceleration (m/s²)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title("Acceleration in the navigation frame, gravity removed")
-    ax.legend(loc="upper right", ncol=6)
+    _legend(ax, loc="upper right", ncol=6)
     save(fig, "acc_gravity_free")
 
     # 3 velocity
@@ -121,7 +142,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     _time_axes(ax, t, stance, sat, "velocity (m/s)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title("Velocity of the boot (zero in stance: ZUPT)")
-    ax.legend(loc="upper right", ncol=5)
+    _legend(ax, loc="upper right", ncol=5)
     save(fig, "velocity")
 
     # 4 position vs time
@@ -130,7 +151,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     _time_axes(ax, t, stance, sat, "position (m)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title("Position vs time")
-    ax.legend(loc="best", ncol=5)
+    _legend(ax, loc="upper left", ncol=5)
     save(fig, "position")
 
     # aligned path + reference (when given) for charts 5 and 6
@@ -166,7 +187,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     ax.set_xlabel("x east (m)")
     ax.set_ylabel("y north (m)")
     ax.set_title(f"Path from above{title_ref}\n{stats}", fontsize=10)
-    ax.legend(loc="best")
+    _legend(ax, loc="upper right")
     save(fig, "path_2d")
 
     # 6 3-D path
@@ -187,7 +208,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     ax.set_ylabel("y north (m)")
     ax.set_zlabel("z up (m)")
     ax.set_title(f"3-D path — {stats.splitlines()[0]}", fontsize=10)
-    ax.legend(loc="upper left")
+    _legend(ax, loc="upper left")
     save(fig, "path_3d")
 
     # 7 height with floor lines
@@ -203,16 +224,16 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
         zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
     else:
         zmin = zmax = 0.0
-    k_lo = int(np.floor(zmin / floors.floor_height_m)) - 1
-    k_hi = int(np.ceil(zmax / floors.floor_height_m)) + 1
+    k_lo = int(np.round(zmin / floors.floor_height_m)) - 1  # one storey of context below and above
+    k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
     for k in range(k_lo, k_hi + 1):
         ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
-        ax.text(t[0], k * floors.floor_height_m, f" floor {k:+d}" if k else " start floor", va="bottom",
-                fontsize=8, color="grey")
+        ax.text(t[-1], k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
+                ha="right", fontsize=8, color="grey")
     _time_axes(ax, t, stance, sat, "height above start (m)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
                  f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
-    ax.legend(loc="best")
+    _legend(ax, loc="upper left")
     save(fig, "height")
     return paths
