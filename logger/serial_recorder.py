@@ -17,6 +17,7 @@ device clock) go into the same file. Byte offsets in events are absolute over th
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from dataclasses import asdict, dataclass, field
@@ -150,7 +151,8 @@ class SerialRecorder:
                         pass
                     ser, down_since = None, time.monotonic()
                     continue
-                if len(data) < 1024:  # little traffic: batch reads instead of waking per frame
+                if len(data) < 1024 and getattr(ser, "fd", None) is not None:
+                    # little traffic: batch reads instead of waking up for every frame
                     time.sleep(max(0.0, t_read + s.read_timeout_s - time.monotonic()))
         except KeyboardInterrupt:
             self.stats.stop_reason = "interrupted (Ctrl-C)"
@@ -164,23 +166,34 @@ class SerialRecorder:
         return self.stats
 
     def _read(self, ser):
-        """Whatever the port holds, waiting up to the read timeout for the first byte.
+        """What the port has, waiting up to the read timeout; returns (data, exception or None).
 
-        Only ever asks for bytes already waiting (``in_waiting``): pyserial's ``read(n)`` drops what
-        it has collected when the port dies half-way through a longer wait, and those frames would be
-        lost at a disconnect. Returns (data, exception or None); data read before an error is kept.
+        A real device or pty (pyserial's posix ``Serial``, which has an ``fd``) is read with one
+        ``select`` + ``os.read``: pyserial's own ``read(n)`` discards what it has already collected
+        when the port dies half-way through, and those frames would be lost at a disconnect. URL
+        handlers without a file descriptor (``socket://``, ``loop://``, ``rfc2217://``) use
+        ``read(n)`` with the timeout.
         """
+        import select
+
         import serial
 
-        data = b""
+        fd = getattr(ser, "fd", None)
         try:
-            data = ser.read(max(1, min(ser.in_waiting, self.s.read_size)))
-            more = ser.in_waiting if data else 0
-            if more:
-                data += ser.read(min(more, self.s.read_size))
+            if fd is None:
+                return ser.read(self.s.read_size), None
+            ready, _, _ = select.select([fd], [], [], self.s.read_timeout_s)
+            if not ready:
+                return b"", None
+            data = os.read(fd, self.s.read_size)
+            if not data:
+                return b"", serial.SerialException("device reports readiness to read but returned no data "
+                                                   "(device disconnected?)")
+            return data, None
+        except BlockingIOError:
+            return b"", None
         except (serial.SerialException, OSError) as exc:
-            return data, exc
-        return data, None
+            return b"", exc
 
     # ------------------------------------------------------------------ frame handling
     def _handle(self, result: ParseResult, host_time: float) -> None:

@@ -234,3 +234,42 @@ def test_saturation_runs_are_counted_whole_across_read_blocks():
             expected += [(axis, int(s), int(e - s)) for s, e in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1))]
         assert got == sorted(expected)
         assert rec.stats.saturated_samples == sat.sum(axis=0).tolist()
+
+
+def test_any_pyserial_url_works_socket_transport(tmp_path):
+    """`--port` goes through serial_for_url: a device on a TCP bridge (socket://) records the same way."""
+    import socket
+    import threading
+
+    from logger.protocol import HeaderFrame, pack_samples
+
+    n = 500
+    payload = HeaderFrame(0, 0, accel_fs=1, gyro_fs=2).pack() + pack_samples(
+        np.arange(n), np.arange(n) * 5000, np.tile([[1, -2, 8192]], (n, 1)), np.tile([[3, 4, 5]], (n, 1)), np.zeros(n))
+    server = socket.create_server(("127.0.0.1", 0))
+    got = {}
+
+    def serve():
+        conn, _ = server.accept()
+        got["cmd"] = conn.recv(1)
+        for k in range(0, len(payload), 1300):  # 50 frames per 50 ms
+            conn.sendall(payload[k:k + 1300])
+            time.sleep(0.05)
+        time.sleep(0.3)
+        conn.close()
+        server.close()
+        got["done"] = True
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    out = tmp_path / "rec.h5"
+    rec = bootnav("record", "--port", f"socket://127.0.0.1:{server.getsockname()[1]}", "--out", str(out), "--quiet")
+    thread.join(timeout=30)
+    rec.send_signal(signal.SIGTERM)
+    finish(rec)
+    r = load(out)
+    assert got == {"cmd": b"H", "done": True}
+    assert r.n == n and r.seq.tolist() == list(range(n))
+    assert r.meta["accel_range_g"] == 4 and r.meta["gyro_range_dps"] == 1000
+    np.testing.assert_allclose(r.acc_mps2[:, 2], 9.80665)  # 8192 LSB = 1 g at ±4 g
+    assert b"disconnect" in r.events["kind"].tolist()  # the bridge went away
