@@ -28,7 +28,7 @@ from postproc.pdr.pipeline import PdrSettings  # noqa: E402
 
 DETECTORS = ["robust", "peak_group", "li", "leppakoski", "footpath", "peak_valley", "zero_crossing", "pan_tompkins",
              "template"]
-LENGTHS = ["renaudin", "frequency", "footpath", "frequency_variance", "weinberg", "ladetto"]
+LENGTHS = ["frequency_variance", "ladetto", "frequency", "renaudin", "footpath", "weinberg"]
 
 
 def speed_of(trial) -> str:
@@ -40,8 +40,9 @@ def speed_of(trial) -> str:
 
 
 def _job(args):
-    trial, settings = args
+    trial, settings, kind = args
     row = evaluate_trial(trial, settings)
+    row["kind"] = kind
     row["position"] = position_of(trial) if trial.set != "mobgap_lab" else "lower_back (mobgap)"
     if trial.set == "voisard_ipol":
         row["position"] = "lower_back (voisard)"
@@ -72,9 +73,9 @@ def main(argv=None) -> int:
     jobs = []
     for d in dets:
         params = {"literal": False} if a.engineered and d not in ("robust", "template", "two_axis") else {}
-        jobs += [(t, PdrSettings(detector=d, detector_params=params)) for t in trials]
+        jobs += [(t, PdrSettings(detector=d, detector_params=params), "detector") for t in trials]
     for L in lens:
-        jobs += [(t, PdrSettings(length=L)) for t in trials if t.set in ("mobgap_lab", "voisard_ipol")]
+        jobs += [(t, PdrSettings(length=L), "length") for t in trials if t.set in ("mobgap_lab", "voisard_ipol")]
     t0 = time.perf_counter()
     rows = []
     with Pool(a.processes) as pool:
@@ -83,7 +84,7 @@ def main(argv=None) -> int:
             if (i + 1) % 25 == 0 or i + 1 == len(jobs):
                 print(f"  {i + 1}/{len(jobs)} trial runs ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
     failures = [r for r in rows if r["error"]]
-    det_rows = [r for r in rows if r["length"] == "renaudin" and not r["error"]]
+    det_rows = [r for r in rows if r["kind"] == "detector" and not r["error"]]
 
     def table(metric, title, fmt=cell):
         print(f"\n### {title}\n")
@@ -118,7 +119,7 @@ def main(argv=None) -> int:
             ce = np.mean([abs(r["count_err_pct"]) for r in ox])
             f1 = [r["f1"] for r in ox]
             print(f"| {d} | {ce:.2f} | {np.mean(f1):.3f} | {np.min(f1):.3f} |")
-    len_rows = [r for r in rows if r["detector"] == "robust" and not r["error"]]
+    len_rows = [r for r in rows if r["kind"] == "length" and not r["error"]]
     print("\n### Step length (robust detector): Mobilise-D step-length MAE / bias (m); Voisard 20 m distance error %\n")
     print("| model | mobgap MAE m | mobgap bias m | voisard distance err % (std) |")
     print("|---|---|---|---|")

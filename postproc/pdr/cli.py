@@ -8,14 +8,14 @@ from __future__ import annotations
 
 DETECTOR_NAMES = ["robust", "peak_valley", "zero_crossing", "pan_tompkins", "template", "two_axis", "footpath",
                   "leppakoski", "li", "peak_group"]
-LENGTH_NAMES = ["renaudin", "weinberg", "ladetto", "footpath", "constant", "frequency", "frequency_variance"]
+LENGTH_NAMES = ["frequency_variance", "renaudin", "weinberg", "ladetto", "footpath", "constant", "frequency"]
 HEADING_NAMES = ["auto", "none", "gyro", "mag", "complementary"]
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("input", help="acc.csv.gz / imu.csv.gz, an HDF5 recording, or a file logger.importers reads")
     parser.add_argument("--detector", default="robust", choices=DETECTOR_NAMES)
-    parser.add_argument("--length", default="renaudin", choices=LENGTH_NAMES, help="step-length model")
+    parser.add_argument("--length", default="frequency_variance", choices=LENGTH_NAMES, help="step-length model")
     parser.add_argument("--heading", default="auto", choices=HEADING_NAMES)
     parser.add_argument("--height", type=float, default=None, metavar="M", help="walker height, m (default 1.83)")
     parser.add_argument("--engineered", action="store_true",

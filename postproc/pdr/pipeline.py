@@ -21,7 +21,7 @@ from bootnav.errors import InputError
 class PdrSettings:
     detector: str = "robust"
     detector_params: dict = field(default_factory=dict)
-    length: str = "renaudin"
+    length: str = "frequency_variance"
     length_params: dict = field(default_factory=dict)
     height_m: float | None = None  # used by the models that need it (footpath, renaudin)
     heading: str = "auto"
@@ -51,6 +51,7 @@ class PdrResult:
     lat_deg: np.ndarray | None = None
     lon_deg: np.ndarray | None = None
     heading_source: str = "none"
+    gravity_restored: bool = False
 
     @property
     def count(self) -> int:
@@ -67,6 +68,7 @@ class PdrResult:
             "final_x_m": float(self.x_m[-1]) if self.count else 0.0,
             "final_y_m": float(self.y_m[-1]) if self.count else 0.0,
             "heading_source": self.heading_source,
+            "gravity_restored": self.gravity_restored,
             "heading_convention": "bearing, rad, clockwise from north; x east, y north",
             "settings": self.settings.to_dict(),
         }
@@ -84,6 +86,32 @@ def _check_inputs(t_s, acc_b):
         keep = ~bad & np.isfinite(t)
         return t[keep], a[keep], keep
     return t, a, None
+
+
+def restore_gravity(acc_b: np.ndarray, g: float = 9.80665) -> list[np.ndarray]:
+    """Phones may export LINEAR acceleration (gravity removed by the OS, e.g. phyphox "Linear
+    Acceleration"): |a| at rest ~ 0 instead of g. Every detector here expects specific force with gravity,
+    so when median |a| < g/2 we add g along the dominant oscillation axis (walking: mostly vertical).
+    Its sign cannot be known, so BOTH candidates are returned ([acc] when gravity is present);
+    ``run_pdr`` keeps the one giving more steps (the wrong polarity merges or skips steps), then the
+    more regular sequence (``irregularity``)."""
+    a = np.asarray(acc_b, float)
+    if np.median(np.linalg.norm(a, axis=1)) >= 0.5 * g:
+        return [a]
+    c = a - a.mean(axis=0)
+    _, v = np.linalg.eigh(c.T @ c)
+    e = v[:, -1]
+    return [a + g * e, a - g * e]
+
+
+def irregularity(t_steps: np.ndarray, gap_s: float = 1.6) -> float:
+    """Median |successive difference| of step intervals / median interval (walking: small; a wrong
+    polarity picks alternating short/long intervals). inf when fewer than 4 intervals."""
+    d = np.diff(np.asarray(t_steps, float))
+    d = d[d < gap_s]
+    if d.size < 4:
+        return float("inf")
+    return float(np.median(np.abs(np.diff(d))) / np.median(d))
 
 
 def _length_model(settings: PdrSettings):
@@ -147,13 +175,18 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
         gyro = gyro[keep] if gyro is not None else None
         mag = mag[keep] if mag is not None else None
     detector = make_detector(settings.detector, **settings.detector_params)
-    events = detector.detect(t, acc)
+    candidates = restore_gravity(acc)
+    gravity_restored = len(candidates) > 1
+    runs = [(cand, detector.detect(t, cand)) for cand in candidates]
+    # the wrong polarity merges or skips steps (seen on phyphox exports): keep the larger count, then the
+    # more regular sequence
+    acc, events = min(runs, key=lambda r: (-r[1].count, irregularity(r[1].t_s)))
     feats = step_features(events.t_s, t, acc)
     length = _length_model(settings).estimate(feats)
     heading, source = _heading(settings, t, acc, gyro, mag, events.t_s)
     x, y = local_path(length, heading)
     res = PdrResult(events.t_s, np.asarray(length, float), heading, x, y, events, feats, settings,
-                    heading_source=source)
+                    heading_source=source, gravity_restored=gravity_restored)
     if settings.start_lat_lon:
         res.lat_deg, res.lon_deg = geodetic_path(settings.start_lat_lon[0], settings.start_lat_lon[1], length, heading)
     return res
