@@ -41,7 +41,7 @@ def run(args) -> int:
     signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
     signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
     stats = recorder.run()
-    if recorder._writer is None:
+    if not recorder.wrote_file:
         from bootnav.errors import BootnavError
 
         raise BootnavError(f"no data received from {args.port} ({stats.stop_reason}); {args.out} not written")

@@ -89,7 +89,12 @@ class SerialRecorder:
         self._last_t_s = float("nan")
         self._open_runs: list[int | None] = [None] * 6  # start index of a saturation run per axis
         self._first_sample_mono: float | None = None
+        self._late_header: HeaderFrame | None = None
         self._rate_window: list[tuple[float, int]] = []
+
+    @property
+    def wrote_file(self) -> bool:
+        return self._writer is not None
 
     def stop(self, reason: str = "stopped") -> None:
         self._stop = True
@@ -229,9 +234,13 @@ class SerialRecorder:
         self.stats.headers += 1
         if self._header is None:
             self._header = header
-            self._config_source = "header frame"
-            self._event("header", index_in_block=index_in_block, byte_offset=header.offset,
-                        detail=json.dumps(header.config()))
+            detail = json.dumps(header.config())
+            if self._writer is not None:  # defaults were assumed before this header came
+                self._late_header = header
+                detail += "; arrived after the default scale factors were assumed: corrected when the file closes"
+            else:
+                self._config_source = "header frame"
+            self._event("header", index_in_block=index_in_block, byte_offset=header.offset, detail=detail)
         elif header.config() != self._header.config():
             old, new = self._header.config(), header.config()
             changed = {k: [old[k], new[k]] for k in old if old[k] != new[k]}
@@ -337,8 +346,7 @@ class SerialRecorder:
             "recorder_settings": json.dumps(asdict(self.s)),
         }
         if h is not None:
-            meta.update(device_id=f"0x{h.device_id:08X}", firmware_version=h.fw_string, dlpf_cfg=h.dlpf,
-                        smplrt_div=h.smplrt_div, rate_nominal_hz=h.rate_hz, header_flags=h.flags)
+            meta.update(self._header_meta(h))
         self._writer = RecordingWriter(
             self.s.out,
             counts_channel("acc", mpu6050.accel_scale_mps2(a_fs)),
@@ -386,7 +394,27 @@ class SerialRecorder:
                      skipped_bytes=st.skipped_bytes, disconnects=st.disconnects, bytes_received=st.bytes_in,
                      saturated_samples=list(st.saturated_samples), stop_reason=st.stop_reason or "stopped",
                      duration_s=float(t[-1] - t[0]) if t is not None and t.size else 0.0)
+        if self._late_header is not None:
+            final.update(self._header_meta(self._late_header))
+            final["config_source"] = "header frame (arrived after defaults were assumed; scale factors corrected)"
         self._writer.close(final_meta=final)
+        if self._late_header is not None:
+            self._correct_scale_factors(self._late_header)
+
+    def _correct_scale_factors(self, h: HeaderFrame) -> None:
+        """Counts are stored raw, so a late header only changes the factor to SI (lossless)."""
+        import h5py
+
+        with h5py.File(self.s.out, "r+") as f:
+            f["imu/acc"].attrs["scale_to_si"] = mpu6050.accel_scale_mps2(h.accel_fs)
+            f["imu/gyro"].attrs["scale_to_si"] = mpu6050.gyro_scale_radps(h.gyro_fs)
+
+    @staticmethod
+    def _header_meta(h: HeaderFrame) -> dict:
+        return {"accel_fs": h.accel_fs, "gyro_fs": h.gyro_fs, "accel_range_g": mpu6050.ACCEL_RANGE_G[h.accel_fs],
+                "gyro_range_dps": mpu6050.GYRO_RANGE_DPS[h.gyro_fs], "device_id": f"0x{h.device_id:08X}",
+                "firmware_version": h.fw_string, "dlpf_cfg": h.dlpf, "smplrt_div": h.smplrt_div,
+                "rate_nominal_hz": h.rate_hz, "header_flags": h.flags}
 
     _status_line_shown = False
 

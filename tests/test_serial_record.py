@@ -179,11 +179,12 @@ def test_missing_port_is_a_clear_error(tmp_path):
     assert not (tmp_path / "x.h5").exists()
 
 
-def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp_path):
-    """A device that never sends a header (old firmware): frames written straight onto a pty here."""
+@pytest.mark.parametrize("late_header", [False, True])
+def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp_path, late_header):
+    """A device that never (or only late) sends a header: frames written straight onto a pty here."""
     import tty
 
-    from logger.protocol import pack_samples
+    from logger.protocol import HeaderFrame, pack_samples
 
     master, slave = os.openpty()
     tty.setraw(slave)
@@ -191,11 +192,14 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
     os.symlink(os.ttyname(slave), link)
     out = tmp_path / "rec.h5"
     rec = bootnav("record", "--port", str(link), "--out", str(out), "--header-wait", "0.3", "--quiet")
+    n = 400
+    acc = np.tile(np.array([[0, 0, 2048]], np.int16), (n, 1))
+    data = pack_samples(np.arange(n), np.arange(n) * 5000, acc, np.zeros((n, 3)), np.zeros(n))
     try:
         assert os.read(master, 1) == b"H"  # the recorder asks for the header as soon as it connects
-        n, acc = 400, np.tile(np.array([[0, 0, 2048]], np.int16), (400, 1))
-        data = pack_samples(np.arange(n), np.arange(n) * 5000, acc, np.zeros((n, 3)), np.zeros(n))
         for k in range(0, len(data), 26 * 40):  # 200 Hz in blocks of 40 frames
+            if late_header and k == 26 * 200:  # 1 s in, long after the 0.3 s wait: ±4 g, ±500 °/s
+                os.write(master, HeaderFrame(200, 1_000_000, accel_fs=1, gyro_fs=1).pack())
             os.write(master, data[k:k + 26 * 40])
             time.sleep(0.2)
         time.sleep(0.3)
@@ -205,10 +209,17 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
         os.close(master)
         os.close(slave)
     r = load(out)
-    assert r.n == n and r.meta["accel_range_g"] == 16 and r.meta["gyro_range_dps"] == 2000
-    assert "no header frame" in r.meta["config_source"]
+    assert r.n == n
     assert any(b"scale factors assumed" in d for d in r.events_of("note")["detail"])
-    np.testing.assert_allclose(r.acc_mps2[:, 2], 9.80665)  # 2048 LSB = 1 g at ±16 g
+    if not late_header:
+        assert r.meta["accel_range_g"] == 16 and r.meta["gyro_range_dps"] == 2000
+        assert "no header frame" in r.meta["config_source"]
+        np.testing.assert_allclose(r.acc_mps2[:, 2], 9.80665)  # 2048 LSB = 1 g at ±16 g
+    else:  # raw counts are kept, so the late header's factor applies to the whole file
+        assert r.meta["accel_range_g"] == 4 and r.meta["gyro_range_dps"] == 500
+        assert "corrected" in r.meta["config_source"]
+        assert b"arrived after" in r.events_of("header")["detail"][0]
+        np.testing.assert_allclose(r.acc_mps2[:, 2], 2048 * 9.80665 / 8192)
 
 
 def test_saturation_runs_are_counted_whole_across_read_blocks():
