@@ -162,6 +162,13 @@ def test_clipping_plateaus_are_detected_without_a_mask():
     res = detect_stance(t, acc_c, gyro_c, DetectorSettings(), G)
     assert not res.stance[k:k + 6].any()
     assert res.info["n_saturated"] >= 6
+    from postproc.detectors._common import clipped_samples
+
+    # a constant (dead or noise-free) axis repeats its extreme everywhere: that is not clipping
+    assert not clipped_samples(np.column_stack([np.full(100, G), np.linspace(-1, 1, 100)])).any()
+    # an axis pinned at full scale on 10 of 100 samples is
+    x = np.sin(np.linspace(0, 6, 100)) * 30
+    assert clipped_samples(np.clip(x, -25, 25)[:, None]).sum() == np.sum(np.abs(x) >= 25)
 
 
 def _read(path):
@@ -238,3 +245,35 @@ def test_adaptive_one_stance_per_step_at_100hz(datasets):
         for off, on in zip(sw["t_toe_off_s"], sw["t_heel_strike_s"]):
             sel = (t > off + 0.05) & (t < on - 0.05)
             assert not res.stance[sel].any(), (trial, foot, off, on)
+
+
+def test_adaptive_invents_no_stance_in_continuous_motion():
+    # a sensor that never rests (|ω| 5-7 rad/s, strong accelerations): every window is above the
+    # adaptive ceiling (a foot turning at 4 rad/s), so no stance may be found even though the rule is
+    # relative to the recording's own statistic
+    fs = 200.0
+    t = np.arange(int(20 * fs)) / fs
+    rng = np.random.default_rng(5)
+    gyro = np.column_stack([6 + np.sin(2 * np.pi * 0.9 * t), 2 * np.cos(2 * np.pi * 1.3 * t), np.zeros_like(t)])
+    acc = np.column_stack([15 * np.sin(2 * np.pi * 1.1 * t), 10 * np.cos(2 * np.pi * 0.7 * t), G + 0 * t])
+    acc += rng.normal(0, 0.02, acc.shape)
+    gyro += rng.normal(0, 0.005, gyro.shape)
+    res = detect_stance(t, acc, gyro, DetectorSettings(), G)
+    assert not res.stance.any()
+    # and with the ceiling switched off the relative rule alone would mark the quietest parts
+    off = detect_stance(t, acc, gyro, DetectorSettings(adaptive_max_rate_radps=0.0), G)
+    assert off.stance.any()
+
+
+def test_short_and_nan_input():
+    t, acc, gyro, truth = synthetic_gait(200.0)
+    acc[500:510] = np.nan  # NaNs must neither poison neighbouring windows nor be stance
+    res = detect_stance(t, acc, gyro, DetectorSettings(), G)
+    assert not res.stance[500:510].any()
+    assert res.stance[truth].mean() > 0.8
+    tiny = detect_stance(t[:4], acc[:4], gyro[:4], DetectorSettings(method="shoe"), G)
+    assert tiny.stance.shape == (4,)
+    with pytest.raises(ValueError, match="shape"):
+        detect_stance(t, acc[:-1], gyro, DetectorSettings(), G)
+    with pytest.raises(ValueError, match="unknown stance detector"):
+        DetectorSettings(method="glrt2")

@@ -51,8 +51,8 @@ class DetectorSettings:
     min_swing_s: swing gaps shorter than this (between two stance runs) are filled.
     detect_clipping: also treat per-axis full-scale plateaus as saturated (files without a mask).
     saturation_guard_s: saturated samples are grown by this much on each side before being excluded.
-    adaptive_*: window, span, α, floor δ (decades), noise quantile, min stance / swing of the adaptive
-        rule; see ``adaptive.py``.
+    adaptive_*: window, span, α, floor δ (decades), noise quantile, min stance / swing and the rate
+        ceiling of the adaptive rule; see ``adaptive.py``.
     """
 
     method: str = "adaptive"
@@ -74,6 +74,7 @@ class DetectorSettings:
     adaptive_noise_quantile: float = 0.05
     adaptive_min_stance_s: float = 0.05
     adaptive_min_swing_s: float = 0.1
+    adaptive_max_rate_radps: float = 4.0
 
     def __post_init__(self):
         if self.method not in METHODS:

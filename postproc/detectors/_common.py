@@ -30,12 +30,14 @@ def clipped_samples(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-
     """Samples of an (N, k) signal that sit at a per-axis full-scale plateau (bool (N,)).
 
     A clipped axis repeats its extreme value exactly; an unclipped one reaches its extreme once or twice.
-    Flags |x| >= (1 - rel_tol) * max|x| on an axis whose extreme is hit ``min_repeats`` times or more.
+    Flags |x| >= (1 - rel_tol) * max|x| on an axis whose extreme is hit ``min_repeats`` times or more,
+    but by less than half of the samples (a constant axis is not clipping).
     """
     x = np.abs(np.asarray(x, dtype=np.float64))
     peak = np.nanmax(x, axis=0)
     at_peak = x >= peak * (1.0 - rel_tol)
-    clipped_axes = at_peak.sum(axis=0) >= min_repeats
+    count = at_peak.sum(axis=0)
+    clipped_axes = (count >= min_repeats) & (count < 0.5 * x.shape[0])
     return np.any(at_peak & clipped_axes & (peak > 0), axis=1)
 
 

@@ -15,12 +15,16 @@ Rule (all in log10, so it is scale-free: σ's, units and sensor noise only shift
     M_k   = min  of L over the centred span ``adaptive_span_s`` (≥ one stride, so it holds one valley)
     P_k   = max  of L over the same span                          (the swing peak next to it)
     F     = ``adaptive_noise_quantile`` quantile of L over the recording (the noise floor: foot at rest)
-    γ_k   = max( M_k + α (P_k − M_k),  F + δ )     α = ``adaptive_alpha``, δ = ``adaptive_floor_decades``
+    γ_k   = min( max( M_k + α (P_k − M_k),  F + δ ),  C )  α = ``adaptive_alpha``, δ = ``adaptive_floor_decades``
+    C     = log10(ω_max² / σ_ω²)   (ω_max = ``adaptive_max_rate_radps``, 4 rad/s)
     stance_k ⇔ L_k < γ_k
 
 The first term puts the threshold a fixed fraction α of the way up from the valley floor to the swing peak
 of the same stride (a local, per-stride version of a histogram-valley threshold between the stance and
-swing modes); the second keeps long rests whole, where the local range P − M is only noise. Then swing gaps
+swing modes); the second keeps long rests whole, where the local range P − M is only noise; the ceiling C
+refuses stance in a window as energetic as a foot turning at 4 rad/s (no effect on any developer
+recording, whose stance valleys stay below 3 rad/s-equivalent even when running; it keeps a recording
+without any rest, e.g. a sensor shaken in the hand, from getting invented stances). Then swing gaps
 < ``adaptive_min_swing_s`` are filled, stance runs < ``adaptive_min_stance_s`` dropped (postprocess.py),
 and saturated samples (grown by one window) are never stance.
 
@@ -49,9 +53,13 @@ def adaptive_stance(t_s, acc_b, gyro_b, dt: float, s, gravity: float, bad: np.nd
     span = window_samples(s.adaptive_span_s, dt, 3)
     valley = minimum_filter1d(L, span, mode="nearest")
     peak = maximum_filter1d(L, span, mode="nearest")
+    # absolute ceiling: never stance where T exceeds that of a foot turning at adaptive_max_rate_radps
+    ceiling = np.log10(s.adaptive_max_rate_radps**2 / s.sigma_gyro_radps**2) if s.adaptive_max_rate_radps else np.inf
     usable = L[~bad] if (~bad).any() else L
     floor = float(np.quantile(usable, s.adaptive_noise_quantile))
     gamma = np.maximum(valley + s.adaptive_alpha * (peak - valley), floor + s.adaptive_floor_decades)
+    if s.adaptive_max_rate_radps:
+        gamma = np.minimum(gamma, ceiling)
     stance = L < gamma
     stance = postprocess.clean_stance(stance, t_s, dt, min_swing_s=s.adaptive_min_swing_s,
                                       min_stance_s=s.adaptive_min_stance_s)
@@ -66,6 +74,7 @@ def adaptive_stance(t_s, acc_b, gyro_b, dt: float, s, gravity: float, bad: np.nd
         "noise_floor_log10": floor,
         "alpha": s.adaptive_alpha,
         "floor_decades": s.adaptive_floor_decades,
+        "ceiling_log10": float(ceiling),
         "threshold_log10_per_sample": gamma,
         "threshold_log10_range": (float(np.min(gamma)), float(np.max(gamma))),
     }
