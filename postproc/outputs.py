@@ -6,6 +6,7 @@
   (``postproc.strides``).
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
+* ``1_raw_imu.png`` … ``7_height.png`` and ``path.html``: charts 1-7 and the interactive path (``plots``).
 * ``path.geojson``: the footprint path. Without an anchor, coordinates are local ENU metres (x, y, z), *not*
   WGS-84 (stated in the collection's properties). With ``geo_anchor = (lat, lon[, h])`` they are WGS-84
   ``[lon, lat, h]`` from a local tangent-plane approximation around the anchor (φ0, λ0, h0)::
@@ -118,10 +119,8 @@ def results_arrays(result) -> tuple[dict, dict]:
         "vel_n_mps": result.vel_n,
         "q_nb": result.q_nb,
         "stance": result.stance.astype(np.uint8),
-        "sample_index": np.arange(result.index.start or 0, (result.index.start or 0) + len(result.t_s)),
     }
-    units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
-             "sample_index": "1 (index into /imu)"}
+    units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)"}
     nav = result.nav
     for attr, key, unit in (("acc_bias_b", "acc_bias_b_mps2", "m/s^2"), ("gyro_bias_b", "gyro_bias_b_radps", "rad/s"),
                             ("pos_sigma_n", "pos_sigma_n_m", "m")):
@@ -170,6 +169,7 @@ def write_hdf5_results(result, out_dir: Path) -> tuple[Path, str, list[str]]:
         "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "settings": result.settings.to_json(indent=None),
         "summary": json.dumps(result.summary, default=str),
+        "sample_index_start": int(result.index.start or 0),  # row 0 here is /imu row sample_index_start
         "stance_method": str(result.summary["stance"]["method"]),
         "stance_threshold": json.dumps(result.summary["stance"]["threshold"]),
         **{f"convention_{k}": v for k, v in CONVENTIONS.items()},
@@ -201,11 +201,12 @@ def write_outputs(result, out_dir: str | Path) -> dict[str, str]:
         result.warnings.extend(warns)
     result.summary["timings_s"]["write"] = time.perf_counter() - t0
     if opts.plots:
-        from .plots import make_plots
+        from .plots import make_html, make_plots
 
         t1 = time.perf_counter()
         for key, path in make_plots(result, out).items():
             files[f"plot_{key}"] = str(path)
+        files["html"] = str(make_html(result, out))
         result.summary["timings_s"]["plots"] = time.perf_counter() - t1
     files["summary"] = str(out / "summary.json")
     result.summary["files"] = files

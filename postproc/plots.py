@@ -9,6 +9,8 @@
 6. ``6_path_3d.png``: the 3-D path with equal scales (Chart 7, stairs).
 7. ``7_height.png``: height vs time with the floor lines used for counting floors.
 
+Plus ``path.html`` (``make_html``): the path from above as a small self-contained interactive SVG page.
+
 Time charts shade stance (green) and saturated intervals (red). Long signals are decimated for drawing
 only (``OutputSettings.plot_max_points``); every number in the files comes from the full data.
 """
@@ -237,3 +239,57 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     _legend(ax, loc="upper left")
     save(fig, "height")
     return paths
+
+
+def make_html(result, out_dir: str | Path) -> Path:
+    """``path.html``: the path from above as a self-contained SVG page (no network, no library).
+
+    Mouse wheel zooms, drag pans; hovering a footprint shows its stride number, time, height and stride
+    length. Equal axes (1 m east = 1 m north), north up.
+    """
+    import html
+    import json
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    step = max(1, int(np.ceil(len(result.t_s) / max(result.settings.output.plot_max_points, 100))))
+    xy = result.pos_n[::step, :2]
+    lo, hi = np.minimum(xy.min(axis=0), 0), np.maximum(xy.max(axis=0), 0)
+    pad = 0.05 * max(float((hi - lo).max()), 1.0)
+    lo, hi = lo - pad, hi + pad
+    pts = " ".join(f"{x:.3f},{-y:.3f}" for x, y in xy)  # SVG y grows downwards: plot -y so north is up
+    st = result.steps
+    r_dot = 0.006 * float((hi - lo).max())
+    dots = "".join(
+        f'<circle cx="{x:.3f}" cy="{-y:.3f}" r="{r_dot:.3f}"><title>stride {i + 1}: t = {t:.2f} s, '
+        f'z = {z:+.2f} m, length {L:.2f} m</title></circle>'
+        for i, (t, x, y, z, L) in enumerate(zip(st["t_s"], st["x_m"], st["y_m"], st["z_m"], st["stride_length_m"])))
+    p = result.summary.get("path", {})
+    title = html.escape(f"{Path(str(result.summary['input']['source'])).name}: {p.get('distance_m', 0):.2f} m, "
+                        f"closure {p.get('closure_3d_m', float('nan')):.2f} m")
+    vb = [float(lo[0]), float(-hi[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])]
+    page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{title}</title>
+<style>body{{font-family:sans-serif;margin:1em}} svg{{border:1px solid #ccc;width:90vmin;height:90vmin;cursor:grab}}
+polyline{{fill:none;stroke:#1f77b4;vector-effect:non-scaling-stroke;stroke-width:1.5}}
+circle{{fill:#1f77b4}} circle:hover{{fill:#d62728}}</style></head><body>
+<h3>{title}</h3><p>ENU metres, north up; wheel = zoom, drag = pan, hover a footprint for details.
+Green = start, red = end.</p>
+<svg id="v" viewBox="{' '.join(f'{v:.3f}' for v in vb)}" preserveAspectRatio="xMidYMid meet">
+<polyline points="{pts}"/>{dots}
+<circle cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:#2ca02c"><title>start</title></circle>
+<circle cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:#d62728"><title>end</title></circle>
+</svg>
+<script>
+const s=document.getElementById('v');let b={json.dumps(vb)},d=null;
+const set=()=>s.setAttribute('viewBox',b.join(' '));
+s.addEventListener('wheel',e=>{{e.preventDefault();const r=s.getBoundingClientRect(),k=e.deltaY>0?1.2:1/1.2,
+ px=b[0]+(e.clientX-r.left)/r.width*b[2],py=b[1]+(e.clientY-r.top)/r.height*b[3];
+ b=[px-(px-b[0])*k,py-(py-b[1])*k,b[2]*k,b[3]*k];set();}});
+s.addEventListener('mousedown',e=>d=[e.clientX,e.clientY]);window.addEventListener('mouseup',()=>d=null);
+window.addEventListener('mousemove',e=>{{if(!d)return;const r=s.getBoundingClientRect();
+ b[0]-=(e.clientX-d[0])/r.width*b[2];b[1]-=(e.clientY-d[1])/r.height*b[3];d=[e.clientX,e.clientY];set();}});
+</script></body></html>
+"""
+    path = out / "path.html"
+    path.write_text(page)
+    return path

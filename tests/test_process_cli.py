@@ -60,6 +60,8 @@ def test_every_output_file_with_documented_columns(cli_run):
         assert len(png) == 1, f"chart {k} missing"
         data = png[0].read_bytes()
         assert data[:8] == PNG_MAGIC and len(data) > 20_000  # a real drawing, not an empty canvas
+    page = (out / "path.html").read_text()
+    assert page.count("<title>stride ") == len(steps) and "<polyline" in page  # one hover dot per stride
     with h5py.File(out / "results.h5") as f:
         assert f["results/default/pos_n_m"].shape == (len(traj), 3)
         assert f["imu/t_s"].shape[0] == len(traj)
