@@ -24,6 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--disconnect-at", type=float, default=None, metavar="S",
                         help="close the port S seconds into the stream and recreate it after --disconnect-pause")
     parser.add_argument("--disconnect-pause", type=float, default=1.0, metavar="S")
+    parser.add_argument("--restart-on-reconnect", action="store_true",
+                        help="the device reboots when the port comes back (as a Nano does on DTR): "
+                             "seq and t_us start again from --seq0/--t0-us")
     parser.add_argument("--no-wait", action="store_true",
                         help="stream at once instead of waiting for the host's first byte")
     parser.add_argument("--host-timeout", type=float, default=30.0, metavar="S")
@@ -54,7 +57,8 @@ def run(args) -> int:
     settings = EmulatorSettings(
         out_link=args.out_link, source=args.source, duration_s=args.duration, rate_hz=args.rate,
         corrupt_rate=args.corrupt, corrupt_kinds=kinds, disconnect_at_s=args.disconnect_at,
-        disconnect_pause_s=args.disconnect_pause, wait_for_host=not args.no_wait,
+        disconnect_pause_s=args.disconnect_pause, restart_on_reconnect=args.restart_on_reconnect,
+        wait_for_host=not args.no_wait,
         host_timeout_s=args.host_timeout, linger_s=args.linger, seq0=args.seq0 % 65536,
         t0_us=args.t0_us % 2**32, accel_fs=args.accel_fs, gyro_fs=args.gyro_fs, seed=args.seed,
     )

@@ -56,6 +56,7 @@ class EmulatorSettings:
     corrupt_kinds: tuple[str, ...] = FAULT_KINDS
     disconnect_at_s: float | None = None  # stream time of the disconnect
     disconnect_pause_s: float = 1.0
+    restart_on_reconnect: bool = False  # device reboots at reconnect: seq and t_us start again
     wait_for_host: bool = True  # start streaming on the host's first byte
     host_timeout_s: float = 30.0  # give up if no host connects
     linger_s: float = 1.0  # keep the port open after the last frame
@@ -252,6 +253,7 @@ class Emulator:
         self.report = EmulatorReport(rate_hz=self.rate_hz, settings=_jsonable(asdict(s)))
         self.progress = progress
         self._stop = False
+        self._restart_k = 0  # frame index of the last device (re)start: seq and t_us count from there
 
     def stop(self) -> None:
         self._stop = True
@@ -261,6 +263,11 @@ class Emulator:
         div = int(np.clip(round(1000.0 / self.rate_hz - 1), 0, 255))
         return HeaderFrame(next_seq & 0xFFFF, t_us & 0xFFFFFFFF, self.accel_fs, self.gyro_fs,
                            self.settings.dlpf, div, self.settings.fw_version, 0b10, self.settings.device_id)
+
+    def _header_at(self, k: int, period_us: float) -> bytes:
+        """Header frame sent just before sample frame ``k`` (device counters since the last start)."""
+        j = k - self._restart_k
+        return self.header(self.settings.seq0 + j, int(self.settings.t0_us + round(j * period_us))).pack()
 
     def _wait_for_host(self, port: PtyPort) -> bool:
         """Block until the host sends a byte (it opened the port). False on timeout/stop."""
@@ -288,7 +295,7 @@ class Emulator:
             disconnect_at = s.disconnect_at_s
             host_ready = True
             k = 0  # frames emitted so far (index of the next frame in device time)
-            self._send(port, self.header(s.seq0, s.t0_us).pack(), rep, header=True)
+            self._send(port, self._header_at(0, period_us), rep, header=True)
             sent_header_at = 0
             while k < self.n_frames and not self._stop:
                 now = time.monotonic() - t_start
@@ -307,6 +314,8 @@ class Emulator:
                     if now >= reconnect_at:
                         port = PtyPort(s.out_link)
                         port_up, host_ready = True, not s.wait_for_host
+                        if s.restart_on_reconnect:  # a Nano reboots when its USB comes back (DTR)
+                            self._restart_k = k
                     time.sleep(s.tick_s)
                     continue
                 cmds = port.read_commands()
@@ -314,8 +323,7 @@ class Emulator:
                     rep.host_commands += len(cmds)
                     host_ready = True
                     if CMD_RESEND_HEADER in cmds:
-                        t_now = int(s.t0_us + k * period_us)
-                        self._send(port, self.header(s.seq0 + k, t_now).pack(), rep, header=True)
+                        self._send(port, self._header_at(k, period_us), rep, header=True)
                 if not host_ready:  # port back, host not yet reopened it: the device streams into the void
                     rep.frames_unsent_disconnected += due - k
                     k = due
@@ -323,8 +331,7 @@ class Emulator:
                     continue
                 if due > k:
                     if sent_header_at is not None and s.header_every and k - sent_header_at >= s.header_every:
-                        t_now = int(s.t0_us + k * period_us)
-                        self._send(port, self.header(s.seq0 + k, t_now).pack(), rep, header=True)
+                        self._send(port, self._header_at(k, period_us), rep, header=True)
                         sent_header_at = k
                     self._send_block(port, k, due, n_src, period_us)
                     k = due
@@ -335,7 +342,7 @@ class Emulator:
             linger_end = time.monotonic() + s.linger_s
             while port_up and not self._stop and time.monotonic() < linger_end:
                 if CMD_RESEND_HEADER in port.read_commands():
-                    self._send(port, self.header(s.seq0 + k, int(s.t0_us + k * period_us)).pack(), rep, header=True)
+                    self._send(port, self._header_at(k, period_us), rep, header=True)
                 time.sleep(0.02)
         finally:
             if port_up:
@@ -353,8 +360,8 @@ class Emulator:
         s, rep, sig = self.settings, self.report, self.signal
         idx = np.arange(k0, k1)
         src = idx % n_src  # a source shorter than the duration is looped
-        seq = (s.seq0 + idx) & 0xFFFF
-        t_us = (s.t0_us + np.round(idx * period_us).astype(np.int64)) & 0xFFFFFFFF
+        seq = (s.seq0 + idx - self._restart_k) & 0xFFFF
+        t_us = (s.t0_us + np.round((idx - self._restart_k) * period_us).astype(np.int64)) & 0xFFFFFFFF
         data = np.frombuffer(pack_samples(seq, t_us, sig.acc[src], sig.gyro[src], sig.temp[src]), np.uint8)
         frames = data.reshape(-1, SAMPLE_DTYPE.itemsize).copy()
         fault = self._fault[k0:k1]

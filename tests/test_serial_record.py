@@ -160,14 +160,30 @@ def test_disconnect_and_reconnect_one_file_with_the_gap_recorded(tmp_path):
     assert rec.seq.tolist() == report["valid_seqs"]
     kinds = rec.events["kind"].tolist()
     assert kinds.count(b"disconnect") >= 1 and kinds.count(b"reconnect") == 1
-    i_disc = kinds.index(b"disconnect")
-    assert i_disc < kinds.index(b"reconnect")
+    assert kinds.index(b"disconnect") < kinds.index(b"reconnect")
     gaps = rec.events_of("gap")
     assert len(gaps) == 1 and gaps["count"][0] == report["frames_unsent_disconnected"]
     k = int(gaps["sample_index"][0])
     # The device clock bridges the gap exactly: (missing + 1) periods.
     assert round((rec.t_s[k] - rec.t_s[k - 1]) * 1e6) == (report["frames_unsent_disconnected"] + 1) * 1000
     assert np.all(np.diff(rec.t_s) > 0)
+
+
+def test_device_that_reboots_on_reconnect_keeps_time_monotonic_in_one_file(tmp_path):
+    """A Nano resets when the port is reopened: seq and t_us restart from 0 after the gap."""
+    out, report, _ = emulate_and_record(
+        tmp_path, ["--duration", "2.5", "--rate", "1000", "--disconnect-at", "0.8", "--disconnect-pause", "0.5",
+                   "--restart-on-reconnect"])
+    rec = load(out)
+    assert rec.seq.tolist() == report["valid_seqs"]
+    k = int(np.flatnonzero(np.diff(rec.seq.astype(int)) != 1)[0]) + 1  # first frame after the reboot
+    assert rec.t_device[k] < rec.t_device[k - 1]
+    assert np.all(np.diff(rec.t_s) > 0)  # bridged with the host clock
+    assert 0.4 < rec.t_s[k] - rec.t_s[k - 1] < 10.0  # at least the 0.5 s the port was away
+    assert len(rec.events_of("nonmonotonic_time")) == 1
+    assert any(b"sequence went back" in d for d in rec.events_of("note")["detail"])
+    # After the reboot, time runs on the device clock again: exact 1 ms steps.
+    np.testing.assert_array_equal(np.round(np.diff(rec.t_s[k:]) * 1e6), 1000.0)
 
 
 def test_missing_port_is_a_clear_error(tmp_path):
