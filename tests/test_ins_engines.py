@@ -37,6 +37,7 @@ CASES = [
     dict(n_states=15, smoother="rts", zaru=True),
     dict(n_states=9, mode="riccati"),
     dict(n_states=15, smoother="rts", smoother_max_segment_s=0.3),  # segments split mid-swing (memory bound)
+    dict(n_states=9, heading_aid="dominant_directions", hde_threshold_rad=0.8),  # optional heuristic aid
 ]
 
 
@@ -47,6 +48,9 @@ def test_fast_equals_reference(messy_walk, case):
     ref = run_filter(t, acc, gyr, stance, init, g, FilterSettings(engine="reference", **case))
     assert fast.info["n_duplicates"] == 6 and len(fast.info["gaps"]) == 2
     assert fast.info["n_updates"] == ref.info["n_updates"] > 0
+    assert fast.info["heading_aid_updates"] == ref.info["heading_aid_updates"]
+    if case.get("heading_aid"):
+        assert fast.info["heading_aid_updates"] >= 1
     assert np.abs(fast.pos_n - ref.pos_n).max() < 1e-9
     assert np.abs(fast.vel_n - ref.vel_n).max() < 1e-9
     assert np.abs(fast.q_nb - ref.q_nb).max() < 1e-9

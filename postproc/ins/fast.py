@@ -26,7 +26,12 @@ from numba import njit
 from postproc.ins.smoother import rts_backward
 
 # parameter vector layout (kept in one float64 array so the kernel signature stays short)
-P_DT_NOM, P_QA, P_QG, P_QBA, P_QBG, P_RZ, P_RW, P_ZARU, P_G, P_RIC, P_SMOOTH, P_MAXSEG = range(12)
+(P_DT_NOM, P_QA, P_QG, P_QBA, P_QBG, P_RZ, P_RW, P_ZARU, P_G, P_RIC, P_SMOOTH, P_MAXSEG,
+ P_HDE, P_HDE_THR, P_HDE_R, P_HDE_MIN) = range(16)
+N_PRM = 16
+# nominal-state vector layout: p 0:3, v 3:6, q 6:10, b_a 10:13, b_g 13:16, heading-aid memory 16:20
+# (previous stance-start x, y; have-previous flag; reference heading or NaN)
+N_ST = 20
 
 
 @njit(cache=True)
@@ -98,6 +103,30 @@ def _kalman_gain(P, off, r, n, K):
         K[i, 0] = (p0 * m00 + p1 * m10 + p2 * m20) / det
         K[i, 1] = (p0 * m01 + p1 * m11 + p2 * m21) / det
         K[i, 2] = (p0 * m02 + p1 * m12 + p2 * m22) / det
+
+
+@njit(cache=True)
+def _scalar_update(P, idx, r, n, K, A):
+    """Gain (into K[:, 0]) and Joseph update for a scalar measurement of state idx with variance r."""
+    s = P[idx, idx] + r
+    for i in range(n):
+        K[i, 0] = P[i, idx] / s
+    for i in range(n):
+        for c in range(n):
+            A[i, c] = P[i, c] - K[i, 0] * P[idx, c]
+    for i in range(n):
+        for c in range(i, n):
+            v = A[i, c] - A[i, idx] * K[c, 0] + r * K[i, 0] * K[c, 0]
+            P[i, c] = v
+            P[c, i] = v
+
+
+@njit(cache=True)
+def hde_error(dx_m, dy_m, ref_rad):
+    """Stride heading minus the nearest of the four directions ref + m·90° (rad, in (−45°, 45°])."""
+    e = math.atan2(dy_m, dx_m) - ref_rad
+    e = math.atan2(math.sin(e), math.cos(e))
+    return e - math.floor(e / (0.5 * math.pi) + 0.5) * (0.5 * math.pi)
 
 
 @njit(cache=True)
@@ -210,6 +239,23 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, prm, n, ric_u, ric_lam, ric_t,
                     for i in range(n):
                         dx[i] += K[i, 0] * z0 + K[i, 1] * z1 + K[i, 2] * z2
                     _joseph(P, K, 12, rw, n, A)
+            if prm[P_HDE] > 0.5 and (k == 0 or not stance[k - 1]):
+                # OPTIONAL heuristic heading aid (settings.py): stride heading vs dominant directions
+                px, py = st[0] + dx[0], st[1] + dx[1]
+                if st[18] > 0.5:
+                    sx, sy = px - st[16], py - st[17]
+                    if math.sqrt(sx * sx + sy * sy) >= prm[P_HDE_MIN]:
+                        if math.isnan(st[19]):
+                            st[19] = math.atan2(sy, sx)
+                        else:
+                            e = hde_error(sx, sy, st[19])
+                            if abs(e) < prm[P_HDE_THR]:
+                                _scalar_update(P, 8, prm[P_HDE_R], n, K, A)
+                                zi = -e - dx[8]
+                                for i in range(n):
+                                    dx[i] += K[i, 0] * zi
+                                counters[3] += 1
+                st[16], st[17], st[18] = px, py, 1.0
             # apply the error estimate to the nominal state and reset it (eq. 3)
             for i in range(6):
                 st[i] += dx[i]
@@ -261,7 +307,7 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     N = t_s.shape[0]
     dt_nom = tb.nominal_dt_s
     maxseg = max(16, int(math.ceil(settings.smoother_max_segment_s / dt_nom)))
-    prm = np.zeros(12)
+    prm = np.zeros(N_PRM)
     prm[P_DT_NOM] = dt_nom
     prm[P_QA] = settings.sigma_acc_mps2**2 * dt_nom
     prm[P_QG] = settings.sigma_gyro_radps**2 * dt_nom
@@ -274,11 +320,16 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     prm[P_RIC] = 1.0 if zupt_gain is not None else 0.0
     prm[P_SMOOTH] = 1.0 if smooth else 0.0
     prm[P_MAXSEG] = maxseg
+    prm[P_HDE] = 1.0 if settings.heading_aid == "dominant_directions" else 0.0
+    prm[P_HDE_THR] = settings.hde_threshold_rad
+    prm[P_HDE_R] = settings.sigma_hde_rad**2
+    prm[P_HDE_MIN] = settings.hde_min_stride_m
     if zupt_gain is not None:
         ric_u, ric_lam, ric_t = zupt_gain.U.copy(), zupt_gain.lam.copy(), zupt_gain.T.copy()
     else:
         ric_u, ric_lam, ric_t = np.eye(3), np.zeros(3), np.zeros((2, 3))
-    st = np.zeros(16)
+    st = np.zeros(N_ST)
+    st[19] = np.nan
     st[6:10] = q0_nb
     st[10:13] = acc_bias0_b
     st[13:16] = gyro_bias0_b
@@ -291,7 +342,7 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     buf_fpar = np.empty((nb, 13))
     buf_dx = np.empty((nb, n))
     seg = np.zeros(2, dtype=np.int64)
-    counters = np.zeros(3, dtype=np.int64)
+    counters = np.zeros(4, dtype=np.int64)
     stance_u8 = np.ascontiguousarray(stance, dtype=np.bool_)
     n_chunks = 1 if progress is None else max(1, min(10, N // 100_000))
     bounds = np.linspace(0, N, n_chunks + 1).astype(np.int64)
@@ -315,6 +366,7 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
         "smoother_segments": int(counters[2]),
         "smoother_skipped_steps": int(counters[1]),
         "smoother_max_segment_samples": maxseg,
+        "heading_aid_updates": int(counters[3]),
         "final_P": P,
     }
     return out, info

@@ -15,6 +15,8 @@ K = P Hᵀ (H P Hᵀ + R)⁻¹, δx = K z, Joseph form P ← (I−KH) P (I−KH)
 Reset: p̂ += δp, v̂ += δv, b̂ += δb, q̂ ← exp(δθ/2) ⊗ q̂ (the quaternion form of ψ ← a(dθ) ψ; exact rotation,
 renormalised, not the first-order R ← (I − [δθ×]) R), then δx ← 0.
 Optional ZARU (15 states): z = ω_m − b̂_g = δb_g + ν in stance, sequential after the ZUPT.
+Optional heuristic heading aid (``heading_aid="dominant_directions"``, off by default; settings.py):
+a scalar yaw pseudo-measurement at stance onsets, sequential after the ZUPT (innovation −e − δθ_U).
 "riccati" mode: constant continuous gain from eq. 5 (riccati.py); P is still propagated and Joseph-updated
 with that (suboptimal) gain so ``pos_sigma_n`` stays meaningful.
 """
@@ -136,6 +138,8 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
+        "heading_aid": settings.heading_aid,
+        "heading_aid_updates": einfo.get("heading_aid_updates", 0),
         # 1-σ of every error state at the last sample (δp, δv, δθ[, δb_a, δb_g]), filter (not smoothed)
         "final_state_sigma": np.sqrt(np.maximum(np.diag(einfo["final_P"]), 0.0)).tolist(),
         "warnings": warnings,

@@ -13,6 +13,7 @@ import time
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
+from postproc.ins.fast import hde_error
 from postproc.ins.mechanization import strapdown_step
 from postproc.ins.quaternion import correct_attitude, quat_to_rotmat
 from postproc.ins.smoother import apply_smoothed_correction, rts_backward_numpy
@@ -66,6 +67,7 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
     seg_start = 0
     n_updates = 0
     segments = 0
+    prev_stance_xy, ref_heading, hde_updates = None, None, 0
     t0 = time.perf_counter()
     for k in range(N):
         dt = tb.dt_s[k] if k > 0 else 0.0
@@ -93,6 +95,23 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
                 ikh = np.eye(n) - gain @ H_zupt
                 kf.P = ikh @ kf.P @ ikh.T + gain @ R_zupt @ gain.T
                 n_updates += 1
+            if settings.heading_aid == "dominant_directions" and (k == 0 or not stance[k - 1]):
+                # OPTIONAL heuristic heading aid: yaw pseudo-measurement from the stride heading
+                x_now = np.asarray(kf.x, dtype=float).reshape(-1)
+                here = pos[:2] + x_now[:2]
+                if prev_stance_xy is not None:
+                    stride = here - prev_stance_xy
+                    if np.hypot(*stride) >= settings.hde_min_stride_m:
+                        if ref_heading is None:
+                            ref_heading = float(np.arctan2(stride[1], stride[0]))
+                        else:
+                            e = hde_error(stride[0], stride[1], ref_heading)
+                            if abs(e) < settings.hde_threshold_rad:
+                                H_yaw = np.zeros((1, n))
+                                H_yaw[0, 8] = 1.0
+                                kf.update(np.array([[-e]]), R=np.array([[settings.sigma_hde_rad**2]]), H=H_yaw)
+                                hde_updates += 1
+                prev_stance_xy = here
             dx = np.asarray(kf.x, dtype=float).reshape(-1).copy()
             # --- reset: apply δx to the nominal state, δx ← 0
             pos = pos + dx[0:3]
@@ -118,6 +137,7 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
     if progress is not None:
         progress(1.0)
     info = {"run_s": time.perf_counter() - t0, "n_updates": n_updates, "smoother_segments": segments,
+            "heading_aid_updates": hde_updates,
             "final_P": kf.P.copy()}
     return out, info
 

@@ -40,8 +40,15 @@ class FilterSettings:
     smoother_max_segment_s: longest buffered segment; a longer swing is smoothed in pieces (memory bound).
     gap_factor: a step whose Δt exceeds ``gap_factor`` × nominal period is a *gap*: it is still propagated
         (the dynamics do not care) but flagged in ``NavSolution.info["gaps"]``.
-    heading_aid: "none" only (reserved name for OPTIONAL heading-drift aids, which must stay off by default
-        and clearly labelled; none is implemented yet: heading is unobservable under ZUPT and is left free).
+    heading_aid: "none" (default: heading is unobservable under ZUPT and is left free) or the OPTIONAL,
+        HEURISTIC "dominant_directions" aid — NOT part of the paper or of OpenShoe; it ASSUMES the walker
+        mostly walks along the building's four perpendicular directions (corridors), as in heuristic drift
+        elimination (Borenstein et al. 2009; iHDE, Jiménez et al. 2012). At the start of each stance phase the
+        heading of the stride just completed is compared with the nearest of the four directions defined by
+        the first stride; if it is within ``hde_threshold_rad`` a yaw pseudo-measurement δθ_U = −(error) with
+        std ``sigma_hde_rad`` is applied. Wrong for free-form paths (diagonals, curves, outdoors).
+    hde_threshold_rad, sigma_hde_rad, hde_min_stride_m: parameters of that aid (strides shorter than
+        ``hde_min_stride_m`` are ignored).
     """
 
     n_states: int = 15
@@ -64,6 +71,9 @@ class FilterSettings:
     smoother_max_segment_s: float = 5.0
     gap_factor: float = 5.0
     heading_aid: str = "none"
+    hde_threshold_rad: float = 10.0 * DEG
+    sigma_hde_rad: float = 5.0 * DEG
+    hde_min_stride_m: float = 0.3
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
@@ -75,12 +85,16 @@ class FilterSettings:
             raise ValueError(f"FilterSettings.engine must be 'fast' or 'reference', got {self.engine!r}")
         if self.smoother not in ("rts", "none"):
             raise ValueError(f"FilterSettings.smoother must be 'rts' or 'none', got {self.smoother!r}")
-        if self.heading_aid != "none":
-            raise ValueError(f"FilterSettings.heading_aid: only 'none' is implemented, got {self.heading_aid!r}")
+        if self.heading_aid not in ("none", "dominant_directions"):
+            raise ValueError(
+                f"FilterSettings.heading_aid must be 'none' or 'dominant_directions', got {self.heading_aid!r}"
+            )
+        if self.heading_aid != "none" and self.mode == "riccati":
+            raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
         if self.zaru and (self.n_states != 15 or self.mode == "riccati"):
             raise ValueError("FilterSettings.zaru=True needs n_states=15 and mode='time_varying' (it observes the gyro-bias states)")
         for f in fields(self):
-            if f.name.startswith(("sigma_", "init_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
+            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number > 0, got {v!r}")
