@@ -238,44 +238,47 @@ def bench_hour():
               f"{sol.info['smoother_segments']} smoother segments  [target: whole pipeline < 5 s, < 500 MB]")
 
 
+REAL_CONFIGS = {
+    "9 states, no smoother": dict(n_states=9, smoother="none"),
+    "9 states + RTS": dict(n_states=9),
+    "15 states, no smoother": dict(n_states=15, smoother="none"),
+    "15 states + RTS (default)": dict(),
+    "paper mode (Riccati gain)": dict(mode="riccati"),
+    "15 + RTS + ZARU": dict(zaru=True),
+    "15 + RTS + heading aid": dict(heading_aid="dominant_directions"),
+}
+
+
 def bench_real():
-    print("\n== real data (developer tree; METRICS.md) — smoother effect ==")
+    print("\n== real data (developer tree; METRICS.md): filter variants, stance from the project's detector ==")
     if not DATASETS.exists():
         print("datasets not found:", DATASETS)
         return
     g = 9.80665
-    configs = [(9, "none"), (9, "rts"), (15, "none"), (15, "rts")]
-    rows = {c: [] for c in configs}
-    rows_det = {c: [] for c in configs}
+    inputs = []
     det_name = ""
     for d in sorted((DATASETS / "pyshoe_vicon").iterdir()):
-        if not (d / "imu.csv.gz").exists():
-            continue
-        t, acc, gyr = load_imu(d / "imu.csv.gz")
-        tru = load_csv(d / "truth_trajectory.csv.gz")
-        st_true = load_csv(d / "truth_stance.csv.gz")[:, 1] > 0.5
-        st_det, det_name = detect(t, acc, gyr, g)
-        for stance, rr in ((st_true, rows), (st_det, rows_det)):
-            init = level_init(acc, gyr, stance)
-            for ns, sm in configs:
-                sol = run_filter(t, acc, gyr, stance, init, g, FilterSettings(n_states=ns, smoother=sm))
-                rr[(ns, sm)].append(armse_2d(t, sol.pos_n, tru[:, 0], tru[:, 1:4]))
-    print(f"pyshoe_vicon ({len(rows[configs[0]])} trials) mean armse_2d [m] (pyshoe's own per-trial best "
-          f"detector: 0.03-0.2 m):")
-    for c in configs:
-        print(f"  {c[0]:2d} states smoother={c[1]:4s}: truth stance {np.mean(rows[c]):.4f}  "
-              f"median {np.median(rows[c]):.4f} | {det_name}: {np.mean(rows_det[c]):.4f}  "
-              f"median {np.median(rows_det[c]):.4f}")
-    for trial in ("xio_ngimu_loops/short_walk", "xio_ngimu_loops/long_walk", "openshoe_820/data_set_1"):
+        if (d / "imu.csv.gz").exists():
+            t, acc, gyr = load_imu(d / "imu.csv.gz")
+            stance, det_name = detect(t, acc, gyr, g)
+            inputs.append(("py", d.name, t, acc, gyr, stance, load_csv(d / "truth_trajectory.csv.gz")))
+    loops = ("xio_ngimu_loops/short_walk", "xio_ngimu_loops/long_walk", "openshoe_820/data_set_1")
+    for trial in loops:
         t, acc, gyr = load_imu(DATASETS / trial / "imu.csv.gz")
         stance, det_name = detect(t, acc, gyr, g)
-        init = level_init(acc, gyr, stance)
-        out = []
-        for ns, sm in configs:
-            sol = run_filter(t, acc, gyr, stance, init, g, FilterSettings(n_states=ns, smoother=sm))
-            c3, dist, pct = closure(sol.pos_n, stance)
-            out.append(f"{ns}/{sm}: {c3:.3f} m ({pct:.2f} % of {dist:.1f} m)")
-        print(f"{trial} closure_3d [{det_name}]: " + "; ".join(out))
+        inputs.append(("loop", trial, t, acc, gyr, stance, None))
+    print(f"stance: {det_name}; pyshoe_vicon: {sum(i[0] == 'py' for i in inputs)} trials, mean / median "
+          f"armse_2d (PyShoe's published per-trial best: 0.018-0.199 m); closure_3d % of distance for the loops")
+    print(f"{'variant':28s} {'armse mean':>10s} {'median':>7s}   " + "  ".join(x.split('/')[-1] for x in loops))
+    for label, kw in REAL_CONFIGS.items():
+        a, c = [], []
+        for kind, name, t, acc, gyr, stance, tru in inputs:
+            sol = run_filter(t, acc, gyr, stance, level_init(acc, gyr, stance), g, FilterSettings(**kw))
+            if kind == "py":
+                a.append(armse_2d(t, sol.pos_n, tru[:, 0], tru[:, 1:4]))
+            else:
+                c.append(closure(sol.pos_n, stance)[2])
+        print(f"{label:28s} {np.mean(a):10.4f} {np.median(a):7.4f}   " + "  ".join(f"{x:9.2f}" for x in c))
 
 
 def main(argv=None):
