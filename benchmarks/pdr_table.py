@@ -50,6 +50,31 @@ def _job(args):
     return row
 
 
+def _foot_job(trial) -> dict:
+    """Foot-mounted ZUPT pipeline (postproc.pipeline.process) on both feet -> strides -> the steps table."""
+    from postproc.pdr.evaluate import event_metrics
+    from postproc.pdr.foot_ins import steps_from_foot_ins
+
+    row = {"id": trial.id, "detector": "foot_zupt", "length": "-", "error": None}
+    try:
+        from postproc.pipeline import process
+
+        tj = trial.info["truth_json"]
+        times, dist = [], []
+        for f in ("imu_left.csv.gz", "imu_right.csv.gz"):
+            r = process(trial.path / f)
+            s = steps_from_foot_ins(r.t_s, r.pos_n, r.stance)
+            times.append(s["t_s"])
+            inside = (s["t_s"] > tj["t_start_s"]) & (s["t_s"] <= tj["t_end_s"] + 0.5)
+            dist.append(float(np.sum(s["length_m"][inside])))
+        row.update(event_metrics(trial.t_steps, np.sort(np.concatenate(times))))
+        d = float(np.mean(dist))
+        row["distance_err_pct"] = 100.0 * (d - tj["distance_m"]) / tj["distance_m"]
+    except Exception as exc:  # counted as a failure with its reason
+        row["error"] = f"{type(exc).__name__}: {exc}"
+    return row
+
+
 def cell(values) -> str:
     v = np.asarray([x for x in values if x is not None and np.isfinite(x)], float)
     if v.size == 0:
@@ -66,6 +91,8 @@ def main(argv=None) -> int:
     ap.add_argument("--lengths", default=",".join(LENGTHS))
     ap.add_argument("--engineered", action="store_true", help="seed detectors with literal=False")
     ap.add_argument("--processes", type=int, default=2)
+    ap.add_argument("--foot", action="store_true",
+                    help="also run the foot-mounted ZUPT pipeline on Voisard's foot IMUs (both worlds, one walk)")
     a = ap.parse_args(argv)
     trials = list_trials(a.datasets)
     dets = [d for d in a.detectors.split(",") if d]
@@ -129,6 +156,23 @@ def main(argv=None) -> int:
         print(f"| {L} | {np.nanmean([r.get('step_len_mae_m', np.nan) for r in mg]):.3f} | "
               f"{np.nanmean([r.get('step_len_bias_m', np.nan) for r in mg]):+.3f} | "
               f"{cell([r.get('distance_err_pct') for r in vo])} |")
+    if a.foot:
+        foot_rows = []
+        vo = [t for t in trials if t.set == "voisard_ipol"]
+        with Pool(a.processes) as pool:
+            foot_rows = pool.map(_foot_job, vo)
+        print("\n### Same Voisard walks: foot-mounted ZUPT strides (both feet) vs lower-back PDR (robust + "
+              "frequency_variance)\n")
+        print("| trials | foot: step F1 | foot: count err % | foot: 20 m distance err % | "
+              "PDR: step F1 | PDR: count err % | PDR: 20 m distance err % |")
+        print("|---|---|---|---|---|---|---|")
+        ok = [r for r in foot_rows if r.get("error") is None]
+        pdr = {r["id"]: r for r in det_rows if r["detector"] == "robust" and r["set"] == "voisard_ipol"}
+        pl = [pdr[r["id"]] for r in ok if r["id"] in pdr]
+        print(f"| {len(ok)}/{len(foot_rows)} | {cell([r['f1'] for r in ok]).lstrip('+')} | {cell([r['count_err_pct'] for r in ok])} | "
+              f"{cell([r['distance_err_pct'] for r in ok])} | {cell([r['f1'] for r in pl]).lstrip('+')} | "
+              f"{cell([r['count_err_pct'] for r in pl])} | {cell([r.get('distance_err_pct') for r in pl])} |")
+        failures += [r for r in foot_rows if r.get("error")]
     if failures:
         print("\n### Failures (counted, not skipped)\n")
         for r in failures:

@@ -113,3 +113,16 @@ def test_steps_from_foot_ins():
     assert np.allclose(out["heading_rad"], h, atol=1e-9)
     assert out["x_m"][-1] == pytest.approx(n_str * L * np.sin(h))
     assert np.allclose(out["t_s"], np.arange(1, n_str + 1) * 1.0)  # stance starts (initial contacts)
+
+
+def test_steps_from_foot_ins_merges_split_stance():
+    # a stance phase split in two by a noisy detector is one contact, not a 2-cm stride
+    t = np.arange(300) / 100.0
+    pos = np.zeros((300, 3))
+    pos[150:, 1] = 1.3  # one stride north between the two stances
+    stance = np.zeros(300, bool)
+    stance[0:40] = stance[45:80] = True  # first stance split
+    stance[150:200] = True
+    out = steps_from_foot_ins(t, pos, stance)
+    assert out["length_m"].tolist() == pytest.approx([1.3])
+    assert out["heading_rad"][0] == pytest.approx(0.0)

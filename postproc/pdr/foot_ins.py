@@ -6,6 +6,9 @@ k = 0..K (contiguous runs of stance = True) and p_k = mean horizontal position o
 
     stride k (k >= 1):  t_k = start time of stance phase k (initial contact),
                         length_k = ||p_k - p_{k-1}||_xy,  heading_k = atan2(dE, dN)  (bearing, cw from N)
+
+Stance phases closer than ``min_stride_m`` to the previous kept one (standing still, weight shifts, a
+stance split by a noisy detector) are merged into it: they are not strides.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ def stance_phases(stance: np.ndarray, min_samples: int = 1) -> tuple[np.ndarray,
     return a[keep], b[keep]
 
 
-def steps_from_foot_ins(t_s, pos_n, stance, min_stance_samples: int = 3) -> dict:
+def steps_from_foot_ins(t_s, pos_n, stance, min_stance_samples: int = 3, min_stride_m: float = 0.1) -> dict:
     """Returns dict with t_s, length_m, heading_rad, x_m, y_m (positions at the end of each stride)."""
     t = np.asarray(t_s, float)
     p = np.asarray(pos_n, float)
@@ -32,6 +35,11 @@ def steps_from_foot_ins(t_s, pos_n, stance, min_stance_samples: int = 3) -> dict
         z = np.zeros(0)
         return {"t_s": z, "length_m": z, "heading_rad": z, "x_m": z, "y_m": z}
     pk = np.array([p[i:j, :2].mean(axis=0) for i, j in zip(a, b)])
+    keep = [0]
+    for k in range(1, len(pk)):  # loop over stance phases (tens to hundreds), not samples
+        if np.hypot(*(pk[k] - pk[keep[-1]])) >= min_stride_m:
+            keep.append(k)
+    a, pk = a[keep], pk[keep]
     d = np.diff(pk, axis=0)
     return {
         "t_s": t[a[1:]],
