@@ -284,6 +284,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     from .ins import run_filter
 
     settings = settings or ProcessSettings()
+    settings.validate()
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 

@@ -89,6 +89,37 @@ class ProcessSettings:
     floor_hysteresis_m: float = 0.5
     reference: str | None = None
 
+    def validate(self) -> None:
+        """Raise InputError naming the first bad setting (before any work is done)."""
+        from .strides import FloorSettings
+
+        checks = [
+            ("floor_height_m / floor_hysteresis_m", lambda: FloorSettings(self.floor_height_m, self.floor_hysteresis_m)),
+            ("calibration (latitude_deg, height_m, gravity_mps2)", self._check_gravity),
+            ("filter", lambda: getattr(self.filter, "validate", lambda: None)()),
+            ("crop_s", self._check_crop),
+            ("output.geo_anchor", self._check_anchor),
+        ]
+        for what, check in checks:
+            try:
+                check()
+            except (ValueError, TypeError) as exc:
+                raise InputError(f"settings {what}: {exc}") from None
+
+    def _check_gravity(self):
+        g = self.calibration.gravity()
+        if not 9.0 < g < 10.5:
+            raise ValueError(f"gravity {g} m/s^2 is not an Earth value (9.78-9.84 at sea level)")
+
+    def _check_crop(self):
+        if self.crop_s is not None and not (len(self.crop_s) == 2 and float(self.crop_s[1]) > float(self.crop_s[0])):
+            raise ValueError(f"expected (t0, t1) with t1 > t0, got {self.crop_s}")
+
+    def _check_anchor(self):
+        a = self.output.geo_anchor
+        if a is not None and not (len(a) in (2, 3) and -90 < float(a[0]) < 90 and -180 <= float(a[1]) <= 180):
+            raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90), lon in [-180, 180], got {a}")
+
     def to_dict(self) -> dict:
         return _to_plain(self)
 

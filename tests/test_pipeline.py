@@ -113,6 +113,12 @@ def test_settings_round_trip_and_unknown_keys(tmp_path):
         ProcessSettings.from_dict({"filter": {"n_state": 15}})
     with pytest.raises(InputError, match="unknown stance detector"):
         ProcessSettings.from_dict({"detector": {"method": "magic"}})
+    for change, message in ((dict(floor_height_m=-1.0), "floor_height_m"),
+                            (dict(crop_s=(5.0, 1.0)), "crop_s"),
+                            (dict(calibration={"latitude_deg": 100}), "latitude"),
+                            (dict(filter={"engine": "warp"}), "engine")):
+        with pytest.raises(InputError, match=message):
+            ProcessSettings.from_dict(change).validate()
     bad = tmp_path / "s.json"
     bad.write_text('{"floor_height_m": 3,}')
     with pytest.raises(InputError, match=r"s\.json: invalid JSON at line 1"):
