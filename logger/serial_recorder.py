@@ -90,6 +90,7 @@ class SerialRecorder:
         self._open_runs: list[int | None] = [None] * 6  # start index of a saturation run per axis
         self._first_sample_mono: float | None = None
         self._late_header: HeaderFrame | None = None
+        self._connected = False
         self._rate_window: list[tuple[float, int]] = []
 
     @property
@@ -109,6 +110,7 @@ class SerialRecorder:
         ser, ever_connected, down_since = None, False, None
         last_flush = last_status = start
         last_data, silence_noted = start, False
+        last_h = start
         try:
             while not self._stop:
                 now = time.monotonic()
@@ -125,6 +127,7 @@ class SerialRecorder:
                     try:
                         ser = serial.serial_for_url(s.port, baudrate=s.baud, timeout=s.read_timeout_s)
                         ser.write(CMD_RESEND_HEADER)
+                        last_h = time.monotonic()
                     except (serial.SerialException, OSError, ValueError) as exc:
                         ser = None
                         if not ever_connected and now - start > s.connect_timeout_s:
@@ -135,7 +138,14 @@ class SerialRecorder:
                         self._event("reconnect", detail=f"{s.port} back after {now - down_since:.2f} s")
                         self._parser = FrameParser(base_offset=self.stats.bytes_in)
                     ever_connected, down_since = True, None
+                    self._connected = True
                     last_data, silence_noted = time.monotonic(), False
+                if self._header is None and now - last_h >= 0.5:
+                    try:  # the start-up header may have been lost or corrupted: ask again
+                        ser.write(CMD_RESEND_HEADER)
+                    except (serial.SerialException, OSError):
+                        pass  # a dead port shows up in the read below
+                    last_h = now
                 t_read = time.monotonic()
                 data, error = self._read(ser)
                 if data:
@@ -155,6 +165,7 @@ class SerialRecorder:
                     except (serial.SerialException, OSError):
                         pass
                     ser, down_since = None, time.monotonic()
+                    self._connected = False
                     continue
                 if len(data) < 1024 and getattr(ser, "fd", None) is not None:
                     # little traffic: batch reads instead of waking up for every frame
@@ -433,7 +444,8 @@ class SerialRecorder:
         st = self.stats
         sat = " ".join(f"{a}:{c}" for a, c in zip(AXES, st.saturated_samples) if c) or "none"
         line = (f"{rate:7.1f} Hz | frames {st.frames} | dropped {st.dropped} | crc {st.crc_errors} | "
-                f"resync {st.resyncs} | disc {st.disconnects} | sat {sat}")
+                f"resync {st.resyncs} | disc {st.disconnects} | sat {sat}"
+                + ("" if self._connected else f" | waiting for {self.s.port}"))
         tty = getattr(self.status_stream, "isatty", lambda: False)()
         if not tty:  # a log file gets one line every 10 intervals, not a flood
             self._status_count = getattr(self, "_status_count", 0) + 1
