@@ -40,18 +40,19 @@ class Gait:
     name: str = "walk"
     stride_length_m: float = 1.40  # default horizontal foot displacement per stride
     cadence_spm: float = 110.0  # steps per minute (both feet); stride period = 120 / cadence
-    still_fraction: float = 0.30  # share of the stride period the foot is flat and still
-    toe_off_fraction: float = 0.22  # end of the toe-off roll, share of the moving part
-    heel_strike_fraction: float = 0.82  # contact, share of the moving part
+    still_fraction: float = 0.28  # share of the stride period the foot is flat and still
+    toe_off_fraction: float = 0.16  # end of the toe-off roll, share of the moving part
+    heel_strike_fraction: float = 0.86  # contact, share of the moving part
     mid_swing_fraction: float = 0.50  # where in the swing the clearance knot sits
-    mid_swing_progress: float = 0.50  # share of the swing's forward distance covered at that knot
-    clearance_m: float = 0.10  # height of the foot origin above the higher floor at mid-swing
-    toe_off_pitch_deg: float = -40.0  # nose-down at toe-off (negative: rotation about the toe)
-    toe_off_rate_dps: float = -150.0
+    mid_swing_progress: float | None = None  # share of the swing's forward distance at that knot;
+    # None: the natural smooth (septic) transition from the toe-off to the impact state
+    clearance_m: float = 0.12  # height of the foot origin above the higher floor at mid-swing
+    toe_off_pitch_deg: float = -35.0  # nose-down at toe-off (negative: rotation about the toe)
+    toe_off_rate_dps: float = -200.0
     heel_strike_pitch_deg: float = 15.0  # nose-up at contact (positive: rotation about the heel)
     heel_strike_rate_dps: float = -200.0
-    swing_peak_speed_ratio: float = 1.4  # mid-swing forward speed / mean swing speed
-    impact_speed_mps: float = 0.30  # downward speed of the landing point just before contact
+    swing_peak_speed_ratio: float = 1.4  # mid-swing forward speed / mean swing speed (with mid_swing_progress)
+    impact_speed_mps: float = 0.25  # downward speed of the landing point just before contact
     impact_lead_s: float = 0.030
     roll_amplitude_deg: float = 3.0  # small inversion during swing so all three gyro axes move
     toe_m: float = 0.15  # toe (ball) pivot ahead of the foot origin
@@ -77,7 +78,8 @@ class Gait:
 
 WALK = Gait()
 SHUFFLE = Gait(
-    "shuffle", stride_length_m=0.35, cadence_spm=100, still_fraction=0.25, clearance_m=0.02,
+    "shuffle", stride_length_m=0.35, cadence_spm=100, still_fraction=0.25, clearance_m=0.03, toe_off_fraction=0.22,
+    heel_strike_fraction=0.82,
     toe_off_pitch_deg=-8, toe_off_rate_dps=-40, heel_strike_pitch_deg=4, heel_strike_rate_dps=-50,
     impact_speed_mps=0.05, roll_amplitude_deg=1.0,
 )
@@ -93,7 +95,7 @@ STAIRS_UP = Gait(
     impact_speed_mps=0.2, roll_amplitude_deg=2.0,
 )
 STAIRS_DOWN = Gait(
-    "stairs_down", stride_length_m=0.56, cadence_spm=95, still_fraction=0.35, clearance_m=0.05, mid_swing_progress=0.7,
+    "stairs_down", stride_length_m=0.56, cadence_spm=95, still_fraction=0.35, clearance_m=0.07, mid_swing_progress=0.7,
     toe_off_pitch_deg=-15, toe_off_rate_dps=-80, heel_strike_pitch_deg=-8, heel_strike_rate_dps=60,
     impact_speed_mps=0.35, roll_amplitude_deg=2.0,
 )
@@ -212,11 +214,16 @@ class PathBuilder:
         u_to = sag[-1][1][0]
         z_top = max(0.0, dz) + gait.clearance_m
         mean_speed = (p_imp[0] - u_to) / (t_imp - t_to)
-        w_mid = (t_mid - t_to) / (t_hs - t_to)
-        th_mid = (th_to + w_mid * (th_hs - th_to), 1.5 * (th_hs - th_to) / (t_hs - t_to), 0.0, nan)
-        u_mid = u_to + gait.mid_swing_progress * (p_imp[0] - u_to)
-        sag.append((t_mid, (u_mid, gait.swing_peak_speed_ratio * mean_speed, 0.0, nan),
-                    (z_top, 0.0, 0.0, nan), th_mid))
+        u_to_state = sag[-1][1][:3]
+        # pitch (and by default forward progress) at mid-swing: the smooth transition between the
+        # toe-off state and the impact state, sampled with its exact derivatives
+        th_mid = _profile(th_to, w_to, 0.0, th_hs - w_hs * gait.impact_lead_s, w_hs, 0.0, t_imp - t_to, t_mid - t_to)
+        if gait.mid_swing_progress is None:
+            u_mid = _profile(*u_to_state, p_imp[0], v_imp[0], 0.0, t_imp - t_to, t_mid - t_to)
+        else:
+            u_mid = (u_to + gait.mid_swing_progress * (p_imp[0] - u_to), gait.swing_peak_speed_ratio * mean_speed,
+                     0.0, nan)
+        sag.append((t_mid, u_mid, (z_top, 0.0, 0.0, nan), th_mid))
         sag.append((t_imp, (p_imp[0], v_imp[0], 0.0, nan), (p_imp[1], v_imp[1], 0.0, nan),
                     (th_hs - w_hs * d, w_hs, 0.0, nan)))
         sag.append((t_hs, (p_hs[0], v_hs[0], a_hs[0], nan), (p_hs[1], v_hs[1], a_hs[1], nan),
