@@ -3,7 +3,8 @@
 * ``trajectory.csv``: ``t_s,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,stance``, one row per processed sample,
   nav frame ENU (x east, y north, z up), origin at the first processed sample; stance 1 = foot at rest.
 * ``steps.csv``: ``t_s,x_m,y_m,z_m,stride_length_m,dz_m,heading_rad``, one row per stride
-  (``postproc.strides``).
+  (``postproc.strides``): mid time of the stance phase ending the stride, its footprint, horizontal
+  length, height change, and direction ``atan2(Δy, Δx)`` counter-clockwise from x (east).
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
 * ``1_raw_imu.png`` … ``7_height.png`` and ``path.html``: charts 1-7 and the interactive path (``plots``).

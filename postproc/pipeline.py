@@ -353,7 +353,12 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
 
     summary = {
         "software": {"name": "bootnav", "version": __version__},
-        "conventions": dict(CONVENTIONS),
+        "conventions": {**CONVENTIONS,
+                        "time": "t_s = recording time (a crop keeps the recording's clock)",
+                        "origin": ("nav-frame origin = sensor position at the first processed sample; initial yaw = 0, "
+                                   "so x is the sensor's initial heading, not true east (no magnetometer)"),
+                        "heading_rad": "stride direction atan2(dy, dx), counter-clockwise from x (east)",
+                        "distance": "sum of horizontal footprint-to-footprint distances (stance phases)"},
         "input": {
             "source": name,
             "format": "hdf5" if hdf5 else "imported",
