@@ -23,22 +23,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="comma-separated subset of bitflip,garbage,drop (default: all)")
     parser.add_argument("--disconnect-at", type=float, default=None, metavar="S",
                         help="close the port S seconds into the stream and recreate it after --disconnect-pause")
-    parser.add_argument("--disconnect-pause", type=float, default=1.0, metavar="S")
+    parser.add_argument("--disconnect-pause", type=float, default=1.0, metavar="S",
+                        help="how long the port stays away (default 1 s)")
     parser.add_argument("--restart-on-reconnect", action="store_true",
                         help="the device reboots when the port comes back (as a Nano does on DTR): "
                              "seq and t_us start again from --seq0/--t0-us")
     parser.add_argument("--no-wait", action="store_true",
                         help="stream at once instead of waiting for the host's first byte")
-    parser.add_argument("--host-timeout", type=float, default=30.0, metavar="S")
+    parser.add_argument("--host-timeout", type=float, default=30.0, metavar="S",
+                        help="give up if no host opens the port within S seconds (default 30)")
     parser.add_argument("--linger", type=float, default=1.0, metavar="S",
                         help="keep the port open S seconds after the last frame")
     parser.add_argument("--seq0", type=int, default=0, help="first sequence number (0..65535)")
     parser.add_argument("--t0-us", type=int, default=0, help="first device time in µs (0..2**32-1)")
     parser.add_argument("--accel-fs", type=int, choices=range(4), default=3,
-                        help="AFS_SEL code for the synthetic signal / header (default 3 = ±16 g)")
+                        help="AFS_SEL code of the synthetic signal (default 3 = ±16 g; a --source file declares its own)")
     parser.add_argument("--gyro-fs", type=int, choices=range(4), default=3,
-                        help="FS_SEL code for the synthetic signal / header (default 3 = ±2000 °/s)")
-    parser.add_argument("--seed", type=int, default=0)
+                        help="FS_SEL code of the synthetic signal (default 3 = ±2000 °/s; a --source file declares its own)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic signal and the fault plan")
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="write what was sent (frames_sent, frames_corrupted, valid_seqs, ...)")
     parser.add_argument("--quiet", action="store_true")

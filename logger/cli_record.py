@@ -12,7 +12,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="serial port or pyserial URL: /dev/ttyUSB0, a pty path from `bootnav emulate`, loop://")
     parser.add_argument("--baud", type=int, default=500_000,
                         help="baud rate (default 500000: carries 1 kHz; see firmware-protocol/PROTOCOL.md)")
-    parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create (overwritten)")
+    parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create")
+    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     parser.add_argument("--duration", type=float, default=None, metavar="S",
                         help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
     parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
@@ -28,7 +29,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    import os
+    from pathlib import Path
+
+    from bootnav.errors import BootnavError
     from logger.serial_recorder import RecorderSettings, SerialRecorder
+
+    out = Path(args.out)
+    if out.exists() and not args.force:  # never lose a session by re-running a command
+        raise BootnavError(f"{out} exists; choose another --out or add --force to overwrite it")
+    if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
+        raise BootnavError(f"{out.parent}: not a writable directory for --out")
 
     settings = RecorderSettings(
         port=args.port, out=args.out, baud=args.baud, duration_s=args.duration,
@@ -42,8 +53,6 @@ def run(args) -> int:
     signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
     stats = recorder.run()
     if not recorder.wrote_file:
-        from bootnav.errors import BootnavError
-
         raise BootnavError(f"no data received from {args.port} ({stats.stop_reason}); {args.out} not written")
     print(f"{args.out}: {stats.frames} frames, {stats.dropped} dropped, {stats.crc_errors} CRC errors, "
           f"{stats.resyncs} resyncs, {stats.disconnects} disconnects ({stats.stop_reason})", file=sys.stderr)

@@ -193,6 +193,11 @@ def test_missing_port_is_a_clear_error(tmp_path):
     assert proc.returncode == 1
     assert "cannot open serial port" in err and "nope" in err
     assert not (tmp_path / "x.h5").exists()
+    # An existing recording is never overwritten by accident.
+    (tmp_path / "old.h5").write_bytes(b"precious")
+    proc = bootnav("record", "--port", str(tmp_path / "nope"), "--out", str(tmp_path / "old.h5"), "--quiet")
+    _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 1 and "--force" in err and (tmp_path / "old.h5").read_bytes() == b"precious"
 
 
 @pytest.mark.parametrize("late_header", [False, True])
