@@ -96,8 +96,9 @@ def synthetic_walk(n_strides=20, rate_hz=200.0, stance_s=0.5, swing_s=0.6, strid
         fine = np.linspace(0, 1, 50 * int(swing_s * rate_hz) + 1)
         fp, fdp, _ = _profile(fine)
         fh = turn_rad * fp
-        cx = np.concatenate([[0], np.cumsum(0.5 * (fdp[1:] * np.cos(fh[1:]) + fdp[:-1] * np.cos(fh[:-1])) * np.diff(fine))])
-        cy = np.concatenate([[0], np.cumsum(0.5 * (fdp[1:] * np.sin(fh[1:]) + fdp[:-1] * np.sin(fh[:-1])) * np.diff(fine))])
+        ux, uy = fdp * np.cos(fh), fdp * np.sin(fh)
+        cx = np.concatenate([[0], np.cumsum(0.5 * (ux[1:] + ux[:-1]) * np.diff(fine))])
+        cy = np.concatenate([[0], np.cumsum(0.5 * (uy[1:] + uy[:-1]) * np.diff(fine))])
         ks = k[sw]
         h0 = ks * turn_rad
         lx = stride_m * np.interp(sk, fine, cx)

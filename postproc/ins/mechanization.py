@@ -118,5 +118,6 @@ def mechanize(t_s, acc_b, gyro_b, q0_nb, gravity: float, vel0_n=None, pos0_n=Non
     vel[0] = 0.0 if vel0_n is None else vel0_n
     q[0] = np.asarray(q0_nb, dtype=float) / np.linalg.norm(q0_nb)
     for k in range(1, n):
-        pos[k], vel[k], q[k], _ = strapdown_step(pos[k - 1], vel[k - 1], q[k - 1], acc_b[k], gyro_b[k], tb.dt_s[k], gravity)
+        pos[k], vel[k], q[k], _ = strapdown_step(pos[k - 1], vel[k - 1], q[k - 1], acc_b[k], gyro_b[k],
+                                                 tb.dt_s[k], gravity)
     return pos, vel, q

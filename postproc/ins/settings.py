@@ -92,7 +92,9 @@ class FilterSettings:
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
         if self.zaru and (self.n_states != 15 or self.mode == "riccati"):
-            raise ValueError("FilterSettings.zaru=True needs n_states=15 and mode='time_varying' (it observes the gyro-bias states)")
+            raise ValueError(
+                "FilterSettings.zaru=True needs n_states=15 and mode='time_varying' (it observes the gyro-bias states)"
+            )
         for f in fields(self):
             if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
                 v = getattr(self, f.name)
