@@ -325,27 +325,52 @@ def test_sd_enabled_build_without_card_reports_absent_and_keeps_streaming(built,
     np.testing.assert_array_equal(got, served)
 
 
-def test_missed_data_ready_is_reported_as_overrun(built, tmp_path):
-    """Two extra samples arrive 60 and 120 us after sample K, while the firmware still reads K over I2C
-    (~0.4 ms at 400 kHz): the registers then hold only the newest, so one sample is lost. The firmware
-    must say so (status 4, value 1), keep seq contiguous and stamp the frame with the newest pulse."""
+STALL_AT, STALL_MS = 60, 100  # test builds: the loop stalls 100 ms (an SD block write) after seq 60
+
+
+@pytest.fixture(scope="module", params=["fifo", "registers"])
+def stall_build(request, built):
+    """Firmware with a test-only 100 ms main-loop stall, reading the FIFO (default) or the registers."""
+    flags = f"-DBOOTNAV_TEST_STALL_AT={STALL_AT} -DBOOTNAV_TEST_STALL_MS={STALL_MS}"
+    if request.param == "registers":
+        flags += " -DBOOTNAV_USE_FIFO=0"
+    _make("firmware", f"BUILD=build/stall-{request.param}", f"CONFIG={flags}")
+    return request.param, BUILD / f"stall-{request.param}" / "bootnav_imu.elf"
+
+
+def test_burst_and_stall_fifo_loses_nothing_registers_report_overrun(stall_build, tmp_path):
+    """Two extra samples 60 and 120 us after sample K (faster than one ~0.4 ms I2C read), and later a
+    100 ms main-loop stall (20 periods). From the FIFO every sample arrives with its own data-ready
+    time. From the data registers only the newest survives: the firmware must report the others as
+    overrun (status 4, detail 0, value = lost), keep seq contiguous and stamp the newest pulse."""
     from logger.protocol import SampleFrame, StatusFrame, parse_stream
 
-    n, k = 60, 20
+    mode, elf = stall_build
+    n, k = 100, 20
     served = _served_sequence(n, seed=9)
-    with Harness(tmp_path, served, "--idle-when-done", "--burst-at", str(k)) as h:
-        data = _read_port(h.port, until=lambda d: len(d) >= 16 + 24 + 16 + 26 * (n - 1), timeout_s=30)
+    # data-ready times (us from the first): every 5000, plus the burst at +60/+120 after sample k
+    pulse = np.array([i * PERIOD_US for i in range(k + 1)] + [k * PERIOD_US + 60, k * PERIOD_US + 120]
+                     + [(i - 2) * PERIOD_US for i in range(k + 3, n)])
+    if mode == "fifo":
+        index = np.arange(n)  # seq -> served sample
+        lost = []
+    else:
+        # burst: k+1 lost (k+2 is newest); stall after seq 60 (= served 61): 62..81 pending, 81 newest
+        index = np.concatenate([np.arange(k + 1), np.arange(k + 2, STALL_AT + 2), np.arange(81, n)])
+        lost = [(1, k + 1), (19, STALL_AT + 1)]  # (value, seq of the next frame)
+    with Harness(tmp_path, served, "--idle-when-done", "--burst-at", str(k), elf=elf) as h:
+        need = 16 + 24 + 16 * len(lost) + 26 * len(index)
+        data = _read_port(h.port, until=lambda d: len(d) >= need, timeout_s=30)
     assert h.stats["served"] == n
     frames = parse_stream(data).frames()
     samples = [f for f in frames if isinstance(f, SampleFrame)]
     overruns = [f for f in frames if isinstance(f, StatusFrame) and f.code == 4]
-    assert [(f.value, f.seq) for f in overruns] == [(1, k + 1)]  # one missed, reported before seq k+1
-    assert [s.seq for s in samples] == list(range(n - 1))
+    assert [(f.value, f.seq) for f in overruns] == lost
+    assert [s.seq for s in samples] == list(range(len(index)))
     got = np.array([(*s.acc, *s.gyro, s.temp) for s in samples], dtype=np.int16)
-    np.testing.assert_array_equal(got[: k + 1], served[: k + 1])
-    np.testing.assert_array_equal(got[k + 1:], served[k + 2:])  # sample k+1 is the one lost
-    assert abs((samples[k + 1].t_us - samples[k].t_us) - 120) <= T_JITTER_US
-    assert abs((samples[k + 2].t_us - samples[k].t_us) - PERIOD_US) <= T_JITTER_US
+    np.testing.assert_array_equal(got, served[index])
+    t = np.array([s.t_us for s in samples], dtype=np.int64)
+    np.testing.assert_allclose(t - t[0], pulse[index] - pulse[0], rtol=0, atol=T_JITTER_US)
 
 
 def test_sensor_reset_mid_run_is_detected_and_recovered(built, tmp_path):

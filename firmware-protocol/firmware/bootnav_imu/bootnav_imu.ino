@@ -1,9 +1,11 @@
 /* bootnav boot sensor: Arduino Nano (ATmega328P) + MPU6050 (+ optional SD card).
  *
  * The MPU6050 paces everything: its data-ready pulse on INT -> D2 (INT0) timestamps each sample with
- * micros() in the interrupt, and loop() reads the 14 data bytes, sends a 26-byte sample frame
+ * micros() in the interrupt, and loop() reads the sample (14 bytes), sends a 26-byte sample frame
  * (PROTOCOL.md 1.1) and appends a text line to the SD log. No delay() in the sampling path, so the rate
- * is the sensor's and never drifts with the code's run time. Header frames go out at start-up, every
+ * is the sensor's and never drifts with the code's run time. With BOOTNAV_USE_FIFO (default) the
+ * samples come from the sensor's 1 KB FIFO, paired one to one with the queued interrupt timestamps, so
+ * a main loop stalled by a slow SD write loses nothing for up to ~60 sample periods. Header frames go out at start-up, every
  * BOOTNAV_HEADER_EVERY sample frames and when the host sends 'H'; status frames report a missing
  * sensor, an absent or full card, I2C errors and missed samples. Configuration: config.h. */
 #include <Arduino.h>
@@ -19,11 +21,18 @@
 static const mpu_config_t g_mpu = {BOOTNAV_MPU_ADDR, BOOTNAV_ACCEL_FS, BOOTNAV_GYRO_FS, BOOTNAV_DLPF,
                                    BOOTNAV_SMPLRT_DIV};
 
-/* Written by the data-ready interrupt. */
+/* Data-ready timestamps, written by the interrupt: a queue of TS_RING (power of 2) for the FIFO
+ * path, only the newest for the register path. */
+#if BOOTNAV_USE_FIFO
+#define TS_RING 64u /* 320 ms at 200 Hz; 256 bytes of RAM */
+#else
+#define TS_RING 1u
+#endif
 static volatile uint16_t g_drdy_count;
-static volatile uint32_t g_drdy_t_us;
+static volatile uint32_t g_ts[TS_RING];
 
-static uint16_t g_drdy_handled;  /* g_drdy_count value already processed */
+static uint16_t g_drdy_handled;  /* data-ready pulses whose sample was sent or given up */
+static uint8_t g_fifo_on;        /* FIFO entries pair 1:1 with pulses counted after g_drdy_handled */
 static uint16_t g_seq;           /* next sample frame's seq */
 static uint16_t g_since_header;  /* sample frames since the last periodic header */
 static uint8_t g_flags;          /* BN_FLAG_* */
@@ -37,8 +46,9 @@ static bn_sdlog_t g_sdlog;
 
 static void on_data_ready()
 {
-    g_drdy_t_us = micros();
-    g_drdy_count++;
+    uint16_t n = g_drdy_count;
+    g_ts[n & (TS_RING - 1u)] = micros();
+    g_drdy_count = (uint16_t)(n + 1u);
 }
 
 static void send_header()
@@ -78,10 +88,16 @@ static uint8_t start_sensor()
     uint8_t detail;
     uint8_t code = mpu_begin(&g_mpu, &detail);
     if (code == 0) {
+        g_fifo_on = 0;
         noInterrupts();
         g_drdy_handled = g_drdy_count;
         interrupts();
-        uint8_t err = mpu_enable_data_ready(&g_mpu);
+        uint8_t err = 0;
+#if BOOTNAV_USE_FIFO
+        err = mpu_fifo_stop(&g_mpu); /* started in step with the first pulse, see read_registers */
+#endif
+        if (err == 0)
+            err = mpu_enable_data_ready(&g_mpu);
         if (err == 0) {
             g_last_sample_ms = millis();
             return 1;
@@ -127,34 +143,119 @@ static void log_to_sd(const bn_sample_t *s)
     }
 }
 
-static void handle_sample()
+static void report_lost(uint16_t n)
 {
-    noInterrupts();
-    uint16_t pending = (uint16_t)(g_drdy_count - g_drdy_handled);
-    uint32_t t_us = g_drdy_t_us;
-    g_drdy_handled = g_drdy_count;
-    interrupts();
-    if (pending == 0)
-        return;
-    if (pending > 1) /* the data registers hold only the newest sample: the others are gone */
-        send_status(BN_STATUS_OVERRUN, BN_OVERRUN_DETAIL_MISSED, (uint16_t)(pending - 1));
+    if (n) /* samples that were measured but never sent */
+        send_status(BN_STATUS_OVERRUN, BN_OVERRUN_DETAIL_MISSED, n);
+}
 
+static void emit_sample(bn_sample_t *s, uint32_t t_us)
+{
+    g_last_sample_ms = millis();
+    s->seq = g_seq++;
+    s->t_us = t_us;
+    uint8_t buf[BN_SAMPLE_LEN];
+    Serial.write(buf, bn_pack_sample(buf, s));
+    log_to_sd(s);
+    if (++g_since_header >= BOOTNAV_HEADER_EVERY) {
+        g_since_header = 0;
+        send_header();
+    }
+#ifdef BOOTNAV_TEST_STALL_AT
+    /* Test builds only: stall the loop as a slow SD-card write would. */
+    if (s->seq == BOOTNAV_TEST_STALL_AT)
+        delay(BOOTNAV_TEST_STALL_MS);
+#endif
+}
+
+/* The newest sample from the data registers; the register map holds only one, so pulses beyond the
+ * newest are lost. With the FIFO this is the synchronisation step: the FIFO is started right after a
+ * fresh pulse, so its first entry belongs to the next pulse. */
+static void read_registers(uint16_t pending, uint32_t t_newest)
+{
+    report_lost((uint16_t)(pending - 1u));
+#if BOOTNAV_USE_FIFO
+    /* Fresh = less than a quarter period old: no other pulse can come before the FIFO runs. */
+    if (pending == 1 && (uint32_t)(micros() - t_newest) < BOOTNAV_PERIOD_US / 4u) {
+        uint8_t err = mpu_fifo_start(&g_mpu);
+        if (err)
+            send_status(BN_STATUS_I2C_ERROR, err, ++g_i2c_errors);
+        else
+            g_fifo_on = 1;
+    }
+#endif
     bn_sample_t s;
     uint8_t err = mpu_read_sample(&g_mpu, &s);
     if (err) {
         send_status(BN_STATUS_I2C_ERROR, err, ++g_i2c_errors);
         return;
     }
-    g_last_sample_ms = millis();
-    s.seq = g_seq++;
-    s.t_us = t_us;
-    uint8_t buf[BN_SAMPLE_LEN];
-    Serial.write(buf, bn_pack_sample(buf, &s));
-    log_to_sd(&s);
-    if (++g_since_header >= BOOTNAV_HEADER_EVERY) {
-        g_since_header = 0;
-        send_header();
+    emit_sample(&s, t_newest);
+}
+
+#if BOOTNAV_USE_FIFO
+/* Give up the queued samples, empty and stop the FIFO; the next pulse re-synchronises. */
+static void resync_fifo(uint16_t lost)
+{
+    report_lost(lost);
+    g_fifo_on = 0;
+    mpu_fifo_stop(&g_mpu); /* a failure shows again at the next attempt */
+    noInterrupts();
+    g_drdy_handled = g_drdy_count;
+    interrupts();
+}
+
+static void read_fifo(uint16_t pending)
+{
+    uint16_t bytes;
+    uint8_t err = mpu_fifo_count(&g_mpu, &bytes);
+    if (err) {
+        send_status(BN_STATUS_I2C_ERROR, err, ++g_i2c_errors);
+        resync_fifo(pending);
+        return;
     }
+    /* Near the end of the timestamp queue or of the FIFO (which then overwrites its oldest bytes and
+     * loses the 14-byte alignment): start over rather than pair a sample with the wrong time. */
+    if (pending > TS_RING - 8u || bytes > MPU_FIFO_BYTES - 2u * MPU_SAMPLE_BYTES) {
+        resync_fifo(pending);
+        return;
+    }
+    uint16_t n = bytes / MPU_SAMPLE_BYTES;
+    if (n > pending)
+        n = pending; /* an entry whose pulse is still being counted: next time */
+    for (uint16_t i = 0; i < n; i++) {
+        bn_sample_t s;
+        err = mpu_fifo_read_sample(&g_mpu, &s);
+        if (err) {
+            send_status(BN_STATUS_I2C_ERROR, err, ++g_i2c_errors);
+            resync_fifo((uint16_t)(pending - i));
+            return;
+        }
+        /* The interrupt writes slot g_drdy_count, never this one while fewer than TS_RING wait. */
+        uint32_t t_us = g_ts[g_drdy_handled & (TS_RING - 1u)];
+        g_drdy_handled++;
+        emit_sample(&s, t_us);
+    }
+}
+#endif
+
+static void handle_sample()
+{
+    noInterrupts();
+    uint16_t count = g_drdy_count;
+    uint32_t t_newest = g_ts[(uint16_t)(count - 1u) & (TS_RING - 1u)];
+    interrupts();
+    uint16_t pending = (uint16_t)(count - g_drdy_handled);
+    if (pending == 0)
+        return;
+#if BOOTNAV_USE_FIFO
+    if (g_fifo_on) {
+        read_fifo(pending);
+        return;
+    }
+#endif
+    g_drdy_handled = count;
+    read_registers(pending, t_newest);
 }
 
 void setup()

@@ -55,6 +55,13 @@
 #define BOOTNAV_SILENCE_MS 500u
 #endif
 
+/* Read samples from the MPU6050's FIFO (1) or its data registers (0). The FIFO bridges main-loop stalls
+ * (SD block writes) of up to ~56 periods with no loss; the register path loses every sample but the
+ * newest during a stall (reported as overrun). */
+#ifndef BOOTNAV_USE_FIFO
+#define BOOTNAV_USE_FIFO 1
+#endif
+
 #ifndef BOOTNAV_HEADER_EVERY
 #define BOOTNAV_HEADER_EVERY 1000u /* sample frames between header frames (PROTOCOL.md 1.2) */
 #endif
@@ -66,6 +73,7 @@
 #else
 #define BOOTNAV_RATE_HZ (8000UL / (1UL + BOOTNAV_SMPLRT_DIV))
 #endif
+#define BOOTNAV_PERIOD_US (1000000UL / BOOTNAV_RATE_HZ)
 #if (BOOTNAV_RATE_HZ * 260UL * 5UL) > (BOOTNAV_BAUD * 4UL)
 #error "BOOTNAV_BAUD is too low for the configured sample rate (26-byte frames, 10 bits per byte)"
 #endif

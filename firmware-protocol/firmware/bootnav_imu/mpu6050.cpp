@@ -83,17 +83,56 @@ uint8_t mpu_enable_data_ready(const mpu_config_t *cfg)
     return write_reg(cfg->addr, MPU_REG_INT_ENABLE, 0x01); /* DATA_RDY_EN */
 }
 
-uint8_t mpu_read_sample(const mpu_config_t *cfg, bn_sample_t *s)
+/* 14 big-endian bytes ACCEL X,Y,Z, TEMP, GYRO X,Y,Z (data registers and FIFO alike) -> sample. */
+static void decode14(const uint8_t *b, bn_sample_t *s)
 {
-    uint8_t b[14];
-    uint8_t err = read_regs(cfg->addr, MPU_REG_ACCEL_XOUT_H, b, 14);
-    if (err)
-        return err;
-    /* Registers are big-endian: ACCEL X,Y,Z, TEMP, GYRO X,Y,Z. */
     for (uint8_t i = 0; i < 3; i++) {
         s->acc[i] = (int16_t)(((uint16_t)b[2 * i] << 8) | b[2 * i + 1]);
         s->gyro[i] = (int16_t)(((uint16_t)b[8 + 2 * i] << 8) | b[9 + 2 * i]);
     }
     s->temp = (int16_t)(((uint16_t)b[6] << 8) | b[7]);
+}
+
+uint8_t mpu_read_sample(const mpu_config_t *cfg, bn_sample_t *s)
+{
+    uint8_t b[MPU_SAMPLE_BYTES];
+    uint8_t err = read_regs(cfg->addr, MPU_REG_ACCEL_XOUT_H, b, MPU_SAMPLE_BYTES);
+    if (err)
+        return err;
+    decode14(b, s);
+    return 0;
+}
+
+uint8_t mpu_fifo_stop(const mpu_config_t *cfg)
+{
+    /* FIFO_EN: temp, gyro X/Y/Z, accel -> 14 bytes per sample in register order, like a burst read. */
+    uint8_t err = write_reg(cfg->addr, MPU_REG_FIFO_EN, 0xF8);
+    if (err)
+        return err;
+    return write_reg(cfg->addr, MPU_REG_USER_CTRL, 0x04); /* FIFO off, FIFO_RESET */
+}
+
+uint8_t mpu_fifo_start(const mpu_config_t *cfg)
+{
+    return write_reg(cfg->addr, MPU_REG_USER_CTRL, 0x40); /* FIFO_EN */
+}
+
+uint8_t mpu_fifo_count(const mpu_config_t *cfg, uint16_t *count)
+{
+    uint8_t b[2];
+    uint8_t err = read_regs(cfg->addr, MPU_REG_FIFO_COUNTH, b, 2);
+    if (err)
+        return err;
+    *count = (uint16_t)(((uint16_t)b[0] << 8) | b[1]);
+    return 0;
+}
+
+uint8_t mpu_fifo_read_sample(const mpu_config_t *cfg, bn_sample_t *s)
+{
+    uint8_t b[MPU_SAMPLE_BYTES];
+    uint8_t err = read_regs(cfg->addr, MPU_REG_FIFO_R_W, b, MPU_SAMPLE_BYTES); /* FIFO_R_W does not advance */
+    if (err)
+        return err;
+    decode14(b, s);
     return 0;
 }

@@ -16,7 +16,13 @@
 #define MPU_REG_ACCEL_XOUT_H 0x3B
 #define MPU_REG_PWR_MGMT_1 0x6B
 #define MPU_REG_WHO_AM_I 0x75
+#define MPU_REG_FIFO_EN 0x23
+#define MPU_REG_USER_CTRL 0x6A
+#define MPU_REG_FIFO_COUNTH 0x72
+#define MPU_REG_FIFO_R_W 0x74
 #define MPU_WHO_AM_I_VALUE 0x68
+#define MPU_SAMPLE_BYTES 14
+#define MPU_FIFO_BYTES 1024
 
 typedef struct {
     uint8_t addr;
@@ -37,5 +43,12 @@ uint8_t mpu_enable_data_ready(const mpu_config_t *cfg);
 /* Burst-read ACCEL_XOUT_H..GYRO_ZOUT_L (14 bytes, one consistent sample) into s->acc/temp/gyro.
  * Returns 0 or a Wire error code (1..4, 6 = short read). */
 uint8_t mpu_read_sample(const mpu_config_t *cfg, bn_sample_t *s);
+
+/* FIFO (1024 bytes = 73 samples of 14 bytes): mpu_fifo_stop selects accel+temp+gyro and empties and
+ * disables it; mpu_fifo_start enables writing (one entry per sample from then on). */
+uint8_t mpu_fifo_stop(const mpu_config_t *cfg);
+uint8_t mpu_fifo_start(const mpu_config_t *cfg);
+uint8_t mpu_fifo_count(const mpu_config_t *cfg, uint16_t *count); /* bytes in the FIFO */
+uint8_t mpu_fifo_read_sample(const mpu_config_t *cfg, bn_sample_t *s); /* oldest 14 bytes */
 
 #endif
