@@ -59,6 +59,9 @@ def recording_meta(res: SimResult) -> dict:
         "session_notes": f"simulated scenario {res.scenario} (seed {res.seed}, profile {p.name})",
         "simulator": json.dumps({k: res.attrs[k] for k in ("scenario", "seed", "rate_hz", "internal_rate_hz")}),
         "sensor_profile": p.name,
+        "sensor_profile_parameters": json.dumps(p.to_dict()),
+        "mount_lever_arm_m": json.dumps(list(res.mount.lever_arm_m)),
+        "mount_rpy_deg": json.dumps(list(res.mount.rpy_deg)),
     }
     if not p.ideal:
         meta.update(accel_range_g=p.accel_range_g, gyro_range_dps=p.gyro_range_dps,

@@ -234,6 +234,12 @@ def test_sd_text_parses_with_correct_crc(tmp_path):
     rows = np.array(rows)
     assert np.array_equal(rows[:, 0], res.t_device) and np.array_equal(rows[:, 1], res.seq)
     assert np.array_equal(rows[:, 2:5], res.acc) and np.array_equal(rows[:, 5:8], res.gyro)
+    # the project's own SD-card importer reads it back bit-exact, without a single CRC error
+    from logger.importers.core import read_any
+
+    imp = read_any(path)
+    assert imp.count("crc_error") == 0 and imp.count("skipped_line") == 0
+    assert np.array_equal(imp.acc, res.acc) and np.array_equal(imp.gyro, res.gyro)
     with pytest.raises(Exception, match="int16 counts"):
         write_sd_txt(simulate("paper-straight", profile="ideal"), tmp_path / "ideal.txt")
 
