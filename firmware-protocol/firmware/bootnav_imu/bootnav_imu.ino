@@ -24,7 +24,7 @@ static const mpu_config_t g_mpu = {BOOTNAV_MPU_ADDR, BOOTNAV_ACCEL_FS, BOOTNAV_G
 /* Data-ready timestamps, written by the interrupt: a queue of TS_RING (power of 2) for the FIFO
  * path, only the newest for the register path. */
 #if BOOTNAV_USE_FIFO
-#define TS_RING 64u /* 320 ms at 200 Hz; 256 bytes of RAM */
+#define TS_RING BOOTNAV_FIFO_QUEUE
 #else
 #define TS_RING 1u
 #endif

@@ -61,6 +61,14 @@
 #ifndef BOOTNAV_USE_FIFO
 #define BOOTNAV_USE_FIFO 1
 #endif
+/* Data-ready timestamps queued for FIFO samples (power of 2, 4 bytes each): 64 = 320 ms at 200 Hz.
+ * The FIFO itself holds 73 samples; the firmware re-synchronises 8 entries before either runs out. */
+#ifndef BOOTNAV_FIFO_QUEUE
+#define BOOTNAV_FIFO_QUEUE 64u
+#endif
+#if (BOOTNAV_FIFO_QUEUE & (BOOTNAV_FIFO_QUEUE - 1u)) != 0 || BOOTNAV_FIFO_QUEUE < 16u
+#error "BOOTNAV_FIFO_QUEUE must be a power of 2, at least 16"
+#endif
 
 #ifndef BOOTNAV_HEADER_EVERY
 #define BOOTNAV_HEADER_EVERY 1000u /* sample frames between header frames (PROTOCOL.md 1.2) */
