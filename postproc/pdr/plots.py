@@ -1,6 +1,6 @@
 """Figures mirroring the sources' plots (matplotlib, Agg backend):
 
-* steps.png   – the detector's processed signal with the detected steps (seed-000 Fig. 2.2.1 green lines;
+* steps.png, steps_zoom.png – the detector's processed signal with the detected steps (seed-000 Fig. 2.2.1 green lines;
                 seed-003 Figs. 3.5–3.9 clamped magnitude / main peaks / steps)
 * length.png  – step length per step and cumulative distance (seed-002 step-length apps)
 * heading.png – heading per step (seed-003 Fig. 3.10 "Heading angle")
@@ -26,18 +26,10 @@ def write_plots(res, out_dir) -> list[Path]:
     tr = res.events.trace
     t0 = float(tr["t_s"][0]) if "t_s" in tr and len(tr["t_s"]) else (float(res.t_s[0]) if res.count else 0.0)
 
-    fig, ax = plt.subplots(figsize=(12, 4))
-    if "signal" in tr:
-        ax.plot(np.asarray(tr["t_s"]) - t0, tr["signal"], "k-", lw=0.6, label=tr.get("signal_label", "signal"))
-    if res.count:
-        ax.vlines(res.t_s - t0, *ax.get_ylim(), colors="g", lw=0.8, label=f"steps ({res.count})")
-    ax.set_xlabel("time since start (s)")
-    ax.set_title(f"step detection: {res.settings.detector}")
-    ax.legend(loc="upper right")
-    fig.tight_layout()
-    files.append(out / "steps.png")
-    fig.savefig(files[-1], dpi=110)
-    plt.close(fig)
+    files.append(_steps_figure(plt, res, t0, out / "steps.png", None))
+    if res.count:  # a zoom on the first 15 s of walking: the sources show a few steps at a time
+        files.append(_steps_figure(plt, res, t0, out / "steps_zoom.png",
+                                   (res.t_s[0] - t0 - 2.0, res.t_s[0] - t0 + 15.0)))
 
     fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
     ax[0].plot(res.t_s - t0, res.length_m, ".-")
@@ -88,3 +80,33 @@ def write_plots(res, out_dir) -> list[Path]:
         fig.savefig(files[-1], dpi=110)
         plt.close(fig)
     return files
+
+
+def _steps_figure(plt, res, t0, path, xlim):
+    tr = res.events.trace
+    two = "magnitude_g" in tr  # seed-003 Figs. 3.3-3.9: magnitude, clamped magnitude, peaks, steps
+    fig, axs = plt.subplots(2 if two else 1, 1, figsize=(12, 6 if two else 4), sharex=True)
+    axs = np.atleast_1d(axs)
+    if two:
+        axs[0].plot(np.asarray(tr["t_s"]) - t0, tr["magnitude_g"], "b-", lw=0.5, label="|a| (g), eq. 3.1")
+        axs[0].set_ylabel("g")
+        axs[0].legend(loc="upper right")
+    ax = axs[-1]
+    if "signal" in tr:
+        ax.plot(np.asarray(tr["t_s"]) - t0, tr["signal"], "k-", lw=0.6, label=tr.get("signal_label", "signal"))
+    if "candidates_t_s" in tr and "signal" in tr and len(tr["candidates_t_s"]):
+        ct = np.asarray(tr["candidates_t_s"])
+        ax.plot(ct - t0, np.interp(ct, tr["t_s"], tr["signal"]), "x", color="0.5", ms=3, label="candidate peaks")
+    if res.count:
+        ax.vlines(res.t_s - t0, *ax.get_ylim(), colors="g", lw=0.8, label=f"steps ({res.count})")
+    ax.set_xlabel("time since start (s)")
+    axs[0].set_title(f"step detection: {res.settings.detector}")
+    ax.legend(loc="upper right")
+    if xlim is not None:
+        for a in axs:
+            a.set_xlim(*xlim)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+

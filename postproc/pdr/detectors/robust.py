@@ -123,6 +123,7 @@ class RobustDetector:
     periodicity_min: float = 0.45
     periodicity_window_s: float = 2.5
     periodicity_lags_s: tuple = (0.3, 1.5)
+    edge_trim_fraction: float = 0.0
     refine_window_s: tuple | None = None
     refine_lowpass_hz: float = 6.0
     event_offset_s: float = 0.0
@@ -191,6 +192,22 @@ class RobustDetector:
             j = prev[j]
         return np.array(sel[::-1], int)
 
+    def _trim_edges(self, ts, pr):
+        """Drop steps at the start/end of each bout whose prominence is below ``edge_trim_fraction`` x the
+        bout's median (a phone pouch still swinging after the walker stopped, handling before walking)."""
+        keep = np.ones(ts.size, bool)
+        br = np.r_[0, np.nonzero(np.diff(ts) > self.bout_gap_s)[0] + 1, ts.size]
+        for a_, b_ in zip(br[:-1], br[1:]):
+            ref = self.edge_trim_fraction * np.median(pr[a_:b_])
+            i, j = a_, b_ - 1
+            while i <= j and pr[i] < ref:
+                keep[i] = False
+                i += 1
+            while j >= i and pr[j] < ref:
+                keep[j] = False
+                j -= 1
+        return ts[keep]
+
     def detect(self, t_s, acc_b) -> StepEvents:
         from scipy import signal
 
@@ -212,6 +229,8 @@ class RobustDetector:
             sal[per[pk] < self.periodicity_min] = -1.0
         sel = self._beat_track(tp, sal, T)
         ts = tp[sel]
+        if self.edge_trim_fraction > 0 and ts.size:
+            ts = self._trim_edges(ts, prom[sel])
         if self.refine_window_s is not None and ts.size:
             # move each event to the impact peak of the lightly filtered magnitude near the smooth peak
             mf = butter_filter(magnitude(a), self.fs_hz, self.refine_lowpass_hz, "low", order=2)
