@@ -3,7 +3,7 @@
 One module per detector (equations and references in each docstring):
 ``shoe`` (SHOE/GLRT, seed-004 eq. 2, squared form or the paper's literal form), ``ared``, ``mv``, ``mag``
 (Skog et al. 2010), ``paper_accmag`` (the paper's empirical acceleration threshold), ``xio`` (x-io
-filtered magnitude), ``adaptive`` (the default: per-recording threshold, no tuning), ``postprocess``
+filtered magnitude), ``adaptive`` (the default: a per-stride threshold read off the recording itself, no tuning), ``postprocess``
 (hysteresis, minimum stance / swing durations).
 
 Entry point: ``detect_stance(t_s, acc_b, gyro_b, settings, gravity, saturated=None) -> StanceResult``.
@@ -79,6 +79,13 @@ class DetectorSettings:
     def __post_init__(self):
         if self.method not in METHODS:
             raise ValueError(f"unknown stance detector {self.method!r}; choose one of {', '.join(METHODS)}")
+        for name in ("window_s", "sigma_acc_mps2", "sigma_gyro_radps", "adaptive_window_s", "adaptive_span_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"DetectorSettings.{name} must be > 0, got {getattr(self, name)!r}")
+        if not 0.0 < self.adaptive_alpha < 1.0:
+            raise ValueError(f"DetectorSettings.adaptive_alpha must be in (0, 1), got {self.adaptive_alpha!r}")
+        if self.threshold is not None and not self.threshold > 0:
+            raise ValueError(f"DetectorSettings.threshold must be > 0 (or None for the default), got {self.threshold!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)
