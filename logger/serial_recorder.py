@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -26,7 +25,7 @@ import numpy as np
 
 from bootnav.errors import BootnavError
 from logger import mpu6050
-from logger.protocol import CMD_RESEND_HEADER, SAMPLES_DTYPE, FrameParser, HeaderFrame, ParseResult
+from logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
 from logger.recording import RecordingWriter, counts_channel, make_events, timing_summary
 from logger.timebase import Timebase
 
@@ -232,8 +231,9 @@ class SerialRecorder:
             elif ev.kind in ("resync", "truncated"):
                 self.stats.resyncs += 1
                 self.stats.skipped_bytes += ev.count
+                why = f" ({ev.detail})" if ev.detail else ""
                 self._event("resync", index_in_block=i, byte_offset=ev.byte_offset, count=ev.count,
-                            detail=f"{ev.count} bytes skipped to the next sync word" + (f" ({ev.detail})" if ev.detail else ""))
+                            detail=f"{ev.count} bytes skipped to the next sync word{why}")
             elif ev.kind == "unknown":
                 self.stats.unknown_frames += 1
                 self._event("note", index_in_block=i, byte_offset=ev.byte_offset,
