@@ -42,6 +42,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     w = p.add_argument_group("data and outputs")
     w.add_argument("--crop", nargs=2, type=float, metavar=("T0", "T1"), help="process only T0..T1 seconds")
     w.add_argument("--floor-height", type=float, metavar="M", help="storey height for floor counting (default 3)")
+    w.add_argument("--stair-min-dz", type=float, metavar="M",
+                   help="floors are counted from stair strides only, |dz| >= M per stride (default 0.1 m): "
+                        "immune to slow vertical drift, but a gentle ramp never counts")
+    w.add_argument("--floors-from-height", action="store_true",
+                   help="count floors from the footprint height itself (ramps count; drift counts too)")
     w.add_argument("--reference", metavar="FILE",
                    help="reference path: CSV (t_s,x_m,y_m[,z_m] or x_m,y_m[,z_m]) or JSON "
                         "({\"closed_loop\": true} / {\"straight_m\": 9} / {\"waypoints\": [...]}); see docs/metrics.md")
@@ -89,6 +94,10 @@ def build_settings(args):
         s.crop_s = tuple(args.crop)
     if args.floor_height is not None:
         s.floor_height_m = args.floor_height
+    if args.stair_min_dz is not None:
+        s.floor_stair_min_dz_m = args.stair_min_dz
+    if args.floors_from_height:
+        s.floor_stair_min_dz_m = None
     if args.reference:
         s.reference = args.reference
     elif args.closed_loop:

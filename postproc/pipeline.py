@@ -34,7 +34,7 @@ from bootnav.errors import InputError
 from logger.recording import EVENT_DTYPE, SATURATION_BITS, Recording, load
 
 from .settings import InputChecks, OutputSettings, ProcessSettings  # noqa: F401  (re-exported API)
-from .strides import FloorSettings, path_summary, segment_strides, stance_phases
+from .strides import path_summary, segment_strides, stance_phases
 
 Progress = Callable[[str, float], None]
 AXIS_NAMES = {v: k for k, v in SATURATION_BITS.items()}  # bit -> "ax", ...
@@ -339,7 +339,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
                          "check the sensor ranges and the input units")
     lap("filter")
 
-    floors = FloorSettings(settings.floor_height_m, settings.floor_hysteresis_m)
+    floors = settings.floor_settings()
     steps = segment_strides(t_s, pos_n, stance)
     warnings += check_strides(name, steps, settings.checks, stance_res.method)
     path_stats = path_summary(t_s, pos_n, stance, floors)

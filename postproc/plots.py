@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .strides import footprints, floor_levels, FloorSettings, stance_phases
+from .strides import floor_levels, floor_signal, footprints, stance_phases
 
 AXIS_COLORS = ("tab:red", "tab:green", "tab:blue")  # x, y, z (the usual RGB convention)
 FILES = {
@@ -214,15 +214,18 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     save(fig, "path_3d")
 
     # 7 height with floor lines
-    floors = FloorSettings(result.settings.floor_height_m, result.settings.floor_hysteresis_m)
+    floors = result.settings.floor_settings()
     fig, ax = plt.subplots(figsize=(10, 4.5))
     z0 = float(fp[0, 2]) if len(fp) else float(result.pos_n[0, 2])
     ax.plot(t, result.pos_n[d, 2] - z0, color="tab:blue", lw=0.9, label="height of the boot")
     if len(fp):
         t_fp, fp_raw = footprints(result.t_s, result.pos_n, stance_phases(result.stance))
         z_fp = fp_raw[:, 2] - z0
-        ax.step(t_fp, floor_levels(z_fp, floors) * floors.floor_height_m, where="post", color="tab:orange",
-                lw=1.5, label="floor level (counted)")
+        if floors.stair_min_dz_m is not None:
+            ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",
+                    label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
+        ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
+                color="tab:orange", lw=1.5, label="floor level (counted)")
         zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
     else:
         zmin = zmax = 0.0

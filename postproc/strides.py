@@ -20,6 +20,11 @@ first footprint is turned into an integer floor level with hysteresis. Level ``L
 ``z > (L + ½)·h + hyst`` and down when ``z < (L − ½)·h − hyst`` (``h`` = floor height): a landing halfway
 or a few centimetres of vertical drift never toggle the count. Floors climbed = number of up
 transitions, descended = number of down transitions.
+
+Optional stair gating (``stair_min_dz_m``): the height signal is then the running sum of only those stride
+height changes with |Δz| ≥ ``stair_min_dz_m``. A stair stride climbs two risers (≈ 0.3 m), while the
+vertical drift of a ZUPT INS adds millimetres per flat stride; gating removes hours of slow drift from the
+floor count. The price: a gentle ramp (|Δz| per stride below the gate) never counts as a floor.
 """
 
 from __future__ import annotations
@@ -72,19 +77,34 @@ class FloorSettings:
     """Floor counting from cumulative height.
 
     floor_height_m: storey height h (m); the paper's building is unknown, 3 m is a typical storey.
+    stair_min_dz_m: None = count floors from the footprint height; a value (m) = from stair strides only
+        (|Δz| >= this), see the module docstring.
     hysteresis_m: extra height beyond the half-storey boundary before a level change counts (m).
     """
 
     floor_height_m: float = 3.0
     hysteresis_m: float = 0.5
+    stair_min_dz_m: float | None = None
 
     def __post_init__(self):
         if not self.floor_height_m > 0:
             raise ValueError(f"floor_height_m must be > 0, got {self.floor_height_m}")
+        if self.stair_min_dz_m is not None and not 0 < self.stair_min_dz_m < self.floor_height_m:
+            raise ValueError(f"stair_min_dz_m must be None or in (0, floor_height_m), got {self.stair_min_dz_m}")
         if not 0 <= self.hysteresis_m < self.floor_height_m / 2:
             raise ValueError(
                 f"hysteresis_m must be in [0, floor_height_m/2) = [0, {self.floor_height_m / 2}), got {self.hysteresis_m}"
             )
+
+
+def floor_signal(z_rel_m: np.ndarray, settings: FloorSettings) -> np.ndarray:
+    """Height (m, relative to the first footprint) used for counting floors: the footprint height, or the
+    running sum of stair-stride height changes when ``stair_min_dz_m`` is set."""
+    z = np.asarray(z_rel_m, float)
+    if settings.stair_min_dz_m is None or len(z) < 2:
+        return z
+    dz = np.diff(z)
+    return np.concatenate(([0.0], np.cumsum(np.where(np.abs(dz) >= settings.stair_min_dz_m, dz, 0.0))))
 
 
 def floor_levels(z_rel_m: np.ndarray, settings: FloorSettings) -> np.ndarray:
@@ -104,7 +124,7 @@ def floor_levels(z_rel_m: np.ndarray, settings: FloorSettings) -> np.ndarray:
 
 def count_floors(z_rel_m: np.ndarray, settings: FloorSettings) -> dict:
     """Floors climbed/descended and the final level from footprint heights relative to the start."""
-    levels = floor_levels(z_rel_m, settings)
+    levels = floor_levels(floor_signal(z_rel_m, settings), settings)
     steps = np.diff(np.concatenate(([0], levels)))
     return {
         "floors_climbed": int(steps[steps > 0].sum()),
@@ -112,6 +132,7 @@ def count_floors(z_rel_m: np.ndarray, settings: FloorSettings) -> dict:
         "final_floor": int(levels[-1]) if len(levels) else 0,
         "floor_height_m": settings.floor_height_m,
         "floor_hysteresis_m": settings.hysteresis_m,
+        "floor_stair_min_dz_m": settings.stair_min_dz_m,
     }
 
 

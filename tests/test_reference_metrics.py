@@ -203,3 +203,19 @@ def test_floor_hysteresis_ignores_jitter_at_a_boundary():
     assert (got["floors_climbed"], got["floors_descended"], got["final_floor"]) == (2, 2, 0)
     with pytest.raises(ValueError):
         FloorSettings(3.0, 1.6)
+
+
+def test_stair_gated_floors_ignore_slow_vertical_drift():
+    """1000 flat strides drifting -5 mm each (-5 m: what an hour of z-bias does), with two 3 m flights of
+    0.34 m stair strides in between. From the height: the drift counts as floors descended; from the stair
+    strides only: exactly 2 up, 0 down."""
+    dz = np.full(1000, -0.005)
+    flights = np.full(9, 3.06 / 9)  # 18 risers of 0.17 m, two per stride
+    z = np.cumsum(np.concatenate((dz[:300], flights, dz[300:700], flights, dz[700:])))
+    z = np.concatenate(([0.0], z))
+    plain = count_floors(z, FloorSettings(3.0, 0.5))
+    gated = count_floors(z, FloorSettings(3.0, 0.5, stair_min_dz_m=0.1))
+    assert (gated["floors_climbed"], gated["floors_descended"], gated["final_floor"]) == (2, 0, 2)
+    assert plain["final_floor"] != 2  # the drift (-5 m) shows in the plain count
+    with pytest.raises(ValueError):
+        FloorSettings(3.0, 0.5, stair_min_dz_m=-0.1)
