@@ -101,7 +101,9 @@ class Harness:
                     "--wait-open", "--stats", str(self.stats_path), "--max-seconds", "60", *extra]
 
     def __enter__(self) -> "Harness":
-        self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.stderr_path = self.stats_path.with_name("harness-stderr.txt")  # a file: never blocks the harness
+        with open(self.stderr_path, "w") as err:
+            self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=err, text=True)
         self.lines: queue.Queue[str] = queue.Queue()
         threading.Thread(target=lambda: [self.lines.put(ln.strip()) for ln in self.proc.stdout], daemon=True).start()
         self.port = self.wait_for("pty ", timeout_s=10)[4:]  # libsimavr prints "Loaded ..." lines first
@@ -124,7 +126,7 @@ class Harness:
         except subprocess.TimeoutExpired:
             self.proc.terminate()
             self.proc.wait(timeout=10)
-        self.stderr = self.proc.stderr.read()
+        self.stderr = self.stderr_path.read_text()
         self.stats = json.loads(self.stats_path.read_text()) if self.stats_path.exists() else {}
 
 
