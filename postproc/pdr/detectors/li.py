@@ -9,8 +9,9 @@
     DTW check: keep S_i if DTW(S_i, S_{i-2}) <= 3 or DTW(S_i, S_{i+2}) <= 3              [literal threshold]
         DTW = L1 local cost, cumulative cost divided by the warping-path length
         [engineered: the paper does not define it]; steps without a neighbour at +-2 are kept.
-    g = 9.8 (the paper's value) in literal mode; ``literal=False``: g = median |a| of the recording and a
-    zero-phase filter [engineered].
+    g = 9.8 (the paper's value) in literal mode; ``literal=False``: g = median |a| of the recording and the
+    2 m/s^2 "minimum peak magnitude" read as PROMINENCE instead of height above g
+    (the paper does not say which; seed-002 §7.6 suggests offering both) [engineered].
 A rejected step removes its END peak from the count (the paper does not say) [engineered].
 """
 
@@ -75,6 +76,7 @@ class LiDetector:
     dtw_threshold: float = 3.0
     use_dtw: bool = True
     g_mps2: float = 9.8
+    peak_mode: str = ""  # "" -> "height" (literal: height above g) or "prominence" (literal=False)
 
     name = "li"
 
@@ -87,15 +89,13 @@ class LiDetector:
         tg, a = resample_uniform(t_s, acc_b, self.fs_hz)
         n = magnitude(a)
         taps = signal.firwin(self.fir_order + 1, self.cutoff_hz, fs=self.fs_hz)
-        if self.literal:
-            d = self.fir_order // 2
-            f = signal.lfilter(taps, [1.0], np.r_[n, np.full(d, n[-1])])[d:]  # causal, delay removed
-            g = self.g_mps2
-        else:
-            f = signal.filtfilt(taps, [1.0], n)
-            g = float(np.median(n))
-        pk, _ = signal.find_peaks(f - g, height=self.min_peak_mps2,
-                                  distance=max(1, int(round(self.min_peak_interval_s * self.fs_hz))))
+        d = self.fir_order // 2
+        # causal FIR as on the phone; linear phase, so removing the d-sample delay aligns it with the input
+        f = signal.lfilter(taps, [1.0], np.r_[n, np.full(d, n[-1])])[d:]
+        g = self.g_mps2 if self.literal else float(np.median(n))
+        mode = self.peak_mode or ("height" if self.literal else "prominence")
+        crit = {"height": self.min_peak_mps2} if mode == "height" else {"prominence": self.min_peak_mps2}
+        pk, _ = signal.find_peaks(f - g, distance=max(1, int(round(self.min_peak_interval_s * self.fs_hz))), **crit)
         if pk.size == 0:
             return StepEvents(np.zeros(0), self.name, {"t_s": tg, "signal": f - g})
         keep = np.ones(pk.size, bool)
