@@ -73,6 +73,7 @@ class Mount:
     name: str = "right_boot"
     lever_arm_m: tuple[float, float, float] = (0.06, 0.0, 0.07)
     rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    foot: str = "right"  # "left" mirrors the swing roll (inversion turns the sole the other way)
 
     @property
     def R_fs(self) -> np.ndarray:
@@ -87,7 +88,7 @@ class Mount:
 
 MOUNTS = {
     "right_boot": Mount(),
-    "left_boot": Mount("left_boot"),
+    "left_boot": Mount("left_boot", foot="left"),
     # on the outside of the right boot, x forward, y down, z to the right (rotated about x by -90 deg)
     "right_boot_side": Mount("right_boot_side", (0.0, -0.05, 0.06), (-90.0, 0.0, 0.0)),
     # tilted and skewed mount, to test alignment code
@@ -139,6 +140,6 @@ def synthesize(traj: Trajectory, t: np.ndarray, mount: Mount = Mount(), g: float
 
 
 def describe_mount(m: Mount) -> dict:
-    return {"mount": m.name, "lever_arm_m": list(m.lever_arm_m), "mount_rpy_deg": list(m.rpy_deg),
+    return {"mount": m.name, "foot": m.foot, "lever_arm_m": list(m.lever_arm_m), "mount_rpy_deg": list(m.rpy_deg),
             "mount_frame_note": "lever arm in foot frame (x toe-ward, y left, z up); rpy of sensor axes vs foot"}
 

@@ -90,6 +90,8 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     rng = np.random.default_rng(seed)
     builder = sc.make(rng, duration_s)
     traj = builder.build()
+    if mnt.foot == "left":
+        traj = traj.mirrored_roll()
     m = 1 if prof.ideal else max(1, int(round(prof.internal_rate_hz / rate_hz)))
     f_int = rate_hz * m
     n_out = int(math.floor(traj.t_knots[-1] * rate_hz + 1e-9)) + 1

@@ -77,6 +77,12 @@ class Trajectory:
         self._coef = hermite_coefficients(self.t_knots, self.knots)
         self._h = np.diff(self.t_knots)
 
+    def mirrored_roll(self) -> "Trajectory":
+        """The same path with the roll channel negated (left foot)."""
+        knots = self.knots.copy()
+        knots[:, 5, :] *= -1.0
+        return Trajectory(self.t_knots, knots, self.piece_still)
+
     @property
     def duration_s(self) -> float:
         return float(self.t_knots[-1] - self.t_knots[0])
