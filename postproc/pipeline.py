@@ -295,6 +295,11 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         clock = now
         _call_progress(progress, stage, 1.0)
 
+    ref = None
+    if settings.reference:  # a bad reference file fails before any work is done
+        from .reference import compute_metrics, load_reference
+
+        ref = load_reference(settings.reference)
     _call_progress(progress, "load", 0.0)
     rec, path, hdf5 = load_source(source)
     name = str(path) if path else "recording"
@@ -328,6 +333,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     stance_res = detect_stance(t_s, acc_b, gyro_b, settings.detector, gravity, saturated=sat_bits)
     stance = np.asarray(stance_res.stance, dtype=bool)
     check_stance(name, t_s, stance, settings.checks, stance_res.method, gyro_b)
+    warnings += [str(w) for w in (stance_res.info or {}).get("warnings", [])]
     lap("detection")
 
     filter_progress = (lambda f: _call_progress(progress, "filter", min(float(f), 0.99))) if progress else None
@@ -337,18 +343,14 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     if len(bad):
         raise InputError(f"{name}: the filter diverged at sample {bad[0] + idx.start} (t = {t_s[bad[0]]:.3f} s); "
                          "check the sensor ranges and the input units")
+    warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
     lap("filter")
 
     floors = settings.floor_settings()
     steps = segment_strides(t_s, pos_n, stance)
     warnings += check_strides(name, steps, settings.checks, stance_res.method)
     path_stats = path_summary(t_s, pos_n, stance, floors)
-    metrics = ref = None
-    if settings.reference:
-        from .reference import compute_metrics, load_reference
-
-        ref = load_reference(settings.reference)
-        metrics = compute_metrics(ref, t_s, pos_n, stance)
+    metrics = compute_metrics(ref, t_s, pos_n, stance) if ref is not None else None
     lap("strides")
 
     summary = {
