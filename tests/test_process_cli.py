@@ -129,3 +129,12 @@ def test_bad_input_exits_1_with_a_clear_message(tmp_path):
     assert proc.returncode == 1 and "nope.h5: no such file" in proc.stderr
     proc = bootnav(bad, "--out", tmp_path / "o", "--settings", tmp_path / "missing.json")
     assert proc.returncode == 1 and "settings file not found" in proc.stderr
+
+
+def test_parser_stays_light():
+    """`bootnav --help` builds every subcommand's parser: ours must not import numpy/numba/matplotlib."""
+    code = ("import sys, argparse\nimport postproc.cli_process as c\nc.add_arguments(argparse.ArgumentParser())\n"
+            "print(','.join(m for m in ('numpy', 'numba', 'matplotlib', 'scipy', 'h5py') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == ""
