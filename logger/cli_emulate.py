@@ -28,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--restart-on-reconnect", action="store_true",
                         help="the device reboots when the port comes back (as a Nano does on DTR): "
                              "seq and t_us start again from --seq0/--t0-us")
+    parser.add_argument("--replay-timing", action="store_true",
+                        help="send the source's own seq and device timestamps (its gaps and jitter), paced by them")
     parser.add_argument("--no-wait", action="store_true",
                         help="stream at once instead of waiting for the host's first byte")
     parser.add_argument("--host-timeout", type=float, default=30.0, metavar="S",
@@ -60,6 +62,7 @@ def run(args) -> int:
         out_link=args.out_link, source=args.source, duration_s=args.duration, rate_hz=args.rate,
         corrupt_rate=args.corrupt, corrupt_kinds=kinds, disconnect_at_s=args.disconnect_at,
         disconnect_pause_s=args.disconnect_pause, restart_on_reconnect=args.restart_on_reconnect,
+        replay_timing=args.replay_timing,
         wait_for_host=not args.no_wait,
         host_timeout_s=args.host_timeout, linger_s=args.linger, seq0=args.seq0 % 65536,
         t0_us=args.t0_us % 2**32, accel_fs=args.accel_fs, gyro_fs=args.gyro_fs, seed=args.seed,

@@ -40,6 +40,7 @@ from logger.protocol import (
     StatusFrame,
     pack_samples,
 )
+from logger.timebase import T_US_MODULUS, signed_delta
 
 FAULT_KINDS = ("bitflip", "garbage", "drop")
 
@@ -57,6 +58,7 @@ class EmulatorSettings:
     disconnect_at_s: float | None = None  # stream time of the disconnect
     disconnect_pause_s: float = 1.0
     restart_on_reconnect: bool = False  # device reboots at reconnect: seq and t_us start again
+    replay_timing: bool = False  # send the source's own seq/t_device (its gaps and jitter), paced by them
     wait_for_host: bool = True  # start streaming on the host's first byte
     host_timeout_s: float = 30.0  # give up if no host connects
     linger_s: float = 1.0  # keep the port open after the last frame
@@ -107,6 +109,8 @@ class SourceSignal:
     rate_hz: float
     accel_fs: int
     gyro_fs: int
+    seq: np.ndarray | None = None  # (N,) u16 as recorded, for --replay-timing
+    t_device: np.ndarray | None = None  # (N,) u32 µs as recorded, for --replay-timing
 
 
 def synthetic_signal(duration_s: float, rate_hz: float, accel_fs: int = 3, gyro_fs: int = 3,
@@ -157,7 +161,7 @@ def load_source(path, accel_fs: int | None = None, gyro_fs: int | None = None) -
         temp = _quantise(rec.temp_degc - mpu6050.TEMP_OFFSET_DEGC, 1 / mpu6050.TEMP_LSB_PER_DEGC)
     else:
         temp = np.full(rec.n, int(round((25.0 - mpu6050.TEMP_OFFSET_DEGC) * mpu6050.TEMP_LSB_PER_DEGC)), np.int16)
-    return SourceSignal(acc, gyro, temp, rate, a_fs, g_fs)
+    return SourceSignal(acc, gyro, temp, rate, a_fs, g_fs, rec.seq, rec.t_device)
 
 
 def _code(value, to_code, default):
@@ -243,6 +247,15 @@ class Emulator:
         self.accel_fs, self.gyro_fs = signal.accel_fs, signal.gyro_fs
         n_src = signal.acc.shape[0]
         self.n_frames = n_src if s.duration_s is None else int(round(s.duration_s * self.rate_hz))
+        self._t_rel_s = None
+        if s.replay_timing:
+            if signal.seq is None or signal.t_device is None:
+                raise ValueError("--replay-timing needs a source with seq and t_device (a serial or simulated recording)")
+            if s.restart_on_reconnect:
+                raise ValueError("--replay-timing and --restart-on-reconnect exclude each other")
+            t = signal.t_device.astype(np.int64)
+            self._t_rel_s = np.concatenate(([0], np.cumsum(signed_delta(t[1:], int(t[0]), T_US_MODULUS)))) / 1e6
+            self.n_frames = n_src if s.duration_s is None else int(np.searchsorted(self._t_rel_s, s.duration_s, "left"))
         # The fault plan is drawn once per frame index, so what gets corrupted does not depend on
         # how the real-time loop happens to batch frames (runs are reproducible from the seed).
         rng = np.random.default_rng(s.seed)
@@ -264,10 +277,25 @@ class Emulator:
         return HeaderFrame(next_seq & 0xFFFF, t_us & 0xFFFFFFFF, self.accel_fs, self.gyro_fs,
                            self.settings.dlpf, div, self.settings.fw_version, 0b10, self.settings.device_id)
 
+    def _counters(self, idx: np.ndarray, period_us: float) -> tuple[np.ndarray, np.ndarray]:
+        """(seq, t_us) of frames ``idx``: the source's own, or counted since the last device start."""
+        s = self.settings
+        if self._t_rel_s is not None:
+            k = np.minimum(idx, self.signal.seq.shape[0] - 1)
+            return self.signal.seq[k].astype(np.int64), self.signal.t_device[k].astype(np.int64)
+        j = idx - self._restart_k
+        return (s.seq0 + j) & 0xFFFF, (s.t0_us + np.round(j * period_us).astype(np.int64)) & 0xFFFFFFFF
+
+    def _due(self, now_s: float) -> int:
+        """How many frames the device has produced ``now_s`` seconds into the stream."""
+        if self._t_rel_s is not None:
+            return min(self.n_frames, int(np.searchsorted(self._t_rel_s, now_s, "right")))
+        return min(self.n_frames, int(now_s * self.rate_hz) + 1)
+
     def _header_at(self, k: int, period_us: float) -> bytes:
-        """Header frame sent just before sample frame ``k`` (device counters since the last start)."""
-        j = k - self._restart_k
-        return self.header(self.settings.seq0 + j, int(self.settings.t0_us + round(j * period_us))).pack()
+        """Header frame sent just before sample frame ``k`` (it carries the next frame's seq)."""
+        seq, t_us = self._counters(np.array([k]), period_us)
+        return self.header(int(seq[0]), int(t_us[0])).pack()
 
     def _wait_for_host(self, port: PtyPort) -> bool:
         """Block until the host sends a byte (it opened the port). False on timeout/stop."""
@@ -299,7 +327,7 @@ class Emulator:
             sent_header_at = 0
             while k < self.n_frames and not self._stop:
                 now = time.monotonic() - t_start
-                due = min(self.n_frames, int(now * self.rate_hz) + 1)
+                due = self._due(now)
                 if disconnect_at is not None and port_up and now >= disconnect_at:
                     # Let the host read what is in flight, so the report's valid frames are exactly
                     # those it could receive (bytes still unread are counted, not hidden).
@@ -360,8 +388,7 @@ class Emulator:
         s, rep, sig = self.settings, self.report, self.signal
         idx = np.arange(k0, k1)
         src = idx % n_src  # a source shorter than the duration is looped
-        seq = (s.seq0 + idx - self._restart_k) & 0xFFFF
-        t_us = (s.t0_us + np.round((idx - self._restart_k) * period_us).astype(np.int64)) & 0xFFFFFFFF
+        seq, t_us = self._counters(idx, period_us)
         data = np.frombuffer(pack_samples(seq, t_us, sig.acc[src], sig.gyro[src], sig.temp[src]), np.uint8)
         frames = data.reshape(-1, SAMPLE_DTYPE.itemsize).copy()
         fault = self._fault[k0:k1]

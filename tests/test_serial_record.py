@@ -305,3 +305,30 @@ def test_any_pyserial_url_works_socket_transport(tmp_path):
     assert r.meta["accel_range_g"] == 4 and r.meta["gyro_range_dps"] == 1000
     np.testing.assert_allclose(r.acc_mps2[:, 2], 9.80665)  # 8192 LSB = 1 g at ±4 g
     assert b"disconnect" in r.events["kind"].tolist()  # the bridge went away
+
+
+def test_replayed_timing_gaps_and_jitter_arrive_exactly(tmp_path):
+    """--replay-timing sends the source's own seq and device clock (with its drops, jitter and a wrap)."""
+    rng = np.random.default_rng(11)
+    n_all, period = 500, 5000  # 200 Hz, 2.5 s
+    keep = np.ones(n_all, bool)
+    keep[[100, 101, 102, 340]] = False  # 4 frames lost on the source device: 2 gaps
+    seq = (np.arange(n_all) + 65400)[keep] % 65536
+    t_dev = ((2**32 - 1_000_000) + np.arange(n_all) * period + rng.integers(-40, 41, n_all))[keep] % 2**32
+    n = int(keep.sum())
+    acc = rng.integers(-2000, 2000, (n, 3)).astype(np.int16)
+    src = tmp_path / "src.h5"
+    write_recording(src, np.arange(n) / 200.0, acc, np.zeros((n, 3), np.int16),
+                    acc_channel=counts_channel("acc", mpu6050.accel_scale_mps2(3)),
+                    gyro_channel=counts_channel("gyro", mpu6050.gyro_scale_radps(3)),
+                    seq=seq.astype(np.uint16), t_device=t_dev.astype(np.uint32),
+                    meta={"accel_range_g": 16, "gyro_range_dps": 2000, "rate_nominal_hz": 200.0})
+    out, report, _ = emulate_and_record(tmp_path, ["--source", str(src), "--replay-timing"])
+    rec = load(out)
+    assert rec.n == n and rec.seq.tolist() == seq.tolist() and rec.t_device.tolist() == t_dev.tolist()
+    assert sha(rec.raw["acc"]) == sha(acc)
+    gaps = rec.events_of("gap")
+    assert gaps["count"].tolist() == [3, 1] and gaps["sample_index"].tolist() == [100, 337]
+    assert len(rec.events_of("time_wrap")) == 1
+    unwrapped = np.cumsum(np.r_[0, (np.diff(t_dev.astype(np.int64)) % 2**32)]) / 1e6
+    np.testing.assert_allclose(rec.t_s, unwrapped, rtol=0, atol=1e-9)
