@@ -139,3 +139,18 @@ def test_phyphox_export_step_counts(datasets):
         inp = load_input(datasets / "raw-formats" / "purestreams_phyphox" / folder / "Raw Data.csv")
         n = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b).count
         assert abs(n - n_true) / n_true <= 0.066 + 1e-9, (folder, n)
+
+
+def test_bad_rows_are_reported_with_line_numbers(tmp_path):
+    from bootnav.errors import InputError
+    from postproc.pdr.evaluate import load_imu_csv
+
+    t, acc = walk(n_steps=10)
+    lines = ["t_s,ax_mps2,ay_mps2,az_mps2"] + [f"{a},{b},{c},{d}" for a, b, c, d in np.c_[t, acc]]
+    lines.insert(300, "7.0,abc,1,2")  # becomes line 301
+    (tmp_path / "one.csv").write_text("\n".join(lines) + "\n")
+    tt, aa, gg = load_imu_csv(tmp_path / "one.csv")  # one bad row of ~1000: skipped, the rest kept
+    assert tt.size == t.size and gg is None and np.allclose(aa, acc)
+    (tmp_path / "many.csv").write_text("t_s,ax_mps2,ay_mps2,az_mps2\n1,2,3\n2,3,4\n3,4,5,6\n")
+    with pytest.raises(InputError, match=r"lines 2, 3"):
+        load_imu_csv(tmp_path / "many.csv")

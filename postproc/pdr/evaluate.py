@@ -165,20 +165,47 @@ def list_trials(root: str | Path, sets=PDR_SETS) -> list[Trial]:
     return out
 
 
-def load_imu_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Canonical ``acc.csv.gz`` / ``imu.csv.gz`` (t_s, ax..az m/s^2[, gx..gz rad/s]) -> t, acc, gyro|None."""
+def load_imu_csv(path: str | Path, max_bad_fraction: float = 0.01):
+    """Canonical ``acc.csv.gz`` / ``imu.csv.gz`` (t_s, ax..az m/s^2[, gx..gz rad/s]) -> t, acc, gyro|None.
+
+    Unparseable rows (wrong field count, non-numbers) are skipped and reported on stderr with their line
+    numbers; more than ``max_bad_fraction`` of them is an InputError naming the first bad lines."""
+    import sys
+
+    from bootnav.errors import InputError
+
     path = Path(path)
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rt") as f:
         header = f.readline().strip().split(",")
-        data = np.loadtxt(f, delimiter=",", ndmin=2)
+        body = f.read().splitlines()
     col = {h: i for i, h in enumerate(header)}
     need = ["t_s", "ax_mps2", "ay_mps2", "az_mps2"]
     missing = [h for h in need if h not in col]
     if missing:
-        from bootnav.errors import InputError
-
         raise InputError(f"{path}: line 1: missing column(s) {missing}; expected {need} (+ gx_radps..gz_radps)")
+    try:
+        data = np.loadtxt(body, delimiter=",", ndmin=2)
+        if data.shape[1] != len(header):
+            raise ValueError("field count")
+        bad = []
+    except ValueError:
+        rows, bad = [], []
+        for k, line in enumerate(body):
+            parts = line.split(",")
+            try:
+                if len(parts) != len(header):
+                    raise ValueError
+                rows.append([float(v) for v in parts])
+            except ValueError:
+                bad.append(k + 2)  # 1-based, after the header
+        data = np.array(rows, float).reshape(-1, len(header))
+    if bad:
+        where = ", ".join(map(str, bad[:5])) + (" ..." if len(bad) > 5 else "")
+        if len(bad) > max_bad_fraction * max(len(body), 1) or data.shape[0] < 2:
+            raise InputError(f"{path}: {len(bad)} of {len(body)} data rows unreadable (lines {where}); "
+                             f"expected {len(header)} numbers per row")
+        print(f"warning: {path}: skipped {len(bad)} unreadable row(s) (lines {where})", file=sys.stderr)
     t = data[:, col["t_s"]]
     acc = data[:, [col[h] for h in need[1:]]]
     gyro = data[:, [col[h] for h in ("gx_radps", "gy_radps", "gz_radps")]] if "gx_radps" in col else None
