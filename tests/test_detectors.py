@@ -178,73 +178,84 @@ def _read(path):
         return np.loadtxt(fh, delimiter=",", skiprows=1, ndmin=2)
 
 
-# pyshoe_vicon trials whose VICON-derived labels agree with an IMU detector: an oracle fixed SHOE
-# threshold reaches F1 >= 0.9 against them (the labels are themselves thresholded foot speed, so on the
-# other trials they disagree with any IMU detector by construction; see the set README).
-CONSISTENT_VICON = ["2017-11-22-11-25-20", "2017-11-27-11-11-53", "2017-11-27-11-13-41", "2017-11-27-11-23-18"]
-
-
 def test_adaptive_stance_vs_vicon_labels(datasets):
+    # All 16 pyshoe_vicon trials (walking, running, stairs; 200 Hz). The labels are VICON foot speed
+    # thresholded with a threshold optimised per trial (the set README), not an annotation: their stance
+    # fraction ranges 0.12-0.64 for similar gaits. Even a SHOE threshold tuned per trial against the labels
+    # themselves reaches only F1 0.89 on average (0.75-0.97). Bound for a detector with no tuning at all:
+    # on average 3 of 4 labelled stance samples found and 3 of 4 detected stance samples confirmed
+    # (precision and recall >= 0.75).
     from postproc.evaluate.metrics import stance_metrics
 
     prec, rec = [], []
-    for trial in CONSISTENT_VICON:
-        a = _read(datasets / "pyshoe_vicon" / trial / "imu.csv.gz")
-        truth = _read(datasets / "pyshoe_vicon" / trial / "truth_stance.csv.gz")
+    trials = sorted(p for p in (datasets / "pyshoe_vicon").iterdir() if p.is_dir())
+    assert len(trials) == 16
+    for folder in trials:
+        a = _read(folder / "imu.csv.gz")
+        truth = _read(folder / "truth_stance.csv.gz")
         res = detect_stance(a[:, 0], a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
         m = stance_metrics(a[:, 0], res.stance, truth[:, 0], truth[:, 1] > 0.5)
         prec.append(m["stance_precision"])
         rec.append(m["stance_recall"])
-    # Bounds: on these trials an oracle per-trial SHOE threshold reaches F1 0.93-0.97 against the labels.
-    # The labels are thresholded VICON foot speed (tuned for pyshoe's navigation), so they are not exact
-    # either. For ZUPT a false stance in mid-swing is what hurts (it zeroes a real velocity), a stance
-    # shortened at its ends costs little: require precision > 0.8 (at most 1/5 of detected stance outside
-    # the labels), recall > 0.75 and F1 within 0.1 of the oracle's lowest (> 0.83).
-    f1 = [2 * p * r / (p + r) for p, r in zip(prec, rec)]
-    assert min(prec) > 0.8 and min(rec) > 0.75 and min(f1) > 0.83, (prec, rec)
+    assert np.mean(prec) >= 0.75 and np.mean(rec) >= 0.75, (np.mean(prec), np.mean(rec))
 
 
-def test_adaptive_one_stance_per_stride_on_footprint_walk(datasets):
-    # koroglu_footprints run32 (200 Hz, LORD 3DM-GX5): every footprint surveyed with the time of its
-    # stance; the detector must place exactly one stance phase at each footprint and none in between
-    a = _read(datasets / "koroglu_footprints" / "run32" / "imu.csv.gz")
-    fp = np.loadtxt(datasets / "koroglu_footprints" / "run32" / "truth_footprints.csv", delimiter=",", skiprows=1)
-    t = a[:, 0]
-    res = detect_stance(t, a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
-    starts, stops = res.phases()
-    fp_t = fp[:, 3]
-    inside = (t[starts] > fp_t[0]) & (t[stops - 1] < fp_t[-1] - 0.3)
-    n_between = int(inside.sum())
-    n_strides = fp_t.size - 1  # 61 (README)
-    # each footprint time (the end of its stance, ±one stance phase per the README) lies in or next to
-    # a detected stance phase
-    lo, hi = t[starts][None, :], t[stops - 1][None, :]
-    gap = np.maximum(np.maximum(lo - fp_t[:, None], fp_t[:, None] - hi), 0.0)  # 0 if inside a phase
-    nearest = gap.min(axis=1)
-    assert np.all(nearest < 0.3), nearest.max()
-    assert abs(n_between - (n_strides - 1)) <= 1, (n_between, n_strides)
+def test_adaptive_one_stance_per_stride_on_footprint_walks(datasets):
+    # koroglu_footprints runs 31-36 (200 Hz, LORD 3DM-GX5; walks with pace changes up to near-running,
+    # strides 0.6-3 m): every footprint surveyed with the time of its stance (the README: accurate to
+    # roughly one stance phase). Between the first and the last footprint there must be one stance phase
+    # per footprint (+-1 per run), and each footprint time must lie in, or within 0.3 s of, a detected stance
+    # phase, allowing for 1.5 % of footprints (the annotation's own slack).
+    n_fp = n_far = 0
+    for run in ("run31", "run32", "run33", "run34", "run35", "run36"):
+        folder = datasets / "koroglu_footprints" / run
+        a = _read(folder / "imu.csv.gz")
+        fp_t = np.loadtxt(folder / "truth_footprints.csv", delimiter=",", skiprows=1)[:, 3]
+        t = a[:, 0]
+        res = detect_stance(t, a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
+        starts, stops = res.phases()
+        inside = int(((t[starts] > fp_t[0]) & (t[stops - 1] < fp_t[-1] - 0.3)).sum())
+        assert abs(inside - (fp_t.size - 2)) <= 1, (run, inside, fp_t.size - 2)
+        lo, hi = t[starts][None, :], t[stops - 1][None, :]
+        gap = np.maximum(np.maximum(lo - fp_t[:, None], fp_t[:, None] - hi), 0.0).min(axis=1)  # 0 if inside
+        n_fp += fp_t.size
+        n_far += int((gap > 0.3).sum())
+    assert n_fp > 250
+    assert n_far <= 0.015 * n_fp, (n_far, n_fp)
 
 
 def test_adaptive_one_stance_per_step_at_100hz(datasets):
-    # voisard_ipol (Xsens, 100 Hz, another sensor and rate): per foot, the annotated footsteps
-    # (toe-off -> heel-strike swings) between the trial boundaries; one stance between two swings
-    for trial, foot in [("1-4", "left"), ("4-5", "right")]:
-        folder = datasets / "voisard_ipol" / trial
-        a = _read(folder / f"imu_{foot}.csv.gz")
+    # voisard_ipol (Xsens MTw, 100 Hz: another sensor and rate), all 22 trials x 2 feet. Truth: hand-checked
+    # swings (toe-off -> heel strike) of each foot. Between the first heel strike and the last toe-off inside
+    # the 20 m trial there must be one stance per step. Allowed: a stance split in two where the foot moves
+    # in between (turning shuffles, stopping) -- for ZUPT that is correct, so the total may exceed the step
+    # count by a few %; not allowed: a missed stance (at most one per file), or stance inside a straight-line
+    # swing (the foot moves at > 1 m/s there) in more than 1 % of the swings.
+    n_det = n_true = n_swings = n_bad_swings = 0
+    for folder in sorted(p for p in (datasets / "voisard_ipol").iterdir() if p.is_dir()):
         truth = json.loads((folder / "truth.json").read_text())
         rows = np.genfromtxt(folder / "truth_footsteps.csv", delimiter=",", names=True, dtype=None, encoding=None)
-        sw = rows[rows["foot"] == foot[0].upper()]
-        res = detect_stance(a[:, 0], a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
-        t = a[:, 0]
-        starts, stops = res.phases()
-        # stance phases strictly between the first heel strike and the last toe-off of this foot
-        lo, hi = sw["t_heel_strike_s"].min(), sw["t_toe_off_s"].max()
-        n = int(((t[starts] >= lo - 0.1) & (t[stops - 1] <= hi + 0.1)).sum())
-        assert abs(n - (len(sw) - 1)) <= 1, (trial, foot, n, len(sw))
-        # and no detected stance inside an annotated swing (margin 0.05 s for the annotation)
-        for off, on in zip(sw["t_toe_off_s"], sw["t_heel_strike_s"]):
-            sel = (t > off + 0.05) & (t < on - 0.05)
-            assert not res.stance[sel].any(), (trial, foot, off, on)
+        turn = (truth["uturn_t_start_s"] - 0.5, truth["uturn_t_end_s"] + 0.5)
+        for foot in ("left", "right"):
+            a = _read(folder / f"imu_{foot}.csv.gz")
+            t = a[:, 0]
+            sw = rows[rows["foot"] == foot[0].upper()]
+            sw = sw[(sw["t_toe_off_s"] >= truth["t_start_s"] - 0.5) & (sw["t_heel_strike_s"] <= truth["t_end_s"] + 0.5)]
+            res = detect_stance(t, a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
+            starts, stops = res.phases()
+            lo, hi = sw["t_heel_strike_s"].min(), sw["t_toe_off_s"].max()
+            n = int(((t[starts] >= lo - 0.1) & (t[stops - 1] <= hi + 0.1)).sum())
+            assert n >= len(sw) - 2, (folder.name, foot, n, len(sw) - 1)
+            n_det += n
+            n_true += len(sw) - 1
+            for off, on in zip(sw["t_toe_off_s"], sw["t_heel_strike_s"]):
+                if turn[0] < off < turn[1] or turn[0] < on < turn[1]:
+                    continue
+                n_swings += 1
+                n_bad_swings += bool(res.stance[(t > off + 0.05) & (t < on - 0.05)].any())
+    assert n_true > 600 and n_swings > 600
+    assert 0 <= (n_det - n_true) / n_true <= 0.05, (n_det, n_true)
+    assert n_bad_swings <= 0.01 * n_swings, (n_bad_swings, n_swings)
 
 
 def test_adaptive_invents_no_stance_in_continuous_motion():
