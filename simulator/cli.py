@@ -47,6 +47,11 @@ def run(args) -> int:
     from simulator.simulate import simulate
     from simulator.writers import write_h5, write_sd_txt
 
+    from pathlib import Path
+
+    for target in filter(None, (args.out, args.plot)):
+        if not Path(target).resolve().parent.is_dir():
+            raise InputError(f"{target}: the directory {Path(target).resolve().parent} does not exist")
     if args.mount not in MOUNTS:
         raise InputError(f"unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
     fmt = args.format or ("sd-txt" if str(args.out).lower().endswith(".txt") else "h5")
