@@ -224,6 +224,23 @@ def test_adaptive_one_stance_per_stride_on_footprint_walks(datasets):
     assert n_far <= 0.015 * n_fp, (n_far, n_fp)
 
 
+def test_adaptive_one_stance_per_stride_on_closed_loops(datasets):
+    # koroglu_rectangles: closed rectangular loops whose surveyed corner footprints carry stride numbers
+    # (truth.json n_strides = 73 and 24). Between the first and the last footprint time there must be one
+    # stance phase per stride: n_strides - 1 interior phases (+-1; the README says the authors' own
+    # detector missed strides in other runs, so the count itself is exact, the times roughly).
+    for run in ("run15", "run17"):
+        folder = datasets / "koroglu_rectangles" / run
+        n_strides = json.loads((folder / "truth.json").read_text())["n_strides"]
+        fp_t = np.loadtxt(folder / "truth_footprints.csv", delimiter=",", skiprows=1)[:, 3]
+        a = _read(folder / "imu.csv.gz")
+        t = a[:, 0]
+        res = detect_stance(t, a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
+        starts, stops = res.phases()
+        interior = int(((t[stops - 1] > fp_t[0] + 0.2) & (t[starts] < fp_t[-1] - 0.3)).sum())
+        assert abs(interior - (n_strides - 1)) <= 1, (run, interior, n_strides)
+
+
 def test_adaptive_one_stance_per_step_at_100hz(datasets):
     # voisard_ipol (Xsens MTw, 100 Hz: another sensor and rate), all 22 trials x 2 feet. Truth: hand-checked
     # swings (toe-off -> heel strike) of each foot. Between the first heel strike and the last toe-off inside
