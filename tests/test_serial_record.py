@@ -50,7 +50,16 @@ def emulate_and_record(tmp_path: Path, emu_args: list[str], rec_args: list[str] 
     time.sleep(0.3)  # the recorder's last read cycle
     rec.send_signal(stop)
     err = finish(rec)
+    assert_complete_in_fresh_process(out)
     return out, json.loads(report.read_text()), err
+
+
+def assert_complete_in_fresh_process(path: Path) -> dict:
+    """A new interpreter opens the file and sees the same samples as this one."""
+    fresh = reopen_in_fresh_process(path)
+    here = load(path)
+    assert fresh["n"] == here.n and fresh["acc_raw"] == sha(here.raw["acc"]) and fresh["gyro_raw"] == sha(here.raw["gyro"])
+    return fresh
 
 
 def _source(tmp_path: Path, n: int, rate: float) -> tuple[Path, np.ndarray, np.ndarray]:
@@ -229,6 +238,7 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
     finally:
         os.close(master)
         os.close(slave)
+    assert_complete_in_fresh_process(out)
     r = load(out)
     assert r.n == n
     assert any(b"scale factors assumed" in d for d in r.events_of("note")["detail"])
@@ -299,6 +309,7 @@ def test_any_pyserial_url_works_socket_transport(tmp_path):
     thread.join(timeout=30)
     rec.send_signal(signal.SIGTERM)
     finish(rec)
+    assert_complete_in_fresh_process(out)
     r = load(out)
     assert got == {"cmd": b"H", "done": True}
     assert r.n == n and r.seq.tolist() == list(range(n))
