@@ -154,3 +154,11 @@ def test_bad_rows_are_reported_with_line_numbers(tmp_path):
     (tmp_path / "many.csv").write_text("t_s,ax_mps2,ay_mps2,az_mps2\n1,2,3\n2,3,4\n3,4,5,6\n")
     with pytest.raises(InputError, match=r"lines 2, 3"):
         load_imu_csv(tmp_path / "many.csv")
+
+
+def test_alternation_corrected_count():
+    from postproc.pdr.evaluate import alternation_corrected_count
+
+    t = np.array([0.0, 0.5, 0.6, 1.0, 1.5, 3.0, 3.5])
+    f = np.array(["L", "R", "R", "L", "R", "R", "L"])  # a 0.1-s R bounce, and a missed L (R..R 1.5 s)
+    assert alternation_corrected_count(t, f) == 7 - 1 + 1

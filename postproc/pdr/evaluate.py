@@ -113,6 +113,7 @@ class Trial:
     imu_file: str
     truth: list
     t_steps: np.ndarray | None = None
+    feet: np.ndarray | None = None  # L/R/unknown per truth step
     n_steps: int | None = None
     t_len: np.ndarray | None = None
     step_len: np.ndarray | None = None
@@ -144,7 +145,9 @@ def list_trials(root: str | Path, sets=PDR_SETS) -> list[Trial]:
                   truth=list(tr["truth"]), info={"notes": tr.get("notes", ""), "distance_m": tr.get("distance_m")})
         p = t.path
         if (p / "truth_steps.csv").exists():
-            t.t_steps = np.array([float(r["t_s"]) for r in _read_csv(p / "truth_steps.csv")])
+            rows = _read_csv(p / "truth_steps.csv")
+            t.t_steps = np.array([float(r["t_s"]) for r in rows])
+            t.feet = np.array([r.get("foot", "unknown") for r in rows])
         if (p / "truth.json").exists():
             tj = json.loads((p / "truth.json").read_text())
             t.n_steps = tj.get("steps")
@@ -248,6 +251,9 @@ def evaluate_trial(trial: Trial, settings=None) -> dict:
     elif trial.n_steps is not None:
         row.update({"count_err_pct": count_err_pct(t_det.size, trial.n_steps), "n_true": trial.n_steps,
                     "n_detected": int(t_det.size)})
+    if t_true is not None and trial.feet is not None and trial.set == "oxford_steps":
+        n_alt = alternation_corrected_count(t_true, trial.feet)
+        row["count_err_vs_alternating_truth_pct"] = count_err_pct(int(t_det.size), n_alt)
     if trial.step_len is not None and trial.step_len.size:
         row.update(step_length_metrics(trial.t_len, trial.step_len, t_det, len_det))
     if trial.info.get("truth_json", {}).get("t_start_s") is not None and trial.set == "voisard_ipol":
@@ -256,6 +262,18 @@ def evaluate_trial(trial: Trial, settings=None) -> dict:
         row["distance_est_m"] = float(np.sum(res.length_m[inside]))
         row["distance_err_pct"] = 100.0 * (row["distance_est_m"] - tj["distance_m"]) / tj["distance_m"]
     return row
+
+
+def alternation_corrected_count(t_steps, feet, bounce_s: float = 0.35, missing_s: float = 0.8) -> int:
+    """DIAGNOSTIC only (not a METRICS.md metric): a truth count made consistent with left/right
+    alternation. Two events of the same foot less than ``bounce_s`` apart count once (switch bounce);
+    two events of the same foot more than ``missing_s`` apart mean the other foot's contact was missed
+    (+1). Used to show how much of a detector's count error is truth noise."""
+    t = np.asarray(t_steps, float)
+    f = np.asarray(feet)
+    same = np.nonzero((f[1:] == f[:-1]) & np.isin(f[1:], ["L", "R"]))[0]
+    dt = np.diff(t)[same]
+    return int(t.size - np.sum(dt < bounce_s) + np.sum(dt > missing_s))
 
 
 def position_of(trial: Trial) -> str:
