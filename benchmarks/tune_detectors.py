@@ -201,7 +201,10 @@ def print_tables(rows, cfgs) -> None:
     global_rank: dict = {}
     for ds in sorted(by_set):
         metric = PRIMARY[ds]
-        extra = ["stance_precision", "stance_recall"] if ds == "pyshoe_vicon" else ["closure_v_m"] if "closure" in metric else []
+        extra = {"armse_2d": ["stance_precision", "stance_recall"], "closure_pct": ["closure_v_m"],
+                 # final_fp_err_pct is degenerate on walks that return near their start (a path that never
+                 # moves scores the end-start distance), so the mean footprint error is shown beside it
+                 "final_fp_err_pct": ["mean_fp_err_m"]}.get(metric, [])
         cols = [metric, "max_" + metric, *extra, "stance_frac", "n_fail"]
         table = {}
         for name in cfgs:
