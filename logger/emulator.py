@@ -243,7 +243,11 @@ class Emulator:
             else:
                 signal = load_source(s.source)
         self.signal = signal
+        if signal.acc.shape[0] == 0:
+            raise ValueError("the source has no samples")
         self.rate_hz = float(s.rate_hz or signal.rate_hz)
+        if not np.isfinite(self.rate_hz) or self.rate_hz <= 0:
+            raise ValueError("cannot tell the source's sample rate; give --rate")
         self.accel_fs, self.gyro_fs = signal.accel_fs, signal.gyro_fs
         n_src = signal.acc.shape[0]
         self.n_frames = n_src if s.duration_s is None else int(round(s.duration_s * self.rate_hz))
