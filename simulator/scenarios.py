@@ -89,7 +89,7 @@ def mixed(rng: np.random.Generator, duration=1800.0) -> PathBuilder:
     """Random mix (seeded): walks with turns, standing, shuffling, turning on the spot, stair flights up
     and back down, short runs, walks at different cadences and stride lengths."""
     pb = PathBuilder().stand(10.0)
-    level = 0
+    flights = []  # flights climbed so far; going down repeats the last one, so floors stay consistent
     while pb.t < duration - 10.0:
         kind = rng.choice(["walk", "walk", "walk", "stand", "shuffle", "turn", "stairs", "run"])
         if kind == "walk":
@@ -104,11 +104,14 @@ def mixed(rng: np.random.Generator, duration=1800.0) -> PathBuilder:
         elif kind == "turn":
             pb.turn_in_place(float(rng.choice([-1, 1]) * rng.uniform(math.pi / 4, math.pi)))
         elif kind == "stairs":
-            n = int(rng.integers(6, 17))
-            riser, tread = float(rng.uniform(0.15, 0.19)), float(rng.uniform(0.26, 0.32))
-            up = level == 0 or (level < 3 and rng.random() < 0.5)
+            up = not flights or (len(flights) < 3 and rng.random() < 0.5)
+            if up:
+                flights.append((int(rng.integers(6, 17)), float(rng.uniform(0.15, 0.19)),
+                                float(rng.uniform(0.26, 0.32))))
+                n, riser, tread = flights[-1]
+            else:
+                n, riser, tread = flights.pop()
             pb.stairs(n, riser, tread, up=up, gait=STAIRS_UP if up else STAIRS_DOWN)
-            level += 1 if up else -1
             pb.walk(float(rng.uniform(1.0, 3.0)))
             pb.turn_in_place(math.pi)
         else:

@@ -218,6 +218,12 @@ def test_h5_recording_reopens_in_fresh_process(tmp_path):
     assert "accel_noise_ug_rthz" in rec.truth["attrs"]["sensor_profile"]
     gaps = rec.events_of("gap")
     assert int(np.sum(gaps["count"])) == rec.truth["attrs"]["n_dropped"]
+    # bootnav emulate streams exactly these counts at the nominal rate
+    from logger.emulator import load_source
+
+    src = load_source(path)
+    assert np.array_equal(src.acc, res.acc) and np.array_equal(src.gyro, res.gyro) and src.rate_hz == 200.0
+    assert (src.accel_fs, src.gyro_fs) == (3, 3)
 
 
 def test_sd_text_parses_with_correct_crc(tmp_path):
@@ -368,3 +374,16 @@ def test_any_stride_sequence_has_c1_signals_and_lands_on_its_pose(strides):
         # at a knot, typically 1e2-1e4 m/s^3) fails the slope test
         assert jump < 1e5 * 2 * e, name
         assert np.abs(right - left).max() < 20.0, name
+
+
+def test_mixed_scenario_covers_every_activity_and_stays_on_the_floors():
+    from simulator.gait import GAIT_CODES
+
+    kinds = set()
+    for seed in (0, 1):
+        res = simulate("mixed-30min", seed=seed, profile="ideal", rate_hz=50.0, duration_s=600.0)
+        kinds |= set(res.steps["kind"].tolist())
+        z_stance = res.truth["foot_pos_n_m"][res.truth["stance"] == 1, 2]
+        assert z_stance.min() > -1e-9  # never below the ground floor
+        assert 590.0 <= res.truth["t_s"][-1] <= 700.0
+    assert kinds >= {GAIT_CODES[g] for g in ("walk", "run", "shuffle", "stairs_up", "stairs_down", "turn")}
