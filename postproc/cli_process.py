@@ -143,11 +143,13 @@ def format_summary(summary: dict, files: dict) -> str:
     ]
     if "closure_3d_m" in p:
         lines.append(f"closure      {p['closure_3d_m']:.3f} m = {p['closure_pct']:.2f} % of distance "
-                     f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m)")
+                     f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m; last minus first "
+                     "footprint: the error when the walk ends where it started)")
         lines.append(f"height       {p['height_change_m']:+.2f} m net; floors climbed {p['floors_climbed']}, "
                      f"descended {p['floors_descended']} (floor height {p['floor_height_m']:g} m)")
     m = summary.get("metrics")
     if m and "distance_error_pct" in m:
+        lines.append(f"end point    {m['final_error_m']:.3f} m from the reference's end")
         lines.append(f"reference    distance error {m['distance_error_pct']:.2f} % ({m['distance_error_m']:.3f} m), "
                      f"deviation {m['deviation_error_pct']:.2f} % ({m['deviation_error_m']:.3f} m), "
                      f"height {m['height_error_pct']:.2f} % ({m['height_error_m']:.3f} m)")

@@ -169,7 +169,10 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     _, fp = footprints(result.t_s, pos, stance_phases(result.stance))
     summ = result.summary.get("path", {})
     stats = f"distance {summ.get('distance_m', 0):.2f} m"
-    if "closure_3d_m" in summ:
+    open_path = result.reference is not None and result.reference.kind != "closed_loop"
+    if result.metrics and open_path and "final_error_m" in result.metrics:
+        stats += f", end-point error {result.metrics['final_error_m']:.2f} m"
+    elif "closure_3d_m" in summ:
         stats += f", closure {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
     if result.metrics and "distance_error_pct" in result.metrics:
         m = result.metrics

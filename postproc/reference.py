@@ -7,8 +7,9 @@ paper's conclusion mixes the two.
 
 Reference file (``--reference FILE``)
 -------------------------------------
-* CSV with a header: ``t_s,x_m,y_m[,z_m]`` (a timed reference trajectory) or ``x_m,y_m[,z_m]``
-  (waypoints of the walked polyline, in walking order). ``.csv.gz`` accepted.
+* CSV with a header: ``t_s,x_m,y_m[,z_m]`` (a timed reference trajectory, or surveyed footprints with
+  their times) or ``x_m,y_m[,z_m]`` (waypoints of the walked polyline, in walking order), in any column
+  order; an index column ``stride`` is ignored (the datasets' ``truth_footprints.csv``). ``.csv.gz`` accepted.
 * JSON: ``{"closed_loop": true}`` (the walk ends where it started; ``approx_length_m`` optional, as in the
   datasets' ``truth.json``), ``{"straight_m": 9}`` (a straight line of 9 m; optional ``"height_m"`` for
   the end height), or ``{"waypoints": [[x, y], [x, y, z], ...]}``.
@@ -145,8 +146,10 @@ def _from_csv(path: Path, text: str) -> Reference:
         raise InputError(f"{path}: empty reference file")
     header = [h.strip() for h in lines[0].split(",")]
     allowed = ({"t_s", "x_m", "y_m"}, {"x_m", "y_m"})
-    if not any(a <= set(header) for a in allowed) or not set(header) <= {"t_s", "x_m", "y_m", "z_m"}:
-        raise InputError(f"{path}: line 1: header must be t_s,x_m,y_m[,z_m] or x_m,y_m[,z_m]; got {lines[0]!r}")
+    # "stride" (an index column, as in the datasets' truth_footprints.csv) is accepted and ignored
+    if not any(a <= set(header) for a in allowed) or not set(header) <= {"t_s", "x_m", "y_m", "z_m", "stride"}:
+        raise InputError(f"{path}: line 1: header must be t_s,x_m,y_m[,z_m] or x_m,y_m[,z_m] (optional stride "
+                         f"column); got {lines[0]!r}")
     try:
         data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:

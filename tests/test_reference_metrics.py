@@ -219,3 +219,22 @@ def test_stair_gated_floors_ignore_slow_vertical_drift():
     assert plain["final_floor"] != 2  # the drift (-5 m) shows in the plain count
     with pytest.raises(ValueError):
         FloorSettings(3.0, 0.5, stair_min_dz_m=-0.1)
+
+
+def test_footprint_csv_with_stride_column(tmp_path):
+    """The datasets' truth_footprints.csv (stride,x_m,y_m,t_s): footprints at stance times; an estimate
+    whose every footprint is 0.1 m north of the truth (after the first) scores that error."""
+    fp = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0], [4, 0, 0]], float)
+    t, pos, stance = walk(fp)
+    phases_mid = [(k * 40 + 10) * 0.01 for k in range(len(fp))]  # mid-stance times of walk()
+    ref = tmp_path / "truth_footprints.csv"
+    ref.write_text("stride,x_m,y_m,t_s\n" + "".join(f"{k},{x:.3f},{y:.3f},{tk:.3f}\n"
+                                                   for k, ((x, y, _), tk) in enumerate(zip(fp, phases_mid))))
+    est = pos.copy()
+    est[:, 1] += np.where(pos[:, 0] > 0.5, 0.1, 0.0) * (pos[:, 0] >= 1.0)  # sideways once the first stride lands
+    m = compute_metrics(load_reference(ref), t, est, stance)
+    assert m["reference_kind"] == "trajectory"
+    # alignment sample (first >= 0.8 m) is mid-swing at x = 0.8, still on the line: no rotation
+    assert m["alignment_yaw_rad"] == pytest.approx(0.0, abs=1e-12)
+    assert m["mean_h_err_m"] == pytest.approx(0.1 * 4 / 5, abs=1e-9)
+    assert m["final_h_err_m"] == pytest.approx(0.1, abs=1e-9)
