@@ -189,3 +189,53 @@ def test_seed003_T5_grouping():
     idx, h = np.array([100, 140]), np.array([1.5, 1.8])
     main = group_main_peaks(idx, h, 10)
     assert list(min_distance_tallest_first(main, h, 30)) == [100, 140]
+
+
+def test_seed000_T9_buffer_cleanup():
+    # 300 samples (15 s) with no valid step: the buffer keeps dropping its first 50 samples past 201
+    t = np.arange(300) / 20.0
+    ev = PeakValleyDetector().detect(t, np.tile([0.0, 0.0, G], (300, 1)))
+    assert ev.count == 0
+    assert ev.trace["overflow_drops"] >= 1
+    assert ev.trace["max_buffer_len"] <= 202 + 4  # at most one scan period past the limit
+
+
+def _double_hump_gait(n_steps, cadence_hz, fs, seed, irregular=False):
+    """seed-003 T6: a double hump per step (peaks 1.3–1.8 g), optional pauses, in g-force units * g."""
+    rng = np.random.default_rng(seed)
+    t_end = 2.0 + n_steps / cadence_hz + 2.0
+    if irregular:  # event-driven ~400 Hz rows with sample-and-hold duplicates (Physics Toolbox style)
+        t = np.cumsum(rng.exponential(1 / 400.0, int(t_end * 400 * 1.1)))
+        t = t[t < t_end]
+        t = np.round(t, 3)  # millisecond clock: repeated timestamps
+    else:
+        t = np.arange(0, t_end, 1 / fs)
+    a = np.ones_like(t)
+    peaks = rng.uniform(0.3, 0.8, n_steps)
+    for k in range(n_steps):
+        t0 = 2.0 + k / cadence_hz
+        a += peaks[k] * np.exp(-0.5 * ((t - t0) / 0.03) ** 2)  # heel strike
+        a += 0.35 * peaks[k] * np.exp(-0.5 * ((t - t0 - 0.12) / 0.03) ** 2)  # second, lower hump
+        a -= 0.3 * np.exp(-0.5 * ((t - t0 - 0.3) / 0.06) ** 2)
+    acc = np.zeros((t.size, 3))
+    acc[:, 2] = G * a
+    if irregular:  # the newest value of each sensor is held between its updates
+        hold = rng.random(t.size) < 0.4
+        for i in np.nonzero(hold)[0]:
+            if i:
+                acc[i] = acc[i - 1]
+    return t, acc
+
+
+@pytest.mark.parametrize("n", [13, 80, 130])
+def test_seed003_T6_peak_group_exact_on_clean_gait(n):
+    t, acc = _double_hump_gait(n, 1.7, 100.0, seed=n)
+    assert DETECTORS["peak_group"]().detect(t, acc).count == n
+
+
+@pytest.mark.parametrize("n", [80, 200])
+def test_seed003_T6_peak_group_irregular_rows_within_2pct(n):
+    t, acc = _double_hump_gait(n, 1.8, None, seed=n, irregular=True)
+    cnt = DETECTORS["peak_group"]().detect(t, acc).count
+    assert abs(cnt - n) <= max(1, 0.02 * n), cnt
+    assert abs(DETECTORS["robust"]().detect(t, acc).count - n) <= max(1, 0.02 * n)

@@ -126,3 +126,42 @@ def test_steps_from_foot_ins_merges_split_stance():
     out = steps_from_foot_ins(t, pos, stance)
     assert out["length_m"].tolist() == pytest.approx([1.3])
     assert out["heading_rad"][0] == pytest.approx(0.0)
+
+
+def test_seed000_T14_synthetic_checkpoint_walk():
+    # legs N, E, S, W of 25.37, 22.76, 28.53, 22.76 m from (49.09, 21.14) in 0.7-m steps (seed-000 T14)
+    from postproc.pdr.path import checkpoint_errors, local_path
+
+    legs = [(0, 25.37), (90, 22.76), (180, 28.53), (270, 22.76)]
+    true = np.array([[49.09, 21.14], [49.09, 46.51], [71.85, 46.51], [71.85, 17.98], [49.09, 17.98]])
+
+    def walk_legs(bias_ew_deg):
+        L, h, ends = [], [], []
+        for bearing, length in legs:
+            n = length / 0.7
+            k = int(np.floor(n))
+            L += [0.7] * k + [length - 0.7 * k]  # last, partial step makes the leg exact
+            b = bearing + (bias_ew_deg if bearing in (90, 270) else 0.0)
+            h += [np.radians(b)] * (k + 1)
+            ends.append(len(L) - 1)
+        x, y = local_path(L, h, *true[0])
+        return np.c_[x, y][ends]
+
+    assert np.max(checkpoint_errors(walk_legs(0.0), true[1:])) < 1e-9
+    err = checkpoint_errors(walk_legs(-10.0), true[1:])
+    # 10 deg on the E/W legs: a few metres, the same order as Table 6.3.3 (1.49, 3.29, 3.49, 1.98 m)
+    assert 1.0 < err.max() < 6.0 and err[0] < 1e-9
+
+
+def test_run_pdr_with_magnetometer_heading():
+    from postproc.pdr import PdrSettings, run_pdr
+    from tests.test_pdr_detectors import walk
+
+    t, acc = walk()
+    bearing = np.radians(75.0)
+    mag_b = np.tile(rot_z(-bearing).T @ B_N, (t.size, 1))  # level phone pointing at 75 deg (clockwise)
+    res = run_pdr(t, acc, settings=PdrSettings(heading="mag", declination_deg=5.0), mag_b=mag_b)
+    # the 1 m/s^2 sway of the synthetic walk leaks ~0.1 m/s^2 through the 0.3-Hz gravity low-pass:
+    # a tilt of ~0.01 rad, so the bearing is good to ~1 deg
+    assert np.allclose(np.degrees(res.heading_rad), 80.0, atol=1.0)
+    assert res.heading_source == "mag"

@@ -86,6 +86,7 @@ class PeakValleyDetector:
         base = 0  # absolute index of buffer element 0
         pending = None  # (absolute sample when detected, crest index in buffer, ranges)
         steps, amp, rejected = [], [], []
+        drops, max_len = 0, 0
         for i in range(z.size):
             for k, arr in (("z", z), ("x", x), ("y", y)):
                 raw[k].append(arr[i])
@@ -101,7 +102,9 @@ class PeakValleyDetector:
                         del raw[k][:d]
                     del filt[:d]
                     base += d
+                    drops += 1
                 pending = self._scan(raw, filt, i)
+            max_len = max(max_len, len(filt))
             if pending is not None and i - pending[0] >= delay:
                 _, crest, rz, rx, ry = pending
                 storage = raw["z"][-self.n_ma:][::-1] if self.literal else []
@@ -118,7 +121,8 @@ class PeakValleyDetector:
         idx = np.array(steps, int)
         return StepEvents(tg[idx] if idx.size else np.zeros(0), self.name,
                           {"t_s": tg, "signal": z, "signal_label": f"vertical acceleration ({self.acc_unit})",
-                           "z_range": np.array(amp), "rejected_t_s": tg[np.array(rejected, int)] if rejected else np.zeros(0)})
+                           "z_range": np.array(amp), "overflow_drops": drops, "max_buffer_len": max_len,
+                           "rejected_t_s": tg[np.array(rejected, int)] if rejected else np.zeros(0)})
 
     def _scan(self, raw, filt, now):
         """One Stride_Check pass over the buffer (Π4); returns a candidate or None."""
