@@ -110,6 +110,27 @@ def test_shoe_statistic_equals_hand_computed_value():
     assert ared_statistic(gyro, 3, sg)[1] == pytest.approx((w * w / 3) / sg**2, rel=1e-12)
 
 
+def test_settings_recorded_beside_threshold_and_literal_form():
+    t, acc, gyro, truth = synthetic_gait(200.0)
+    res = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", literal_paper_form=True,
+                                                       sigma_acc_mps2=0.05, sigma_gyro_radps=0.01), G)
+    assert res.info["form"] == "literal_paper" and res.info["sigma_acc_mps2"] == 0.05
+    assert res.info["sigma_gyro_radps"] == 0.01 and res.threshold == 1e3  # DEFAULT_THRESHOLDS["shoe_literal"]
+    assert res.info["window_samples"] == 5  # 0.025 s at 200 Hz
+    # the window follows the recording's own rate: 0.03 s at 820 Hz = 24.6 -> 25 samples
+    t8, a8, g8, _ = synthetic_gait(820.0, n_strides=2)
+    assert detect_stance(t8, a8, g8, DetectorSettings(method="shoe", window_s=0.03), G).info["window_samples"] == 25
+    # hysteresis never shrinks the single-threshold stance (it only extends runs that reach γ)
+    s1 = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", sigma_acc_mps2=SIGMA_A,
+                                                      sigma_gyro_radps=SIGMA_G, threshold=120.0), G)
+    s2 = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", sigma_acc_mps2=SIGMA_A,
+                                                      sigma_gyro_radps=SIGMA_G, threshold=120.0,
+                                                      hysteresis_ratio=3.0), G)
+    assert np.all(s2.stance[s1.stance]) and s2.stance.sum() >= s1.stance.sum()
+    ad = detect_stance(t, acc, gyro, DetectorSettings(), G)
+    assert ad.method == "adaptive" and ad.info["threshold_log10_per_sample"].shape == t.shape
+
+
 def test_shoe_statistic_matches_direct_window_sum_on_random_data():
     rng = np.random.default_rng(3)
     acc = rng.normal([0.5, -0.3, G], 0.5, (40, 3))
