@@ -137,3 +137,26 @@ def test_dropped_sample_bursts_match_rate():
     se = math.sqrt((1 - p) / p**2 / starts.size)
     assert lost / starts.size == pytest.approx(prof.drop_burst_mean, abs=5 * se)
     assert keep[0]
+
+
+def test_delivered_noise_at_rest_end_to_end():
+    """Through simulate(): DLPF at 1 kHz, decimation to 200 Hz, int16 rounding. Std of the accel z counts
+    during the 10 s still start equals the filtered white noise plus rounding noise (LSB^2 / 12)."""
+    from simulator import simulate
+
+    prof = replace(PROFILES["mpu6050-noise-only"], accel_range_g=2, accel_bias_rw_mps2_rts=0.0,
+                   gyro_bias_rw_dps_rts=0.0)  # +-2 g: 0.06 mg LSB, noise >> LSB
+    res = simulate("paper-straight", seed=11, profile=prof, rate_hz=200.0)
+    still = res.truth["t_s"] < 9.5
+    x = res.acc_mps2[still, 2]
+    model = ErrorModel(prof, 1000.0, np.random.default_rng(0))
+    imp = np.zeros(4000)
+    imp[0] = 1.0
+    h = signal.sosfilt(model.sos_a, imp)
+    acf = np.correlate(h, h, "full")[h.size - 1:] / np.sum(h**2)  # lags 0.. at 1 kHz
+    rho = acf[::5]  # autocorrelation of the 200 Hz samples
+    sigma_f = prof.accel_noise_si * math.sqrt(1000.0 / 2) * math.sqrt(np.sum(h**2))
+    exp = math.sqrt(sigma_f**2 + prof.accel_lsb_mps2**2 / 12)
+    rel = 0.5 * math.sqrt(2 * (1 + 2 * np.sum(rho[1:] ** 2)) / x.size)
+    assert np.std(x) == pytest.approx(exp, rel=5 * rel)
+    assert res.decimation == 5 and res.attrs["internal_rate_hz"] == 1000.0
