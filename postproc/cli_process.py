@@ -22,9 +22,11 @@ def _floats(text: str) -> tuple[float, ...]:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("input", metavar="INPUT",
-                   help="recording (.h5) or any file `bootnav import` reads (e.g. a canonical imu.csv.gz)")
+    p.add_argument("input", metavar="INPUT", nargs="+",
+                   help="recording (.h5) or any file `bootnav import` reads (e.g. a canonical imu.csv.gz); "
+                        "several inputs are processed in parallel, each into DIR/<name>/")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
     p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
     p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
     g = p.add_argument_group("algorithm")
@@ -162,15 +164,72 @@ def format_summary(summary: dict, files: dict) -> str:
     return "\n".join(lines)
 
 
-def run(args) -> int:
+def _one(input_path: str, settings, out_dir: str, progress) -> tuple[dict, dict]:
     from postproc.outputs import write_outputs
     from postproc.pipeline import process
+
+    result = process(input_path, settings, progress=progress)
+    files = write_outputs(result, out_dir)
+    return result.summary, files
+
+
+def _batch_job(job) -> tuple[str, dict | None, dict | None, str | None]:
+    from bootnav.errors import BootnavError
+
+    input_path, settings_dict, out_dir = job
+    from postproc.settings import ProcessSettings
+
+    try:
+        summary, files = _one(input_path, ProcessSettings.from_dict(settings_dict), out_dir, None)
+        return input_path, summary, files, None
+    except BootnavError as exc:  # one bad file must not stop the batch; reported at the end
+        return input_path, None, None, str(exc)
+
+
+def output_names(inputs: list[str]) -> list[str]:
+    """A distinct folder name per input: the file stem, prefixed by parent folders while names collide."""
+    from pathlib import Path
+
+    def stem(p: Path) -> str:
+        name = p.name
+        for suffix in (".gz", ".csv", ".txt", ".h5", ".hdf5"):
+            name = name[: -len(suffix)] if name.endswith(suffix) else name
+        return name
+
+    paths = [Path(i).resolve() for i in inputs]
+    depth = 0
+    while True:
+        names = ["_".join([*(q.name for q in reversed(list(p.parents)[:depth])), stem(p)]) for p in paths]
+        if len(set(names)) == len(names) or depth > 8:
+            return names
+        depth += 1
+
+
+def run(args) -> int:
+    import os
+    from pathlib import Path
 
     settings = build_settings(args)
     if args.save_settings:
         settings.save(args.save_settings)
-    progress = StderrProgress(not args.quiet)
-    result = process(args.input, settings, progress=progress)
-    files = write_outputs(result, args.out)
-    print(format_summary(result.summary, files))
-    return 0
+    if len(args.input) == 1:
+        summary, files = _one(args.input[0], settings, args.out, StderrProgress(not args.quiet))
+        print(format_summary(summary, files))
+        return 0
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    outs = [str(Path(args.out) / n) for n in output_names(args.input)]
+    jobs = [(i, settings.to_dict(), o) for i, o in zip(args.input, outs)]
+    failed = 0
+    with ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) as pool:
+        for fut in as_completed([pool.submit(_batch_job, j) for j in jobs]):
+            input_path, summary, files, error = fut.result()
+            if error:
+                failed += 1
+                print(f"bootnav process: error: {error}", file=sys.stderr)
+                continue
+            p = summary["path"]
+            print(f"{input_path}: {p.get('distance_m', 0):.2f} m, closure {p.get('closure_3d_m', float('nan')):.3f} m "
+                  f"-> {Path(files['summary']).parent}")
+    print(f"{len(jobs) - failed} of {len(jobs)} inputs processed into {args.out}")
+    return 1 if failed else 0

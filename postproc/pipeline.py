@@ -142,16 +142,16 @@ def _read_canonical_csv(path: Path) -> Recording:
 
 
 # ------------------------------------------------------------------------------------------ checks
-def crop_index(t_s: np.ndarray, crop_s) -> slice:
+def crop_index(t_s: np.ndarray, crop_s, name: str = "recording") -> slice:
     if crop_s is None:
         return slice(0, len(t_s))
     t0, t1 = float(crop_s[0]), float(crop_s[1])
     if not t1 > t0:
-        raise InputError(f"--crop: end {t1} s must be after start {t0} s")
+        raise InputError(f"{name}: --crop: end {t1} s must be after start {t0} s")
     i0 = int(np.searchsorted(t_s, t0, side="left"))
     i1 = int(np.searchsorted(t_s, t1, side="right"))
     if i1 - i0 < 2:
-        raise InputError(f"--crop {t0:g} {t1:g}: no samples in that window (recording spans "
+        raise InputError(f"{name}: --crop {t0:g} {t1:g}: no samples in that window (recording spans "
                          f"{t_s[0]:.3f}-{t_s[-1]:.3f} s)")
     return slice(i0, i1)
 
@@ -303,9 +303,11 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     _call_progress(progress, "load", 0.0)
     rec, path, hdf5 = load_source(source)
     name = str(path) if path else "recording"
+    if rec.n < 3:
+        raise InputError(f"{name}: only {rec.n} samples; nothing to process")
     lap("load")
 
-    idx = crop_index(rec.t_s, settings.crop_s)
+    idx = crop_index(rec.t_s, settings.crop_s, name)
     t_s = np.ascontiguousarray(rec.t_s[idx], dtype=np.float64)
     acc_b = np.ascontiguousarray(rec.acc_mps2[idx], dtype=np.float64)
     gyro_b = np.ascontiguousarray(rec.gyro_radps[idx], dtype=np.float64)

@@ -138,3 +138,21 @@ def test_parser_stays_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == ""
+
+
+def test_several_inputs_in_parallel_one_bad(tmp_path, datasets):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n0,0,0,9.8,0,0,0\n")
+    proc = bootnav(datasets / SHORT, bad, "--out", tmp_path / "o", "--no-plots", "--crop", "0", "25", "--jobs", "2")
+    assert proc.returncode == 1  # one input failed: said so, the other one is complete
+    assert "bad.csv" in proc.stderr and "1 of 2 inputs processed" in proc.stdout
+    s = json.loads((tmp_path / "o" / "imu" / "summary.json").read_text())
+    assert s["input"]["source"].endswith(SHORT) and s["path"]["strides"] > 5
+
+
+def test_output_names_are_distinct():
+    from postproc.cli_process import output_names
+
+    assert output_names(["/a/x/imu.csv.gz", "/a/y/imu.csv.gz"]) == ["x_imu", "y_imu"]
+    assert output_names(["/d/walk1.h5", "/d/walk2.h5"]) == ["walk1", "walk2"]
+    assert len(set(output_names(["/p/a/s/imu.csv.gz", "/p/b/s/imu.csv.gz"]))) == 2
