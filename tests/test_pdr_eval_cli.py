@@ -162,3 +162,24 @@ def test_alternation_corrected_count():
     t = np.array([0.0, 0.5, 0.6, 1.0, 1.5, 3.0, 3.5])
     f = np.array(["L", "R", "R", "L", "R", "R", "L"])  # a 0.1-s R bounce, and a missed L (R..R 1.5 s)
     assert alternation_corrected_count(t, f) == 7 - 1 + 1
+
+
+@pytest.mark.parametrize("name,n_steps", [("waist20_seed000_synthetic.txt", 56), ("physics_toolbox_android_synthetic.csv", 16)])
+def test_cli_on_importer_formats(tmp_path, name, n_steps):
+    # tests/data/make_synthetic.py: z = 1 + 0.25 sin(2 pi 2 t) g after a 2-s rest -> 2 steps/s
+    src = REPO / "tests" / "data" / name
+    if not src.exists():
+        pytest.skip(f"{src} not present")
+    pytest.importorskip("logger.importers")
+    out = tmp_path / "o"
+    proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "pdr", str(src), "--no-plots", "--out", str(out)],
+                          capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert abs(summary["steps"] - n_steps) <= 1
+    if name.startswith("waist20"):
+        # HMR3300-style heading column (90 +- 5 deg + 1 deg noise): the path goes east
+        assert summary["heading_source"] == "compass"
+        steps = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)
+        assert np.all(np.abs(np.degrees(steps[:, 2]) - 90.0) < 7.0)
+        assert steps[-1, 3] > 0 and abs(steps[-1, 4]) < 0.2 * steps[-1, 3]

@@ -9,7 +9,7 @@ from __future__ import annotations
 DETECTOR_NAMES = ["robust", "peak_valley", "zero_crossing", "pan_tompkins", "template", "two_axis", "footpath",
                   "leppakoski", "li", "peak_group"]
 LENGTH_NAMES = ["frequency_variance", "renaudin", "weinberg", "ladetto", "footpath", "constant", "frequency"]
-HEADING_NAMES = ["auto", "none", "gyro", "mag", "complementary"]
+HEADING_NAMES = ["auto", "none", "gyro", "mag", "complementary", "compass"]
 
 
 def add_arguments(parser) -> None:
@@ -59,7 +59,7 @@ def run(args) -> int:
     settings = PdrSettings(detector=args.detector, detector_params=params, length=args.length,
                            height_m=args.height, heading=args.heading, declination_deg=args.declination,
                            start_lat_lon=_parse_start(args.start))
-    res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b)
+    res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     table = np.column_stack([res.t_s, res.length_m, res.heading_rad, res.x_m, res.y_m])
@@ -75,6 +75,7 @@ def run(args) -> int:
     summary = res.summary()
     summary.update({"input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
                     "has_gyro": inp.gyro_b is not None, "has_mag": inp.mag_b is not None,
+                    "has_compass": inp.compass_deg is not None,
                     "detector_params": DETECTORS[args.detector](**params).to_dict(),
                     "runtime_s": time.perf_counter() - t0})
     if not args.no_plots:

@@ -20,12 +20,20 @@ class PdrInput:
     mag_b: np.ndarray | None
     source: str
     kind: str
+    compass_deg: np.ndarray | None = None
 
 
 def _mag_from_aux(aux: dict) -> np.ndarray | None:
     keys = [f"mag_{a}" for a in "xyz"]
     if all(k in aux for k in keys):
         return np.column_stack([np.asarray(aux[k], float) for k in keys])
+    return None
+
+
+def _compass_from_aux(aux: dict) -> np.ndarray | None:
+    for k in ("heading_deg", "compass_deg", "azimuth_deg"):
+        if k in aux:
+            return np.asarray(aux[k], float)
     return None
 
 
@@ -45,14 +53,15 @@ def load_input(path) -> PdrInput:
         from logger.recording import load
 
         rec = load(path)
-        mag = None
+        aux = {}
         try:
             from logger.importers import load_aux
 
-            mag = _mag_from_aux(load_aux(path))
+            aux = load_aux(path)
         except ImportError:
             pass
-        return PdrInput(rec.t_s, rec.acc_mps2, _gyro_or_none(rec.gyro_radps), mag, str(path), "hdf5")
+        return PdrInput(rec.t_s, rec.acc_mps2, _gyro_or_none(rec.gyro_radps), _mag_from_aux(aux), str(path), "hdf5",
+                        _compass_from_aux(aux))
     if name.endswith((".csv.gz", ".csv")):
         with (__import__("gzip").open(path, "rt") if name.endswith(".gz") else open(path)) as f:
             header = f.readline()
@@ -67,4 +76,4 @@ def load_input(path) -> PdrInput:
         raise InputError(f"{path}: not a canonical acc/imu csv(.gz) or .h5 and no importer available ({exc})")
     res = read_any(path)
     return PdrInput(res.t_s, res.acc_mps2, _gyro_or_none(res.gyro_radps), _mag_from_aux(res.aux), str(path),
-                    f"import:{res.profile}")
+                    f"import:{res.profile}", _compass_from_aux(res.aux))

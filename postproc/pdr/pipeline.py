@@ -3,9 +3,11 @@
     run_pdr(t_s, acc_b, gyro_b=None, settings=PdrSettings(), mag_b=None) -> PdrResult
 
 Every tunable lives in ``PdrSettings`` (saved with the results as summary.json["settings"]).
-Heading methods: "auto" (gyro if a gyro is present, else "none"), "none" (every step keeps the start
-bearing: a straight line; heading is unobservable without gyro/magnetometer), "gyro", "mag",
-"complementary". Bearing convention: clockwise from north (heading/__init__.py).
+Heading methods: "auto" (gyro if a gyro is present, else a device compass column if present, else
+"none"), "none" (every step keeps the start bearing: a straight line; heading is unobservable without
+gyro/magnetometer), "gyro", "mag", "complementary", "compass" (a heading column delivered by the device,
+e.g. the HMR3300 of seed-000, averaged circularly over the 0.4 s = 8 samples at 20 Hz before each step,
+seed-000 R5/R6; seed-003: "if the device can calculate the direction ... this data is transmitted"). Bearing convention: clockwise from north (heading/__init__.py).
 """
 
 from __future__ import annotations
@@ -126,7 +128,18 @@ def _length_model(settings: PdrSettings):
     return cls(**params)
 
 
-def _heading(settings, t, acc, gyro, mag, t_steps):
+def compass_at_steps(t, compass_deg, t_steps, window_s: float = 0.4) -> np.ndarray:
+    """Circular mean (mean of unit vectors) of the compass bearing over [t_step - window, t_step], rad."""
+    z = np.exp(1j * np.radians(np.asarray(compass_deg, float)))
+    c = np.r_[0.0, np.cumsum(z)]
+    lo = np.searchsorted(t, np.asarray(t_steps) - window_s)
+    hi = np.maximum(np.searchsorted(t, t_steps, side="right"), lo + 1)
+    hi = np.minimum(hi, len(t))
+    lo = np.minimum(lo, hi - 1)
+    return np.angle(c[hi] - c[lo])
+
+
+def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
     from postproc.pdr.heading.complementary import complementary_heading
     from postproc.pdr.heading.declination import apply_declination
     from postproc.pdr.heading.gyro import gyro_heading
@@ -134,11 +147,17 @@ def _heading(settings, t, acc, gyro, mag, t_steps):
     from postproc.pdr.signals import gravity_direction, nominal_rate_hz
 
     method = settings.heading
+    if method not in ("auto", "none", "gyro", "mag", "complementary", "compass"):
+        raise InputError(f"unknown heading method {method!r}; choose auto, none, gyro, mag, complementary, compass")
     if method == "auto":
-        method = "gyro" if gyro is not None else "none"
+        method = "gyro" if gyro is not None else ("compass" if compass is not None else "none")
     psi0 = np.radians(settings.heading0_deg)
     if method == "none":
         return np.full(t_steps.size, psi0), "none"
+    if method == "compass":
+        if compass is None:
+            raise InputError("heading 'compass' needs a device heading column (e.g. heading_deg); this input has none")
+        return apply_declination(compass_at_steps(t, compass, t_steps), settings.declination_deg), "compass"
     if method in ("gyro", "complementary") and gyro is None:
         raise InputError(f"heading {method!r} needs a gyroscope; this input has none")
     if method in ("mag", "complementary") and mag is None:
@@ -157,12 +176,16 @@ def _heading(settings, t, acc, gyro, mag, t_steps):
             psi = complementary_heading(tg, psi_g, psi_m_g, settings.complementary_tau_s)
             tt = tg
     if method not in ("gyro", "mag", "complementary"):
-        raise InputError(f"unknown heading method {settings.heading!r}; choose auto, none, gyro, mag, complementary")
+        raise InputError(f"unknown heading method {settings.heading!r}; "
+                         "choose auto, none, gyro, mag, complementary, compass")
     return np.angle(np.exp(1j * np.interp(t_steps, tt, psi))), method
 
 
-def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=None) -> PdrResult:
-    """Step-and-heading dead reckoning on one recording (SI units, sensor frame, gravity included)."""
+def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=None,
+            compass_deg=None) -> PdrResult:
+    """Step-and-heading dead reckoning on one recording (SI units, sensor frame, gravity included).
+
+    mag_b: (N, 3) magnetometer (any unit); compass_deg: (N,) device heading, deg clockwise from north."""
     from postproc.pdr.detectors import make_detector
     from postproc.pdr.length.features import step_features
     from postproc.pdr.path import geodetic_path, local_path
@@ -171,9 +194,11 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     t, acc, keep = _check_inputs(t_s, acc_b)
     gyro = None if gyro_b is None else np.asarray(gyro_b, float)
     mag = None if mag_b is None else np.asarray(mag_b, float)
+    compass = None if compass_deg is None else np.asarray(compass_deg, float)
     if keep is not None:
         gyro = gyro[keep] if gyro is not None else None
         mag = mag[keep] if mag is not None else None
+        compass = compass[keep] if compass is not None else None
     detector = make_detector(settings.detector, **settings.detector_params)
     candidates = restore_gravity(acc)
     gravity_restored = len(candidates) > 1
@@ -183,7 +208,7 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     acc, events = min(runs, key=lambda r: (-r[1].count, irregularity(r[1].t_s)))
     feats = step_features(events.t_s, t, acc)
     length = _length_model(settings).estimate(feats)
-    heading, source = _heading(settings, t, acc, gyro, mag, events.t_s)
+    heading, source = _heading(settings, t, acc, gyro, mag, events.t_s, compass)
     x, y = local_path(length, heading)
     res = PdrResult(events.t_s, np.asarray(length, float), heading, x, y, events, feats, settings,
                     heading_source=source, gravity_restored=gravity_restored)
