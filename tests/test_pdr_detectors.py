@@ -239,3 +239,14 @@ def test_seed003_T6_peak_group_irregular_rows_within_2pct(n):
     cnt = DETECTORS["peak_group"]().detect(t, acc).count
     assert abs(cnt - n) <= max(1, 0.02 * n), cnt
     assert abs(DETECTORS["robust"]().detect(t, acc).count - n) <= max(1, 0.02 * n)
+
+
+def test_seed002_options_run_and_are_consistent():
+    t, acc = walk(harm=0.0)
+    both_anywhere = DETECTORS["leppakoski"]().detect(t, acc).count
+    same = DETECTORS["leppakoski"](same_sample=True).detect(t, acc).count
+    assert same <= both_anywhere  # stricter reading can only remove steps
+    for kw in ({"zero_phase": True}, {"dtw_norm": "znorm"}):
+        assert abs(DETECTORS["li"](**kw).detect(t, acc).count - 60) <= 3, kw
+    # the threshold 3 applied to a TOTAL cost (no normalisation) is far stricter: never more steps
+    assert DETECTORS["li"](dtw_norm="none").detect(t, acc).count <= DETECTORS["li"]().detect(t, acc).count

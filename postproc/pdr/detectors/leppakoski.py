@@ -7,6 +7,7 @@
                                                                              is the digest's inference]
         (a[i] - a[i-1]) fs > rise_thr  (10 m/s^3)                           [literal]
     timeout 0.9 s, fs 30 Hz                                                 [literal]
+    (whether both must hold at the same sample is not said: ``same_sample`` option, default False)
     step i runs from its accepted crossing to the next accepted crossing.
 
 Cut-off: not given; 3 Hz (1st-order Butterworth) [engineered, seed-002 §7.6]. g: 9.80665 in literal mode;
@@ -34,6 +35,7 @@ class LeppakoskiDetector:
     rise_rate_thr_mps3: float = 10.0
     timeout_s: float = 0.9
     g_mps2: float = G0
+    same_sample: bool = False  # both conditions at one sample instead of anywhere within the timeout
 
     name = "leppakoski"
 
@@ -51,7 +53,9 @@ class LeppakoskiDetector:
         steps = []
         for c in cross:
             seg = slice(c, min(c + w + 1, n.size))
-            if np.any(n[seg] - g > self.peak_thr_mps2) and np.any(rise[seg] > self.rise_rate_thr_mps3):
+            peak_ok = n[seg] - g > self.peak_thr_mps2
+            rise_ok = rise[seg] > self.rise_rate_thr_mps3
+            if (np.any(peak_ok & rise_ok) if self.same_sample else (np.any(peak_ok) and np.any(rise_ok))):
                 steps.append(c)
         idx = np.array(steps, int)
         return StepEvents(tg[idx] if idx.size else np.zeros(0), self.name,

@@ -8,7 +8,8 @@
         duration <= 1 s  and  0.2 g <= max - min of a within the step <= 2 g             [literal]
     DTW check: keep S_i if DTW(S_i, S_{i-2}) <= 3 or DTW(S_i, S_{i+2}) <= 3              [literal threshold]
         DTW = L1 local cost, cumulative cost divided by the warping-path length
-        [engineered: the paper does not define it]; steps without a neighbour at +-2 are kept.
+        [engineered: the paper does not define it; ``dtw_norm="znorm"`` z-normalises the segments first,
+        ``"none"`` uses (approximately) the total cost]; steps without a neighbour at +-2 are kept.
     g = 9.8 (the paper's value) in literal mode; ``literal=False``: g = median |a| of the recording and the
     2 m/s^2 "minimum peak magnitude" read as PROMINENCE instead of height above g
     (the paper does not say which; seed-002 §7.6 suggests offering both) [engineered].
@@ -33,6 +34,11 @@ def dtw_distance(a: np.ndarray, b: np.ndarray) -> float:
 
 
 _KERNEL = None
+
+
+def _path_length(n: int, m: int) -> int:
+    """Lower bound used to convert back to a total cost when dtw_norm == "none": max(n, m)."""
+    return max(n, m)
 
 
 def _dtw_kernel():
@@ -76,9 +82,17 @@ class LiDetector:
     dtw_threshold: float = 3.0
     use_dtw: bool = True
     g_mps2: float = 9.8
+    zero_phase: bool = False  # filtfilt instead of the phone's causal filter
+    dtw_norm: str = "path_length"  # "path_length", "none" or "znorm" (z-normalised segments)
     peak_mode: str = ""  # "" -> "height" (literal: height above g) or "prominence" (literal=False)
 
     name = "li"
+
+    def _dtw(self, a, b) -> float:
+        d = dtw_distance(a, b)
+        if self.dtw_norm == "none":  # undo the path-length normalisation: total cost
+            return d * _path_length(a.size, b.size)
+        return d
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -90,8 +104,11 @@ class LiDetector:
         n = magnitude(a)
         taps = signal.firwin(self.fir_order + 1, self.cutoff_hz, fs=self.fs_hz)
         d = self.fir_order // 2
-        # causal FIR as on the phone; linear phase, so removing the d-sample delay aligns it with the input
-        f = signal.lfilter(taps, [1.0], np.r_[n, np.full(d, n[-1])])[d:]
+        if self.zero_phase:
+            f = signal.filtfilt(taps, [1.0], n)
+        else:
+            # causal FIR as on the phone; linear phase, so removing the d-sample delay aligns it with the input
+            f = signal.lfilter(taps, [1.0], np.r_[n, np.full(d, n[-1])])[d:]
         g = self.g_mps2 if self.literal else float(np.median(n))
         mode = self.peak_mode or ("height" if self.literal else "prominence")
         crit = {"height": self.min_peak_mps2} if mode == "height" else {"prominence": self.min_peak_mps2}
@@ -108,11 +125,13 @@ class LiDetector:
                 keep[i] = False
         if self.use_dtw and pk.size >= 3:
             segs = [f[pk[i - 1]:pk[i] + 1] for i in range(1, pk.size)]
+            if self.dtw_norm == "znorm":
+                segs = [(x - x.mean()) / (x.std() + 1e-9) for x in segs]
             ok = np.ones(len(segs), bool)
             for i, s in enumerate(segs):
                 nb = [j for j in (i - 2, i + 2) if 0 <= j < len(segs)]
                 if nb:
-                    ok[i] = any(dtw_distance(s, segs[j]) <= self.dtw_threshold for j in nb)
+                    ok[i] = any(self._dtw(s, segs[j]) <= self.dtw_threshold for j in nb)
             keep[1:] &= ok
         idx = pk[keep]
         return StepEvents(tg[idx], self.name, {"t_s": tg, "signal": f - g, "signal_label": "LPF |a| - g (m/s^2)"})
