@@ -62,9 +62,15 @@ def _shade(ax, t, mask, color, label):
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
-    grid = np.linspace(t[0], t[-1], 4000)  # one column per ~pixel
-    idx = np.clip(np.searchsorted(t, grid), 0, len(t) - 1)
-    img = np.ma.masked_equal(mask[idx].astype(float), 0.0)
+    n_col = 2000  # about one column per pixel; a column is shaded if any of its samples is (max-pooling),
+    # so a one-sample saturation burst stays visible
+    col = np.clip(((t[mask] - t[0]) / max(t[-1] - t[0], 1e-12) * n_col).astype(int), 0, n_col - 1)
+    img = np.zeros(n_col)
+    img[col] = 1.0
+    if color == "tab:red":  # saturation: also a thin line per burst, visible at any zoom
+        for k in col[np.r_[True, np.diff(col) > 1]][:500]:
+            ax.axvline(t[0] + (k + 0.5) * (t[-1] - t[0]) / n_col, color=color, lw=0.8, alpha=0.5, zorder=0.5)
+    img = np.ma.masked_equal(img, 0.0)
     ylim = ax.get_ylim()  # imshow would reset the data limits to its extent
     ax.imshow(img[None, :], aspect="auto", extent=(t[0], t[-1], 0, 1), transform=ax.get_xaxis_transform(),
               cmap=ListedColormap([color]), alpha=0.13, interpolation="nearest", zorder=0)
