@@ -33,8 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--detector", help="stance detector: adaptive (default), shoe, ared, mv, mag, paper_accmag, xio")
     g.add_argument("--threshold", type=float, help="detector threshold (fixed-threshold detectors only)")
     g.add_argument("--mode", choices=("time_varying", "riccati"),
-                   help="filter gain: time_varying (default) or riccati (the paper's steady-state gain)")
-    g.add_argument("--states", type=int, choices=(9, 15), help="error states: 9 (default) or 15 (+ biases)")
+                   help="filter gain: time_varying (Kalman, default) or riccati (the paper's steady-state gain)")
+    g.add_argument("--states", type=int, choices=(9, 15), help="error states: 9 (position, velocity, attitude) or 15 (+ sensor biases); "
+                        "default: FilterSettings.n_states")
     g.add_argument("--engine", choices=("fast", "reference"), help="fast (numba, default) or reference (filterpy)")
     g.add_argument("--no-smoother", action="store_true", help="forward filter only (no RTS smoothing)")
     g.add_argument("--latitude", type=float, metavar="DEG", help="latitude for WGS-84 normal gravity")
