@@ -252,7 +252,8 @@ def _simulate(tmp_path, scenario, profile="mpu6050-16g-2000dps", seed=0):
 def error_budget(res) -> tuple[float, float]:
     """First-order error budget (m) of a ZUPT INS for this simulated sensor: (horizontal, vertical).
 
-    Worst case of a 9-state filter (no bias states); the default 15-state filter can only do better.
+    Derived for a filter that estimates no sensor errors beyond the initial gyro bias (9 states); checked
+    on the default filter.
 
     Terms, each an upper bound of its contribution, from the constants the simulator drew for this seed
     (``drawn_constants``) and the profile's datasheet figures (simulator/imu_model.py):
