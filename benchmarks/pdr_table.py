@@ -51,17 +51,28 @@ def _job(args):
 
 
 def _foot_job(trial) -> dict:
-    """Foot-mounted ZUPT pipeline (postproc.pipeline.process) on both feet -> strides -> the steps table."""
-    from postproc.pdr.evaluate import event_metrics
+    """Foot IMUs of one Voisard walk: the foot-mounted ZUPT pipeline (postproc.pipeline.process) -> strides
+    -> the steps table, and the seed-000 §2.5 two-axis foot detector (literal and engineered)."""
+    from postproc.pdr.detectors import TwoAxisFootDetector
+    from postproc.pdr.evaluate import event_metrics, load_imu_csv
     from postproc.pdr.foot_ins import steps_from_foot_ins
 
     row = {"id": trial.id, "detector": "foot_zupt", "length": "-", "error": None}
+    feet = ("imu_left.csv.gz", "imu_right.csv.gz")
+    for lit in (True, False):
+        ta = []
+        for f in feet:
+            tt, acc, _ = load_imu_csv(trial.path / f)
+            ta.append(TwoAxisFootDetector(literal=lit).detect(tt, acc).t_s)
+        m2 = event_metrics(trial.t_steps, np.sort(np.concatenate(ta)))
+        key = "two_axis" if lit else "two_axis_eng"
+        row[f"{key}_f1"], row[f"{key}_count_err_pct"] = m2["f1"], m2["count_err_pct"]
     try:
         from postproc.pipeline import process
 
         tj = trial.info["truth_json"]
         times, dist = [], []
-        for f in ("imu_left.csv.gz", "imu_right.csv.gz"):
+        for f in feet:
             r = process(trial.path / f)
             s = steps_from_foot_ins(r.t_s, r.pos_n, r.stance)
             times.append(s["t_s"])
@@ -165,14 +176,21 @@ def main(argv=None) -> int:
             foot_rows = pool.map(_foot_job, vo)
         print("\n### Same Voisard walks: foot-mounted ZUPT strides (both feet) vs lower-back PDR (robust + "
               "frequency_variance)\n")
-        print("| trials | foot: step F1 | foot: count err % | foot: 20 m distance err % | "
+        print("| trials | foot ZUPT: step F1 | foot ZUPT: count err % | foot ZUPT: 20 m distance err % | "
+              "foot two_axis (seed-000 §2.5) literal: F1 / count err % | two_axis engineered: F1 / count err % | "
               "PDR: step F1 | PDR: count err % | PDR: 20 m distance err % |")
-        print("|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|")
         ok = [r for r in foot_rows if r.get("error") is None]
+        ta_rows = foot_rows  # the two-axis detector does not depend on the ZUPT pipeline
         pdr = {r["id"]: r for r in det_rows if r["detector"] == "robust" and r["set"] == "voisard_ipol"}
         pl = [pdr[r["id"]] for r in ok if r["id"] in pdr]
         print(f"| {len(ok)}/{len(foot_rows)} | {cell([r['f1'] for r in ok]).lstrip('+')} | {cell([r['count_err_pct'] for r in ok])} | "
-              f"{cell([r['distance_err_pct'] for r in ok])} | {cell([r['f1'] for r in pl]).lstrip('+')} | "
+              f"{cell([r['distance_err_pct'] for r in ok])} | "
+              f"{cell([r['two_axis_f1'] for r in ta_rows]).lstrip('+')} / "
+              f"{cell([r['two_axis_count_err_pct'] for r in ta_rows])} | "
+              f"{cell([r['two_axis_eng_f1'] for r in ta_rows]).lstrip('+')} / "
+              f"{cell([r['two_axis_eng_count_err_pct'] for r in ta_rows])} | "
+              f"{cell([r['f1'] for r in pl]).lstrip('+')} | "
               f"{cell([r['count_err_pct'] for r in pl])} | {cell([r.get('distance_err_pct') for r in pl])} |")
         failures += [r for r in foot_rows if r.get("error")]
     if failures:

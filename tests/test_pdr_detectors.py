@@ -250,3 +250,19 @@ def test_seed002_options_run_and_are_consistent():
         assert abs(DETECTORS["li"](**kw).detect(t, acc).count - 60) <= 3, kw
     # the threshold 3 applied to a TOTAL cost (no normalisation) is far stricter: never more steps
     assert DETECTORS["li"](dtw_norm="none").detect(t, acc).count <= DETECTORS["li"]().detect(t, acc).count
+
+
+def test_two_axis_push_off_quirk_and_engineered_fix():
+    fs, f, n = 100.0, 0.9, 30
+    t = np.arange(0, n / f + 4, 1 / fs)
+    acc = np.zeros((t.size, 3))
+    acc[:, 2] = G
+    for k in range(n):
+        tc = 2 + k / f
+        for dt_, amp in ((0.0, -25.0), (-0.3, -12.0)):  # heel strike and a smaller push-off 0.3 s before
+            pulse = amp * np.exp(-0.5 * ((t - tc - dt_) / 0.02) ** 2)
+            acc[:, 0] += pulse
+            acc[:, 2] += 0.6 * pulse
+    assert DETECTORS["two_axis"]().detect(t, acc).count == 2 * n  # literal: both humps exceed 1/4 max
+    ev = DETECTORS["two_axis"](literal=False).detect(t, acc)
+    assert ev.count == n and np.max(np.abs(ev.t_s - (2 + np.arange(n) / f))) < 0.02
