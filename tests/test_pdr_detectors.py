@@ -259,7 +259,7 @@ def test_two_axis_push_off_quirk_and_engineered_fix():
     acc[:, 2] = G
     for k in range(n):
         tc = 2 + k / f
-        for dt_, amp in ((0.0, -25.0), (-0.3, -12.0)):  # heel strike and a smaller push-off 0.3 s before
+        for dt_, amp in ((0.0, -25.0), (-0.3, -16.0)):  # heel strike and a smaller push-off 0.3 s before
             pulse = amp * np.exp(-0.5 * ((t - tc - dt_) / 0.02) ** 2)
             acc[:, 0] += pulse
             acc[:, 2] += 0.6 * pulse
