@@ -163,12 +163,30 @@ def _score_foot(est: FootEstimate, folder: Path, kinds: list[str], imu_name: str
     return out, plot
 
 
+def _inside_walking_bouts(folder: Path, truth: dict, t: np.ndarray) -> np.ndarray:
+    """mobgap_lab: step truth exists only inside the reference's walking bouts (its README says to
+    restrict comparisons to them); elsewhere every detected step counts."""
+    path = folder / "truth_walking_bouts.csv"
+    if not path.exists():
+        return np.ones(len(t), bool)
+    c = read_csv_columns(path)
+    source = truth.get("step_events_reference", "INDIP")
+    rows = c["source"] == source
+    if not rows.any():
+        rows = np.ones(len(c["source"]), bool)
+    mask = np.zeros(len(t), bool)
+    for a, b in zip(c["t_start_s"][rows], c["t_end_s"][rows]):
+        mask |= (t >= a - M.EVENT_TOLERANCE_S) & (t <= b + M.EVENT_TOLERANCE_S)
+    return mask
+
+
 def _score_pdr(est: PdrEstimate, folder: Path, kinds: list[str]) -> tuple[dict, dict]:
     out: dict = {"seconds": est.seconds, "n_steps": int(len(est.step_t))}
     truth = _truth_json(folder)
+    in_bouts = _inside_walking_bouts(folder, truth, est.step_t)
     if "step_events" in kinds:
         c = read_csv_columns(folder / "truth_steps.csv")
-        out.update(M.step_event_metrics(est.step_t, c["t_s"]))
+        out.update(M.step_event_metrics(est.step_t[in_bouts], c["t_s"]))
     if "step_count" in kinds:
         n_true = int(truth["steps"])
         r = M.step_count_metrics(len(est.step_t), n_true)
