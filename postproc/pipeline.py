@@ -339,7 +339,8 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     lap("detection")
 
     filter_progress = (lambda f: _call_progress(progress, "filter", min(float(f), 0.99))) if progress else None
-    nav = run_filter(t_s, acc_b, gyro_b, stance, init, gravity, settings.filter, progress=filter_progress)
+    nav = run_filter(t_s, acc_b, gyro_b, stance, init, gravity, settings.filter, progress=filter_progress,
+                     saturated=sat_bits)
     pos_n = np.asarray(nav.pos_n)
     bad = np.flatnonzero(~np.all(np.isfinite(pos_n), axis=1))
     if len(bad):

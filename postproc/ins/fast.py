@@ -27,8 +27,8 @@ from postproc.ins.smoother import rts_backward
 
 # parameter vector layout (kept in one float64 array so the kernel signature stays short)
 (P_DT_NOM, P_QA, P_QG, P_QBA, P_QBG, P_RZ, P_RW, P_ZARU, P_G, P_RIC, P_SMOOTH, P_MAXSEG,
- P_HDE, P_HDE_THR, P_HDE_R, P_HDE_MIN) = range(16)
-N_PRM = 16
+ P_HDE, P_HDE_THR, P_HDE_R, P_HDE_MIN, P_KA, P_KG, P_LEVER) = range(19)
+N_PRM = 19
 # nominal-state vector layout: p 0:3, v 3:6, q 6:10, b_a 10:13, b_g 13:16, heading-aid memory 16:20
 # (previous stance-start x, y; have-previous flag; reference heading or NaN)
 N_ST = 20
@@ -130,7 +130,7 @@ def hde_error(dx_m, dy_m, ref_rad):
 
 
 @njit(cache=True)
-def filter_chunk(k0, k1, dt_s, acc, gyro, stance, prm, n, ric_u, ric_lam, ric_t, st, P,
+def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, n, ric_u, ric_lam, ric_t, st, P,
                  pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, counters):
     """Run samples k0..k1−1. ``st`` = nominal state (p 0:3, v 3:6, q 6:10, b_a 10:13, b_g 13:16), updated in place."""
     N = dt_s.shape[0]
@@ -187,7 +187,12 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, prm, n, ric_u, ric_lam, ric_t,
             st[3] += ax * dt
             st[4] += ay * dt
             st[5] += az * dt
-            _propagate_cov(P, n, dt, fx, fy, fz, c, prm[P_QA], prm[P_QG], prm[P_QBA], prm[P_QBG])
+            # signal-proportional (scale-factor) noise: σ_k² = σ² + (κ |signal_k|)² (settings.py)
+            # xvar: extra per-sample variance (× Δt₀) of saturated samples (settings.sat_*)
+            qa = prm[P_QA] + prm[P_KA] * (fbx * fbx + fby * fby + fbz * fbz) + xvar[k, 0]
+            wx, wy, wz = gyro[k, 0] - st[13], gyro[k, 1] - st[14], gyro[k, 2] - st[15]
+            qg = prm[P_QG] + prm[P_KG] * (wx * wx + wy * wy + wz * wz) + xvar[k, 1]
+            _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, prm[P_QBA], prm[P_QBG])
         j = seg[0]
         if smooth:
             for a_ in range(n):
@@ -223,22 +228,28 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, prm, n, ric_u, ric_lam, ric_t,
                     _joseph(P, K, 3, rz, n, A)
                     counters[0] += 1
             else:
-                _kalman_gain(P, 3, rz, n, K)
+                # rolling-foot ZUPT noise: R_k = σ_zupt² + (r |ω_k − b̂_g|)² (settings.zupt_lever_arm_m)
+                wx, wy, wz = gyro[k, 0] - st[13], gyro[k, 1] - st[14], gyro[k, 2] - st[15]
+                rzk = rz + prm[P_LEVER] * (wx * wx + wy * wy + wz * wz)
+                _kalman_gain(P, 3, rzk, n, K)
                 z0, z1, z2 = -st[3], -st[4], -st[5]
                 for i in range(n):
                     dx[i] = K[i, 0] * z0 + K[i, 1] * z1 + K[i, 2] * z2
-                _joseph(P, K, 3, rz, n, A)
+                _joseph(P, K, 3, rzk, n, A)
                 counters[0] += 1
                 if zaru and n == 15:
                     # ZARU: z = 0 − (ω_m − b̂_g) with the sign of δb_g = b_g − b̂_g: z = ω_m − b̂_g;
                     # sequential update: innovation z − H dx
-                    _kalman_gain(P, 12, rw, n, K)
+                    # R_k = σ_zaru² + |ω_k − b̂_g|²: a rolling foot's own rate counts as noise, so the
+                    # update only bites in the quiet core of a stance phase
+                    rwk = rw + (wx * wx + wy * wy + wz * wz)
+                    _kalman_gain(P, 12, rwk, n, K)
                     z0 = gyro[k, 0] - st[13] - dx[12]
                     z1 = gyro[k, 1] - st[14] - dx[13]
                     z2 = gyro[k, 2] - st[15] - dx[14]
                     for i in range(n):
                         dx[i] += K[i, 0] * z0 + K[i, 1] * z1 + K[i, 2] * z2
-                    _joseph(P, K, 12, rw, n, A)
+                    _joseph(P, K, 12, rwk, n, A)
             if prm[P_HDE] > 0.5 and (k == 0 or not stance[k - 1]):
                 # OPTIONAL heuristic heading aid (settings.py): stride heading vs dominant directions
                 px, py = st[0] + dx[0], st[1] + dx[1]
@@ -301,7 +312,7 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, prm, n, ric_u, ric_lam, ric_t,
 
 
 def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravity, settings, tb, P0, zupt_gain,
-             smooth: bool, progress=None):
+             smooth: bool, progress=None, extra_var=None):
     """Drive ``filter_chunk`` over the record in a few chunks. Returns (arrays dict, info dict)."""
     n = settings.n_states
     N = t_s.shape[0]
@@ -324,6 +335,9 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     prm[P_HDE_THR] = settings.hde_threshold_rad
     prm[P_HDE_R] = settings.sigma_hde_rad**2
     prm[P_HDE_MIN] = settings.hde_min_stride_m
+    prm[P_KA] = settings.acc_scale_noise**2 * dt_nom
+    prm[P_KG] = settings.gyro_scale_noise**2 * dt_nom
+    prm[P_LEVER] = settings.zupt_lever_arm_m**2
     if zupt_gain is not None:
         ric_u, ric_lam, ric_t = zupt_gain.U.copy(), zupt_gain.lam.copy(), zupt_gain.T.copy()
     else:
@@ -344,17 +358,18 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     seg = np.zeros(2, dtype=np.int64)
     counters = np.zeros(4, dtype=np.int64)
     stance_u8 = np.ascontiguousarray(stance, dtype=np.bool_)
+    xvar = np.zeros((N, 2)) if extra_var is None else np.ascontiguousarray(extra_var, dtype=np.float64) * dt_nom
     n_chunks = 1 if progress is None else max(1, min(10, N // 100_000))
     bounds = np.linspace(0, N, n_chunks + 1).astype(np.int64)
     # a zero-length call compiles (or loads from the numba cache) this signature: timed separately
     tc = time.perf_counter()
-    filter_chunk(0, 0, tb.dt_s, acc_b, gyro_b, stance_u8, prm, n, ric_u, ric_lam, ric_t, st, P,
+    filter_chunk(0, 0, tb.dt_s, acc_b, gyro_b, stance_u8, xvar, prm, n, ric_u, ric_lam, ric_t, st, P,
                  out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"],
                  out["pos_sigma_n"], buf_post, buf_pred, buf_fpar, buf_dx, seg, counters)
     compile_s = time.perf_counter() - tc
     t0 = time.perf_counter()
     for a, b in zip(bounds[:-1], bounds[1:]):
-        filter_chunk(int(a), int(b), tb.dt_s, acc_b, gyro_b, stance_u8, prm, n, ric_u, ric_lam, ric_t, st, P,
+        filter_chunk(int(a), int(b), tb.dt_s, acc_b, gyro_b, stance_u8, xvar, prm, n, ric_u, ric_lam, ric_t, st, P,
                      out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"],
                      out["pos_sigma_n"], buf_post, buf_pred, buf_fpar, buf_dx, seg, counters)
         if progress is not None:

@@ -66,14 +66,45 @@ def _init_vector(init, name, default):
     return v
 
 
+def saturation_variance(saturated, n: int, settings: FilterSettings) -> np.ndarray | None:
+    """Extra per-sample variance (acc, gyro) of saturated samples, (N, 2), or None when nothing is saturated.
+
+    A clipped sample says only "at least full scale": the true value is unknown, so instead of trusting the
+    clipped number with the normal noise the filter adds ``sat_acc_sigma_mps2``² / ``sat_gyro_sigma_radps``²
+    to that sample's per-sample variance (process noise), i.e. the attitude/velocity uncertainty grows
+    through the clipped burst and the next ZUPTs correct the error it caused instead of trusting the
+    pre-burst estimate. ``saturated``: (N,) bitmask (bits ax, ay, az, gx, gy, gz as
+    ``logger.recording.SATURATION_BITS``), or (N,) / (N, 6) bool.
+    """
+    if saturated is None:
+        return None
+    sat = np.asarray(saturated)
+    if sat.shape[0] != n:
+        raise InputError(f"saturated must have {n} rows like t_s, got shape {sat.shape}")
+    if sat.ndim == 2:
+        acc_sat, gyro_sat = sat[:, :3].any(axis=1), sat[:, 3:6].any(axis=1)
+    elif sat.dtype == bool:
+        acc_sat = gyro_sat = sat
+    else:
+        bits = sat.astype(np.uint8)
+        acc_sat, gyro_sat = (bits & 0b000111) > 0, (bits & 0b111000) > 0
+    if not (acc_sat.any() or gyro_sat.any()):
+        return None
+    out = np.zeros((n, 2))
+    out[acc_sat, 0] = settings.sat_acc_sigma_mps2**2
+    out[gyro_sat, 1] = settings.sat_gyro_sigma_radps**2
+    return out
+
+
 def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,
-               progress=None) -> NavSolution:
+               progress=None, saturated=None) -> NavSolution:
     """ZUPT-aided INS over a whole record.
 
     t_s (N,) s, increasing (duplicates allowed); acc_b (N,3) m/s² specific force; gyro_b (N,3) rad/s;
     stance (N,) bool (True = foot still: ZUPT applied); init: any object with ``q_nb`` (4,) wxyz and
     ``gyro_bias_b`` (3,) (optional ``acc_bias_b``), e.g. ``postproc.calibration.InitialState``;
-    gravity: m/s² (positive); progress: optional ``progress(fraction)`` called a few times.
+    gravity: m/s² (positive); progress: optional ``progress(fraction)`` called a few times;
+    saturated: optional per-sample saturation mask (see ``saturation_variance``).
     Position starts at 0, velocity at 0. Raises ``InputError`` for bad data, ``ValueError`` for bad settings.
     """
     settings = settings or FilterSettings()
@@ -88,6 +119,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     if not (np.isfinite(gravity) and 5.0 < gravity < 15.0):
         raise InputError(f"gravity must be the local magnitude in m/s² (about 9.8), got {gravity!r}")
     tb = time_base(t_s, settings.gap_factor)
+    extra_var = saturation_variance(saturated, t_s.shape[0], settings)
     q0 = _init_vector(init, "q_nb", [1.0, 0.0, 0.0, 0.0])
     if q0.shape != (4,) or not 0.5 < np.linalg.norm(q0) < 1.5:
         raise InputError(f"init.q_nb must be a unit quaternion (w, x, y, z), got {q0}")
@@ -117,12 +149,12 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         from postproc.ins.fast import run_fast
 
         out, einfo = run_fast(t_s, acc_b, gyro_b, stance, q0, bg0, ba0, gravity, settings, tb, P0, zupt_gain,
-                              smooth, progress)
+                              smooth, progress, extra_var)
     else:
         from postproc.ins.reference import run_reference
 
         out, einfo = run_reference(t_s, acc_b, gyro_b, stance, q0, bg0, ba0, gravity, settings, tb, P0,
-                                   zupt_gain, smooth, progress)
+                                   zupt_gain, smooth, progress, extra_var)
     elapsed = time.perf_counter() - t0
     biases = settings.n_states == 15
     info = {
@@ -138,8 +170,10 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
+        "zaru": bool(settings.zaru and settings.n_states == 15 and settings.mode == "time_varying"),
         "heading_aid": settings.heading_aid,
         "heading_aid_updates": einfo.get("heading_aid_updates", 0),
+        "saturated_samples_inflated": 0 if extra_var is None else int((extra_var > 0).any(axis=1).sum()),
         # 1-σ of every error state at the last sample (δp, δv, δθ[, δb_a, δb_g]), filter (not smoothed)
         "final_state_sigma": np.sqrt(np.maximum(np.diag(einfo["final_P"]), 0.0)).tolist(),
         "warnings": warnings,

@@ -35,16 +35,29 @@ def error_dynamics(f_n: np.ndarray, c_nb: np.ndarray, n: int) -> np.ndarray:
     return a
 
 
-def process_noise(settings, dt: float, dt_nom: float, n: int) -> np.ndarray:
-    """Q_d for a step of length dt (settings.py: per-sample sigmas at the nominal period, bias random walks)."""
-    var = [settings.sigma_acc_mps2**2 * dt_nom * dt] * 3 + [settings.sigma_gyro_radps**2 * dt_nom * dt] * 3
+def process_noise(settings, dt: float, dt_nom: float, n: int, f_b=None, omega_b=None, extra=(0.0, 0.0)) -> np.ndarray:
+    """Q_d for a step of length dt (settings.py: per-sample sigmas at the nominal period, bias random walks).
+
+    With ``acc_scale_noise`` / ``gyro_scale_noise`` κ the per-sample variance is σ² + κ² |signal|²
+    (f_b, omega_b: the bias-corrected sample of this step); ``extra`` = (acc, gyro) per-sample variance
+    added for a saturated sample (filter.saturation_variance).
+    """
+    var_a = settings.sigma_acc_mps2**2 * dt_nom
+    var_g = settings.sigma_gyro_radps**2 * dt_nom
+    if f_b is not None:
+        var_a += settings.acc_scale_noise**2 * dt_nom * float(f_b @ f_b)
+    if omega_b is not None:
+        var_g += settings.gyro_scale_noise**2 * dt_nom * float(omega_b @ omega_b)
+    var_a += extra[0] * dt_nom
+    var_g += extra[1] * dt_nom
+    var = [var_a * dt] * 3 + [var_g * dt] * 3
     if n == 15:
         var += [settings.sigma_acc_bias_rw**2 * dt] * 3 + [settings.sigma_gyro_bias_rw**2 * dt] * 3
     return np.diag([0.0] * 3 + var)
 
 
 def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravity, settings, tb, P0,
-                  zupt_gain, smooth: bool, progress=None):
+                  zupt_gain, smooth: bool, progress=None, extra_var=None):
     n = settings.n_states
     N = t_s.shape[0]
     dt_nom = tb.nominal_dt_s
@@ -72,11 +85,13 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
     for k in range(N):
         dt = tb.dt_s[k] if k > 0 else 0.0
         # --- time update: eq. 1 and P ← F P Fᵀ + Q
-        pos, vel, q, f_n = strapdown_step(pos, vel, q, acc_b[k] - ba, gyro_b[k] - bg, dt, gravity)
+        f_b, omega_b = acc_b[k] - ba, gyro_b[k] - bg
+        pos, vel, q, f_n = strapdown_step(pos, vel, q, f_b, omega_b, dt, gravity)
         c_nb = quat_to_rotmat(q)
         if dt > 0:
             kf.F = np.eye(n) + error_dynamics(f_n, c_nb, n) * dt
-            kf.Q = process_noise(settings, dt, dt_nom, n)
+            kf.Q = process_noise(settings, dt, dt_nom, n, f_b, omega_b,
+                                 (0.0, 0.0) if extra_var is None else extra_var[k])
             kf.predict()
         p_pred = kf.P.copy()
         # --- measurement update in stance (eq. 3: z = 0 − v̂)
@@ -84,9 +99,13 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
         if stance[k]:
             z = -vel.reshape(3, 1)  # filterpy wants a column when H is passed
             if zupt_gain is None:
-                kf.update(z, R=R_zupt, H=H_zupt)
+                # rolling-foot ZUPT noise: R_k = σ_zupt² + (r |ω_k − b̂_g|)² (settings.py)
+                w_b = gyro_b[k] - bg
+                r_k = R_zupt + np.eye(3) * (settings.zupt_lever_arm_m**2 * float(w_b @ w_b))
+                kf.update(z, R=r_k, H=H_zupt)
                 if settings.zaru and n == 15:
-                    kf.update((gyro_b[k] - bg).reshape(3, 1), R=R_zaru, H=H_zaru)
+                    # R_k = σ_zaru² + |ω_k − b̂_g|² (the foot's own rate counts as noise: quiet core only)
+                    kf.update((gyro_b[k] - bg).reshape(3, 1), R=R_zaru + np.eye(3) * float(w_b @ w_b), H=H_zaru)
                 n_updates += 1
             elif dt > 0:
                 # paper mode: constant Riccati gain, Joseph form with that gain

@@ -32,9 +32,26 @@ class FilterSettings:
     sigma_acc_mps2, sigma_gyro_radps: per-sample IMU noise at the nominal rate (see module docstring).
     sigma_acc_bias_rw, sigma_gyro_bias_rw: bias random walks, m/s²/√s and rad/s/√s (15 states only).
     sigma_zupt_mps: std of the zero-velocity pseudo-measurement (how still a foot in stance really is).
-    zaru: zero-angular-rate update in stance (z = ω_m − b̂_g on the gyro-bias states; needs 15 states).
-        Off by default: it assumes a perfectly still foot, and on the developer data (heel/toe roll inside
-        detected stance) it made pyshoe_vicon armse_2d 8x worse. sigma_zaru_radps: its measurement std.
+    zaru: zero-angular-rate update in stance (z = ω_m − b̂_g on the gyro-bias states; needs 15 states),
+        "quiet-core" form: R_k = σ_zaru² + |ω_k − b̂_g|², so a rolling foot's own rate counts as
+        measurement noise and the update only bites where the foot is really still (the plain form,
+        R = σ_zaru², made pyshoe_vicon armse_2d 8x worse because detected stance includes heel/toe roll).
+        On by default: it observes the z gyro bias that ZUPT cannot (heading drift). Foot-set eval
+        (benchmarks/accuracy_foot.py): koroglu_rectangles closure 8.2 -> 4.9 %, koroglu_footprints
+        final error 4.9 -> 2.9 %, pyshoe_vicon 0.073 -> 0.066 m; costs iez closure_v 0.52 -> 0.61 m.
+        It needs the gyro-bias states: with n_states=9 or mode="riccati" it is not applied
+        (``NavSolution.info["zaru"]`` says whether it ran). sigma_zaru_radps: its measurement std in a still foot.
+    zupt_lever_arm_m: r of the rolling-foot ZUPT noise R_k = σ_zupt² + (r |ω_k − b̂_g|)² per axis: a foot
+        rolling over heel or toe at rate ω moves the sensor at ≈ ω × r (r = distance from the contact
+        point, ~0.05-0.15 m), so zero velocity is only that certain at the edges of a stance phase.
+        0 = the classic constant R. Default 0.05 m (pyshoe_vicon 0.073 -> 0.069 m, worst trial 0.20 -> 0.17 m).
+    acc_scale_noise, gyro_scale_noise: κ of a signal-proportional (scale-factor) per-sample noise,
+        σ_k² = σ² + κ² |signal_k|². Default 0: measured no gain (0.02-0.05 traded one set against another).
+    sat_acc_sigma_mps2, sat_gyro_sigma_radps: extra per-sample std of a SATURATED (clipped) sample
+        (``run_filter(saturated=...)``; the true value is unknown beyond full scale). Acc default 20 m/s²
+        (iez conf-0202, ±2 g clipped at heel strike: closure 4.0 -> 2.3 %); gyro default 0: inflating
+        the attitude noise on ±250 °/s clipped swings made those loops worse (5.3 -> 6.7 %, 12.8 -> 18.9 %
+        at 2 rad/s), as did bridging the clipped plateau with a parabola (12.8 -> 32 %).
     init_*: initial 1-σ of the error states (all must be > 0 so the smoother's P_pred stays invertible).
     smoother: "rts" (Rauch–Tung–Striebel over segments between stance phases, bounded memory) or "none".
     smoother_max_segment_s: longest buffered segment; a longer swing is smoothed in pieces (memory bound).
@@ -56,10 +73,15 @@ class FilterSettings:
     engine: str = "fast"
     sigma_acc_mps2: float = 0.5
     sigma_gyro_radps: float = 0.5 * DEG
+    acc_scale_noise: float = 0.0
+    gyro_scale_noise: float = 0.0
     sigma_acc_bias_rw: float = 1e-3
     sigma_gyro_bias_rw: float = 1e-4
     sigma_zupt_mps: float = 0.01
-    zaru: bool = False
+    zupt_lever_arm_m: float = 0.05
+    sat_acc_sigma_mps2: float = 20.0
+    sat_gyro_sigma_radps: float = 0.0
+    zaru: bool = True
     sigma_zaru_radps: float = 0.1 * DEG
     init_pos_sigma_m: float = 1e-3
     init_vel_sigma_mps: float = 1e-2
@@ -91,11 +113,12 @@ class FilterSettings:
             )
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
-        if self.zaru and (self.n_states != 15 or self.mode == "riccati"):
-            raise ValueError(
-                "FilterSettings.zaru=True needs n_states=15 and mode='time_varying' (it observes the gyro-bias states)"
-            )
         for f in fields(self):
+            if f.name in ("zupt_lever_arm_m", "acc_scale_noise", "gyro_scale_noise") or f.name.startswith("sat_"):
+                v = getattr(self, f.name)
+                if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                    raise ValueError(f"FilterSettings.{f.name} must be a finite number >= 0, got {v!r}")
+                continue
             if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
