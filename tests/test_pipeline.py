@@ -259,10 +259,11 @@ def error_budget(res) -> tuple[float, float]:
     (``drawn_constants``) and the profile's datasheet figures (simulator/imu_model.py):
 
     * heading: the gyro's effective yaw-axis scale + cross-axis error s_g = |M_zz−1| + |M_zx| + |M_zy|
-      turns a heading change Θ_k into a heading error s_g·Θ_k (the mount is level: sensor z = foot z);
-      each stride of length L_k is then displaced sideways by at most L_k·s_g·|Θ_k|;
-    * along track: accelerometer scale + cross-axis error s_a = |M_xx−1| + |M_yy−1| + |M_xy| + |M_yx| of the
-      distance L; the clock error (3σ) stretches time, so positions by 2·3σ_clock·L;
+      turns the heading change Θ_k accumulated up to stride k into a heading error s_g·Θ_k (the mount is
+      level: sensor z = foot z), which rotates the stride vector d_k: to first order the position error
+      after stride k is s_g·‖Σ_{j≤k} Θ_j d_j‖ (the rotated strides' errors add as vectors, so a
+      back-and-forth stairwell partly cancels), plus the second-order term Σ L_j (s_g Θ_j)²/2; the
+      budget takes the maximum over k, so it bounds the deviation along the way and the final error;
     * gyro angle random walk N_g = n_g/√2 over the duration T: lateral 3·L·N_g·√T/√3;
     * vertical: the up-axis specific-force error b_up = |b_z + (M_zz−1)·g| integrates during each swing
       (t_sw) to b_up·t_sw²/2 per stride; the cross-axis terms (|M_zx| + |M_zy|) and the tilt left by the
@@ -280,12 +281,15 @@ def error_budget(res) -> tuple[float, float]:
     st = res.steps
     length = np.asarray(st["length_m"])
     theta = np.cumsum(np.asarray(st["turn_rad"]))
+    d = length[:, None] * np.column_stack((np.cos(st["heading_rad"]), np.sin(st["heading_rad"])))
     total = float(length.sum())
     prof = res.profile
     s_g = abs(mg[2, 2] - 1) + abs(mg[2, 0]) + abs(mg[2, 1])
     s_a = abs(ma[0, 0] - 1) + abs(ma[1, 1] - 1) + abs(ma[0, 1]) + abs(ma[1, 0])
     arw = math.radians(prof.gyro_noise_dps_rthz) / math.sqrt(2)
-    h = (float(np.sum(length * s_g * np.abs(theta))) + s_a * total + 6 * prof.clock_error_ppm_sigma * 1e-6 * total
+    heading = (s_g * np.linalg.norm(np.cumsum(theta[:, None] * d, axis=0), axis=1)
+               + np.cumsum(length * (s_g * theta) ** 2) / 2).max()
+    h = (float(heading) + s_a * total + 6 * prof.clock_error_ppm_sigma * 1e-6 * total
          + 3 * total * arw * math.sqrt(res.t_s[-1]) / math.sqrt(3) + 0.02)
     g = 9.80665
     t_sw = np.asarray(st["t_heel_strike_s"]) - np.asarray(st["t_toe_off_s"])
