@@ -52,7 +52,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="count floors from the footprint height itself (ramps count; drift counts too)")
     w.add_argument("--reference", metavar="FILE",
                    help="reference path: CSV (t_s,x_m,y_m[,z_m] or x_m,y_m[,z_m]) or JSON "
-                        "({\"closed_loop\": true} / {\"straight_m\": 9} / {\"waypoints\": [...]}); see docs/metrics.md")
+                        "({\"closed_loop\": true} / {\"straight_m\": 9} / {\"waypoints\": [...]}), or such a JSON object inline; see docs/metrics.md")
     w.add_argument("--closed-loop", action="store_true", help="the walk ends where it started (closure metrics)")
     w.add_argument("--geo-anchor", type=_floats, metavar="LAT,LON[,H]", help="WGS-84 position of the start for GeoJSON")
     w.add_argument("--results-name", metavar="NAME", help="HDF5 results group /results/NAME (default 'default')")
@@ -144,13 +144,15 @@ def format_summary(summary: dict, files: dict) -> str:
         f"{100 * summary['stance']['fraction']:.0f} % of samples",
         f"strides      {p.get('strides', 0)}, distance {p.get('distance_m', 0):.2f} m (horizontal)",
     ]
+    m = summary.get("metrics")
+    open_path = bool(m) and m.get("reference_kind") != "closed_loop"
     if "closure_3d_m" in p:
-        lines.append(f"closure      {p['closure_3d_m']:.3f} m = {p['closure_pct']:.2f} % of distance "
-                     f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m; last minus first "
-                     "footprint: the error when the walk ends where it started)")
+        label = "end - start " if open_path else "closure     "
+        note = "" if open_path else "; the error when the walk ends where it started"
+        lines.append(f"{label} {p['closure_3d_m']:.3f} m = {p['closure_pct']:.2f} % of distance "
+                     f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m{note})")
         lines.append(f"height       {p['height_change_m']:+.2f} m net; floors climbed {p['floors_climbed']}, "
                      f"descended {p['floors_descended']} (floor height {p['floor_height_m']:g} m)")
-    m = summary.get("metrics")
     if m and "distance_error_pct" in m:
         lines.append(f"end point    {m['final_error_m']:.3f} m from the reference's end")
         lines.append(f"reference    distance error {m['distance_error_pct']:.2f} % ({m['distance_error_m']:.3f} m), "
