@@ -59,7 +59,7 @@ def test_walk_stance_velocity_and_accuracy(walk, n_states):
     dist = np.linalg.norm(np.diff(walk.pos_n[:, :2], axis=0), axis=1).sum()
     assert dist == pytest.approx(42.0, rel=1e-3)
     assert np.linalg.norm(sol.pos_n[-1] - walk.pos_n[-1]) < 0.01 * dist
-    assert sol.info["n_updates"] == walk.stance.sum()
+    assert sol.info["n_updates"] == walk.stance.sum() - sol.info["zupt_onset_samples_skipped"]
     # position is unobservable: its sigma grows over the walk (ZUPTs only trim its velocity-correlated part)
     assert np.all(np.isfinite(sol.pos_sigma_n)) and np.all(sol.pos_sigma_n[-1] > 5 * sol.pos_sigma_n[0])
 
@@ -134,9 +134,10 @@ def test_smoother_memory_bound_splits_segments_without_jumps(walk):
     the path stays continuous (no step larger than the true foot speed allows) and still beats the filter."""
     init = TruthInit(walk.q_nb[0], np.zeros(3))
     common = (walk.t_s, walk.acc_b, walk.gyro_b, walk.stance, init, walk.gravity)
-    full = run_filter(*common, FilterSettings(n_states=9))
-    short = run_filter(*common, FilterSettings(n_states=9, smoother_max_segment_s=0.3))
-    filt = run_filter(*common, FilterSettings(n_states=9, smoother="none"))
+    exact = dict(n_states=9, zupt_onset_delay_s=0.0)  # the synthetic stance mask is exact
+    full = run_filter(*common, FilterSettings(**exact))
+    short = run_filter(*common, FilterSettings(smoother_max_segment_s=0.3, **exact))
+    filt = run_filter(*common, FilterSettings(smoother="none", **exact))
     assert short.info["smoother_segments"] > 2 * full.info["smoother_segments"]
     dt = walk.t_s[1] - walk.t_s[0]
     vmax = np.linalg.norm(walk.vel_n, axis=1).max()
@@ -173,3 +174,39 @@ def test_default_quiet_core_zaru_removes_yaw_bias_drift():
     assert abs(default.pos_n[-1, 1] - w.pos_n[-1, 1]) < 0.25 * abs(off.pos_n[-1, 1] - w.pos_n[-1, 1])
     sigma_bgz = default.info["final_state_sigma"][14]
     assert abs(default.gyro_bias_b[-1, 2] - 0.004) < 3 * sigma_bgz < 0.002
+
+
+def test_delay_zupt_onsets_trims_each_phase_start_with_a_cap():
+    """First min(delay, fraction × duration) of each stance phase is not a ZUPT; the initial phase is whole."""
+    from postproc.ins.filter import delay_zupt_onsets
+
+    t = np.arange(200) * 0.01
+    st = np.zeros(200, bool)
+    st[0:50] = True  # initial still period: kept whole
+    st[80:140] = True  # 0.59 s phase: loses 0.1 s = 10 samples
+    st[170:176] = True  # 0.05 s phase: loses 1/3 of its 0.05 s -> 2 samples
+    out = delay_zupt_onsets(t, st, 0.1, 1.0 / 3.0)
+    assert out[0:50].all()
+    assert not out[80:90].any() and out[90:140].all()
+    assert not out[170:172].any() and out[172:176].all()
+    assert not (out & ~st).any()  # never adds stance
+    assert np.array_equal(delay_zupt_onsets(t, st, 0.0, 0.5), st)
+
+
+def test_zupt_onset_delay_recovers_motion_inside_early_stance():
+    """The detector fires 0.06 s early (the last 0.06 s of every swing, where the foot still moves, is marked
+    stance; sensor exact). ZUPTs from that onset throw the real motion away (decimetres along track after 10
+    strides); delaying them by 0.1 s gives the same end point as the exact stance mask (within 1 cm)."""
+    w = synthetic_walk(n_strides=10, acc_noise=0.0, gyro_noise=0.0, seed=3)
+    dt = w.t_s[1] - w.t_s[0]
+    early = w.stance.copy()
+    for a in np.flatnonzero(w.stance[1:] & ~w.stance[:-1]) + 1:
+        early[max(0, a - int(round(0.06 / dt))):a] = True
+    init = TruthInit(w.q_nb[0], np.zeros(3))
+    fs = dict(zupt_lever_arm_m=0.0, zaru=False)
+    exact = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(**fs))
+    plain = run_filter(w.t_s, w.acc_b, w.gyro_b, early, init, w.gravity, FilterSettings(zupt_onset_delay_s=0.0, **fs))
+    delayed = run_filter(w.t_s, w.acc_b, w.gyro_b, early, init, w.gravity, FilterSettings(zupt_onset_delay_s=0.1, **fs))
+    assert delayed.info["zupt_onset_samples_skipped"] > 0 and plain.info["zupt_onset_samples_skipped"] == 0
+    assert np.linalg.norm(plain.pos_n[-1] - w.pos_n[-1]) > 0.3
+    assert np.linalg.norm(delayed.pos_n[-1] - exact.pos_n[-1]) < 0.01
