@@ -254,6 +254,10 @@ def evaluate_trial(trial: Trial, settings=None) -> dict:
     if t_true is not None and trial.feet is not None and trial.set == "oxford_steps":
         n_alt = alternation_corrected_count(t_true, trial.feet)
         row["count_err_vs_alternating_truth_pct"] = count_err_pct(int(t_det.size), n_alt)
+        # DIAGNOSTIC: steps counted while the insoles were logging steps (handling before the first / after
+        # the last true step excluded), to separate walk-edge errors from in-walk errors
+        span = (t_det >= t_true.min() - TOL_S) & (t_det <= t_true.max() + TOL_S)
+        row["count_err_in_truth_span_pct"] = count_err_pct(int(np.sum(span)), int(t_true.size))
     if trial.step_len is not None and trial.step_len.size:
         row.update(step_length_metrics(trial.t_len, trial.step_len, t_det, len_det))
     if trial.info.get("truth_json", {}).get("t_start_s") is not None and trial.set == "voisard_ipol":
