@@ -35,7 +35,16 @@ local reference R_k is below that fraction of the 80th percentile over +-``long_
 0.4 / 30 s it removes a neck pouch still swinging after the stop (Oxford 1.72 -> 1.25 %) but it also
 drops the weak closing steps of short walks (Voisard -3.7 -> -6.7 %) and would drop slow sections of a
 walk that changes speed (amplitude grows ~ with speed squared). ``edge_trim_fraction`` trims weak bout
-ends; ``refine_window_s`` / ``event_offset_s`` move the event time (no gain measured). Figures on ../shared/datasets: benchmarks/pdr_table.py.
+ends; ``refine_window_s`` / ``event_offset_s`` move the event time (no gain measured).
+
+Also measured and rejected (Oxford mean |count err| / Voisard mean count err / Mobilise-D F1, against
+1.70 / -1.0 / 0.900 of the defaults): a larger reference window (+-4 s: 1.52 / -5.8 / 0.89) or quantile
+(0.9-1.0: 1.6-1.8 / -4.6 to -6.7), which shrink the weak closing steps of lower-back walks; an absolute
+activity floor (2-s RMS 0.4-0.5 m/s^2: 1.53-1.60 / -4.9 to -7.6 / 0.88), which drops slow walking; the
+long-window gate at 0.3-0.5 even with this smaller salience offset (1.22-1.65 / -2.4 to -5.2): it removes
+slow steps after a Voisard trial's end and at the U-turn; trimming bout-end steps whose 0.3-8 Hz waveform
+correlates < 0.3 with the bout's median step waveform (1.61 / -1.9): handling bumps and true weak closing
+steps overlap in shape as in amplitude. Figures on ../shared/datasets: benchmarks/pdr_table.py.
 """
 
 from __future__ import annotations
