@@ -266,3 +266,36 @@ def test_two_axis_push_off_quirk_and_engineered_fix():
     assert DETECTORS["two_axis"]().detect(t, acc).count == 2 * n  # literal: both humps exceed 1/4 max
     ev = DETECTORS["two_axis"](literal=False).detect(t, acc)
     assert ev.count == n and np.max(np.abs(ev.t_s - (2 + np.arange(n) / f))) < 0.02
+
+
+def test_gravity_turn_angle_of_a_rotating_device():
+    from postproc.pdr.detectors.robust import gravity_turn_deg
+
+    fs = 50.0
+    t = np.arange(0, 10, 1 / fs)
+    ang = np.radians(np.clip((t - 4.0) * 45.0, 0, 90))  # 45 deg/s from t = 4 s to 6 s, then still
+    acc = G * np.c_[np.zeros_like(t), np.sin(ang), np.cos(ang)]
+    turn = gravity_turn_deg(acc, fs, 0.5, 0.5)
+    assert np.max(turn[(t < 2) | (t > 8.5)]) < 1.0  # still before and (after the filter settles) after
+    # mid-turn the window spans 1 s of a 45 deg/s turn; the 0.5 Hz low-pass only smears it
+    assert 30.0 < turn[np.argmin(np.abs(t - 5.0))] <= 46.0
+
+
+def test_robust_detector_ignores_bumps_while_the_phone_is_turned():
+    # 40 steps in a steady attitude, then 2 s of walking-like bumps while the device turns by 90 deg at
+    # 45 deg/s (taken out of a pocket), then still: the handling gate (30 deg within +-0.5 s) must not count
+    # the bumps; without the gate they continue the step chain
+    fs, f = 100.0, 1.8
+    t, acc = walk(n_steps=40, f=f, fs=fs, rest=3.0)
+    t_end_walk = 3.0 + 40 / f
+    th = np.arange(0, 2.0, 1 / fs)
+    bump = 2.0 * np.sin(2 * np.pi * f * th)
+    ang = np.radians(th * 45.0)
+    hand = np.c_[np.zeros_like(th), (G + bump) * np.sin(ang), (G + bump) * np.cos(ang)]
+    still = np.tile([0.0, G, 0.0], (300, 1))
+    t_all = np.r_[t[t < t_end_walk], t_end_walk + th, t_end_walk + 2.0 + np.arange(300) / fs]
+    acc_all = np.r_[acc[t < t_end_walk], hand, still]
+    gated = DETECTORS["robust"]().detect(t_all, acc_all).count
+    ungated = DETECTORS["robust"](handling_max_deg=0.0).detect(t_all, acc_all).count
+    assert abs(gated - 40) <= 1, gated
+    assert ungated >= gated + 2, (ungated, gated)
