@@ -81,3 +81,30 @@ def test_fast_equals_reference_with_saturated_samples(messy_walk):
     plain = run_filter(t, acc, gyr, stance, init, g, FilterSettings())
     # the inflation really acts: the position uncertainty after the clipped bursts is larger
     assert out["fast"].pos_sigma_n[430:].max() > plain.pos_sigma_n[430:].max()
+
+
+def test_saturation_variance_acts_on_the_clipped_axis_only():
+    """Bitmask -> per-axis variance; a clipped x-gyro on a level, still sensor grows the roll (nav x) variance,
+    not the yaw variance."""
+    from postproc.ins.filter import saturation_variance
+
+    fs = FilterSettings(sat_acc_sigma_mps2=4.0, sat_gyro_sigma_radps=0.5)
+    sat = np.array([0, 0b000001, 0b001000, 0b100100], np.uint8)
+    v = saturation_variance(sat, 4, fs)
+    assert np.array_equal(v > 0, [[0, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0, 0], [0, 0, 0, 1, 0, 0], [0, 0, 1, 0, 0, 1]])
+    assert v[1, 0] == 16.0 and v[2, 3] == 0.25
+    assert saturation_variance(np.zeros(4, np.uint8), 4, fs) is None
+    n = 400
+    t = np.arange(n) * 0.005
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1))
+    gyr = np.zeros((n, 3))
+    init = TruthInit([1.0, 0, 0, 0], np.zeros(3))
+    clipped = np.zeros(n, np.uint8)
+    clipped[100:200] = 0b001000  # gx
+    off = run_filter(t, acc, gyr, np.zeros(n, bool), init, 9.81, FilterSettings(smoother="none"))
+    on = run_filter(t, acc, gyr, np.zeros(n, bool), init, 9.81, FilterSettings(smoother="none"), saturated=clipped)
+    s_off, s_on = np.array(off.info["final_state_sigma"]), np.array(on.info["final_state_sigma"])
+    # roll variance grows by exactly σ_sat² Δt₀ Δt per clipped step (100 steps, no update), yaw untouched
+    added = FilterSettings().sat_gyro_sigma_radps**2 * 0.005 * 0.005 * 100
+    assert s_on[6] ** 2 - s_off[6] ** 2 == pytest.approx(added, rel=1e-9)
+    assert abs(s_on[8] - s_off[8]) < 1e-12 and abs(s_on[7] - s_off[7]) < 1e-12

@@ -188,11 +188,20 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, n, ric_u, ric_lam, 
             st[4] += ay * dt
             st[5] += az * dt
             # signal-proportional (scale-factor) noise: σ_k² = σ² + (κ |signal_k|)² (settings.py)
-            # xvar: extra per-sample variance (× Δt₀) of saturated samples (settings.sat_*)
-            qa = prm[P_QA] + prm[P_KA] * (fbx * fbx + fby * fby + fbz * fbz) + xvar[k, 0]
+            qa = prm[P_QA] + prm[P_KA] * (fbx * fbx + fby * fby + fbz * fbz)
             wx, wy, wz = gyro[k, 0] - st[13], gyro[k, 1] - st[14], gyro[k, 2] - st[15]
-            qg = prm[P_QG] + prm[P_KG] * (wx * wx + wy * wy + wz * wz) + xvar[k, 1]
+            qg = prm[P_QG] + prm[P_KG] * (wx * wx + wy * wy + wz * wz)
             _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, prm[P_QBA], prm[P_QBG])
+            # saturated axes (xvar: extra per-sample variance × Δt₀ per body axis ax..gz): the unknown part of
+            # a clipped sample acts along that body axis only, i.e. along column a of C_nb in the nav frame
+            for ax_ in range(6):
+                qx_ = xvar[k, ax_]
+                if qx_ > 0.0:
+                    o = 3 if ax_ < 3 else 6
+                    col = ax_ % 3
+                    for i in range(3):
+                        for m in range(3):
+                            P[o + i, o + m] += qx_ * dt * c[i, col] * c[m, col]
         j = seg[0]
         if smooth:
             for a_ in range(n):
@@ -358,7 +367,7 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     seg = np.zeros(2, dtype=np.int64)
     counters = np.zeros(4, dtype=np.int64)
     stance_u8 = np.ascontiguousarray(stance, dtype=np.bool_)
-    xvar = np.zeros((N, 2)) if extra_var is None else np.ascontiguousarray(extra_var, dtype=np.float64) * dt_nom
+    xvar = np.zeros((N, 6)) if extra_var is None else np.ascontiguousarray(extra_var, dtype=np.float64) * dt_nom
     n_chunks = 1 if progress is None else max(1, min(10, N // 100_000))
     bounds = np.linspace(0, N, n_chunks + 1).astype(np.int64)
     # a zero-length call compiles (or loads from the numba cache) this signature: timed separately

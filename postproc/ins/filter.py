@@ -93,14 +93,15 @@ def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_f
 
 
 def saturation_variance(saturated, n: int, settings: FilterSettings) -> np.ndarray | None:
-    """Extra per-sample variance (acc, gyro) of saturated samples, (N, 2), or None when nothing is saturated.
+    """Extra per-sample variance of each body axis (ax, ay, az, gx, gy, gz) of saturated samples, (N, 6), or
+    None when nothing is saturated.
 
     A clipped sample says only "at least full scale": the true value is unknown, so instead of trusting the
     clipped number with the normal noise the filter adds ``sat_acc_sigma_mps2``² / ``sat_gyro_sigma_radps``²
-    to that sample's per-sample variance (process noise), i.e. the attitude/velocity uncertainty grows
-    through the clipped burst and the next ZUPTs correct the error it caused instead of trusting the
-    pre-burst estimate. ``saturated``: (N,) bitmask (bits ax, ay, az, gx, gy, gz as
-    ``logger.recording.SATURATION_BITS``), or (N,) / (N, 6) bool.
+    to that sample's per-sample variance (process noise) ALONG THE CLIPPED BODY AXIS (the other axes are
+    fine), i.e. the velocity / attitude uncertainty grows in that direction through the clipped burst and
+    the next ZUPTs correct the error it caused. ``saturated``: (N,) bitmask (bits ax, ay, az, gx, gy, gz as
+    ``logger.recording.SATURATION_BITS``), or (N, 6) bool, or (N,) bool (every axis).
     """
     if saturated is None:
         return None
@@ -108,18 +109,17 @@ def saturation_variance(saturated, n: int, settings: FilterSettings) -> np.ndarr
     if sat.shape[0] != n:
         raise InputError(f"saturated must have {n} rows like t_s, got shape {sat.shape}")
     if sat.ndim == 2:
-        acc_sat, gyro_sat = sat[:, :3].any(axis=1), sat[:, 3:6].any(axis=1)
+        axes = sat[:, :6].astype(bool)
     elif sat.dtype == bool:
-        acc_sat = gyro_sat = sat
+        axes = np.repeat(sat[:, None], 6, axis=1)
     else:
         bits = sat.astype(np.uint8)
-        acc_sat, gyro_sat = (bits & 0b000111) > 0, (bits & 0b111000) > 0
-    if not (acc_sat.any() or gyro_sat.any()):
+        axes = np.column_stack([(bits >> b) & 1 for b in range(6)]).astype(bool)
+    if not axes.any():
         return None
-    out = np.zeros((n, 2))
-    out[acc_sat, 0] = settings.sat_acc_sigma_mps2**2
-    out[gyro_sat, 1] = settings.sat_gyro_sigma_radps**2
-    return out
+    sig2 = np.array([settings.sat_acc_sigma_mps2**2] * 3 + [settings.sat_gyro_sigma_radps**2] * 3)
+    out = axes * sig2
+    return out if out.any() else None
 
 
 def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,

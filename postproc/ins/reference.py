@@ -35,12 +35,14 @@ def error_dynamics(f_n: np.ndarray, c_nb: np.ndarray, n: int) -> np.ndarray:
     return a
 
 
-def process_noise(settings, dt: float, dt_nom: float, n: int, f_b=None, omega_b=None, extra=(0.0, 0.0)) -> np.ndarray:
+def process_noise(settings, dt: float, dt_nom: float, n: int, f_b=None, omega_b=None, extra=None,
+                  c_nb=None) -> np.ndarray:
     """Q_d for a step of length dt (settings.py: per-sample sigmas at the nominal period, bias random walks).
 
     With ``acc_scale_noise`` / ``gyro_scale_noise`` κ the per-sample variance is σ² + κ² |signal|²
-    (f_b, omega_b: the bias-corrected sample of this step); ``extra`` = (acc, gyro) per-sample variance
-    added for a saturated sample (filter.saturation_variance).
+    (f_b, omega_b: the bias-corrected sample of this step). ``extra`` (6,) = per-sample variance of the
+    body axes ax..gz of a saturated sample (filter.saturation_variance), acting along those body axes:
+    Q_v += C diag(extra_acc) Cᵀ Δt₀ Δt, Q_θ += C diag(extra_gyro) Cᵀ Δt₀ Δt (c_nb: attitude of the step).
     """
     var_a = settings.sigma_acc_mps2**2 * dt_nom
     var_g = settings.sigma_gyro_radps**2 * dt_nom
@@ -48,12 +50,14 @@ def process_noise(settings, dt: float, dt_nom: float, n: int, f_b=None, omega_b=
         var_a += settings.acc_scale_noise**2 * dt_nom * float(f_b @ f_b)
     if omega_b is not None:
         var_g += settings.gyro_scale_noise**2 * dt_nom * float(omega_b @ omega_b)
-    var_a += extra[0] * dt_nom
-    var_g += extra[1] * dt_nom
     var = [var_a * dt] * 3 + [var_g * dt] * 3
     if n == 15:
         var += [settings.sigma_acc_bias_rw**2 * dt] * 3 + [settings.sigma_gyro_bias_rw**2 * dt] * 3
-    return np.diag([0.0] * 3 + var)
+    q = np.diag([0.0] * 3 + var)
+    if extra is not None:
+        q[3:6, 3:6] += c_nb @ np.diag(extra[:3]) @ c_nb.T * dt_nom * dt
+        q[6:9, 6:9] += c_nb @ np.diag(extra[3:6]) @ c_nb.T * dt_nom * dt
+    return q
 
 
 def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravity, settings, tb, P0,
@@ -91,7 +95,7 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
         if dt > 0:
             kf.F = np.eye(n) + error_dynamics(f_n, c_nb, n) * dt
             kf.Q = process_noise(settings, dt, dt_nom, n, f_b, omega_b,
-                                 (0.0, 0.0) if extra_var is None else extra_var[k])
+                                 None if extra_var is None else extra_var[k], c_nb)
             kf.predict()
         p_pred = kf.P.copy()
         # --- measurement update in stance (eq. 3: z = 0 − v̂)
