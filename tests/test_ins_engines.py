@@ -40,7 +40,8 @@ CASES = [
     dict(n_states=9, heading_aid="dominant_directions", hde_threshold_rad=0.8),  # optional heuristic aid
     # rolling-foot ZUPT noise off / large, signal-proportional noise, plain-R-like ZARU
     dict(n_states=15, zupt_lever_arm_m=0.0, zaru=False),
-    dict(n_states=15, zupt_lever_arm_m=0.3, acc_scale_noise=0.03, gyro_scale_noise=0.02, sigma_zaru_radps=0.05),
+    dict(n_states=15, zupt_lever_arm_m=0.3, acc_scale_noise=0.03, gyro_scale_noise=0.02, sigma_zaru_radps=0.05,
+         zaru_rate_factor=3.0, zupt_onset_delay_s=0.0),
 ]
 
 

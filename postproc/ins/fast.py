@@ -27,8 +27,8 @@ from postproc.ins.smoother import rts_backward
 
 # parameter vector layout (kept in one float64 array so the kernel signature stays short)
 (P_DT_NOM, P_QA, P_QG, P_QBA, P_QBG, P_RZ, P_RW, P_ZARU, P_G, P_RIC, P_SMOOTH, P_MAXSEG,
- P_HDE, P_HDE_THR, P_HDE_R, P_HDE_MIN, P_KA, P_KG, P_LEVER) = range(19)
-N_PRM = 19
+ P_HDE, P_HDE_THR, P_HDE_R, P_HDE_MIN, P_KA, P_KG, P_LEVER, P_ZARU_C) = range(20)
+N_PRM = 20
 # nominal-state vector layout: p 0:3, v 3:6, q 6:10, b_a 10:13, b_g 13:16, heading-aid memory 16:20
 # (previous stance-start x, y; have-previous flag; reference heading or NaN)
 N_ST = 20
@@ -249,9 +249,9 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, n, ric_u, ric_lam, 
                 if zaru and n == 15:
                     # ZARU: z = 0 − (ω_m − b̂_g) with the sign of δb_g = b_g − b̂_g: z = ω_m − b̂_g;
                     # sequential update: innovation z − H dx
-                    # R_k = σ_zaru² + |ω_k − b̂_g|²: a rolling foot's own rate counts as noise, so the
+                    # R_k = σ_zaru² + (c |ω_k − b̂_g|)²: a rolling foot's own rate counts as noise, so the
                     # update only bites in the quiet core of a stance phase
-                    rwk = rw + (wx * wx + wy * wy + wz * wz)
+                    rwk = rw + prm[P_ZARU_C] * (wx * wx + wy * wy + wz * wz)
                     _kalman_gain(P, 12, rwk, n, K)
                     z0 = gyro[k, 0] - st[13] - dx[12]
                     z1 = gyro[k, 1] - st[14] - dx[13]
@@ -347,6 +347,7 @@ def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, gravi
     prm[P_KA] = settings.acc_scale_noise**2 * dt_nom
     prm[P_KG] = settings.gyro_scale_noise**2 * dt_nom
     prm[P_LEVER] = settings.zupt_lever_arm_m**2
+    prm[P_ZARU_C] = settings.zaru_rate_factor**2
     if zupt_gain is not None:
         ric_u, ric_lam, ric_t = zupt_gain.U.copy(), zupt_gain.lam.copy(), zupt_gain.T.copy()
     else:

@@ -108,8 +108,9 @@ def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, 
                 r_k = R_zupt + np.eye(3) * (settings.zupt_lever_arm_m**2 * float(w_b @ w_b))
                 kf.update(z, R=r_k, H=H_zupt)
                 if settings.zaru and n == 15:
-                    # R_k = σ_zaru² + |ω_k − b̂_g|² (the foot's own rate counts as noise: quiet core only)
-                    kf.update((gyro_b[k] - bg).reshape(3, 1), R=R_zaru + np.eye(3) * float(w_b @ w_b), H=H_zaru)
+                    # R_k = σ_zaru² + (c |ω_k − b̂_g|)² (the foot's own rate counts as noise: quiet core only)
+                    kf.update((gyro_b[k] - bg).reshape(3, 1), R=R_zaru + np.eye(3) * (settings.zaru_rate_factor**2 * float(w_b @ w_b)),
+                              H=H_zaru)
                 n_updates += 1
             elif dt > 0:
                 # paper mode: constant Riccati gain, Joseph form with that gain

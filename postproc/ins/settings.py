@@ -84,6 +84,7 @@ class FilterSettings:
     sat_gyro_sigma_radps: float = 0.3
     zaru: bool = True
     sigma_zaru_radps: float = 0.1 * DEG
+    zaru_rate_factor: float = 1.0
     init_pos_sigma_m: float = 1e-3
     init_vel_sigma_mps: float = 1e-2
     init_att_sigma_rad: float = 0.1 * DEG
@@ -115,7 +116,7 @@ class FilterSettings:
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
         for f in fields(self):
-            if f.name in ("zupt_lever_arm_m", "acc_scale_noise", "gyro_scale_noise", "zupt_onset_delay_s",
+            if f.name in ("zupt_lever_arm_m", "zaru_rate_factor", "acc_scale_noise", "gyro_scale_noise", "zupt_onset_delay_s",
                           "zupt_onset_max_fraction") or f.name.startswith("sat_"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
