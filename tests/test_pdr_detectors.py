@@ -299,3 +299,15 @@ def test_robust_detector_ignores_bumps_while_the_phone_is_turned():
     ungated = DETECTORS["robust"](handling_max_deg=0.0).detect(t_all, acc_all).count
     assert abs(gated - 40) <= 1, gated
     assert ungated >= gated + 2, (ungated, gated)
+
+
+def test_robust_detector_drops_the_gait_initiation_bump():
+    # a weak bump (0.3 x the step amplitude) one step period before the first step, as the weight shift
+    # before the first heel strike looks on a lower back: not a step; a uniform walk keeps all its steps
+    fs, f, amp = 100.0, 1.8, 3.0
+    t, acc = walk(n_steps=30, f=f, fs=fs, amp=amp, harm=0.0)
+    pre = (t >= 3.0 - 1 / f) & (t < 3.0)
+    acc[pre, 2] += 0.3 * amp * np.sin(2 * np.pi * f * (t[pre] - 3.0 + 1 / f))
+    ev = DETECTORS["robust"]().detect(t, acc)
+    assert ev.count == 30 and ev.t_s[0] > 3.0
+    assert DETECTORS["robust"](onset_trim_fraction=0.0).detect(t, acc).count == 31

@@ -33,7 +33,12 @@ Pipeline (fs = 50 Hz after resampling the recording's own clock):
    lambda = 1, c_break = 1; the best chain is traced back. (lambda = 1: a step 20 % late costs 0.03,
    less than the salience of a weak closing step; a half-period double peak costs ln(2)^2 = 0.48.) This picks one peak per step even when a step
    has two bumps (heel strike + push-off) and bridges a weak step.
-6. Bouts shorter than 4 steps (gap > 1.6 s) are dropped (isolated bumps are not walking).
+6. Onset: leading steps of a bout (gap > 1.6 s) whose prominence is below 0.3 x the bout's median are
+   dropped. Gait initiation shows a weak bump (anticipatory weight shift / push-off) about one step before
+   the first heel strike: 0.07-0.35 of the median on Voisard's lower back, where the first true step is
+   0.41-0.80; at the END the true closing steps are that weak too, so the rule is one-sided.
+   (Voisard F1 0.949 -> 0.956, Oxford 1.34 -> 1.25 %.)
+7. Bouts shorter than 4 steps (gap > 1.6 s) are dropped (isolated bumps are not walking).
 
 Step time = time of the chosen peak of x (no offset).
 
@@ -160,6 +165,7 @@ class RobustDetector:
     periodicity_window_s: float = 2.5
     periodicity_lags_s: tuple = (0.3, 1.5)
     edge_trim_fraction: float = 0.0
+    onset_trim_fraction: float = 0.3
     long_ref_half_window_s: float = 15.0
     long_ref_fraction: float = 0.0
     refine_window_s: tuple | None = None
@@ -235,17 +241,18 @@ class RobustDetector:
         return np.array(sel[::-1], int)
 
     def _trim_edges(self, ts, pr):
-        """Drop steps at the start/end of each bout whose prominence is below ``edge_trim_fraction`` x the
-        bout's median (a phone pouch still swinging after the walker stopped, handling before walking)."""
+        """Drop steps at the start (``onset_trim_fraction``) and/or the start and end
+        (``edge_trim_fraction``) of each bout whose prominence is below that fraction x the bout's median."""
         keep = np.ones(ts.size, bool)
         br = np.r_[0, np.nonzero(np.diff(ts) > self.bout_gap_s)[0] + 1, ts.size]
         for a_, b_ in zip(br[:-1], br[1:]):
-            ref = self.edge_trim_fraction * np.median(pr[a_:b_])
+            med = np.median(pr[a_:b_])
+            ref_start = max(self.edge_trim_fraction, self.onset_trim_fraction) * med
             i, j = a_, b_ - 1
-            while i <= j and pr[i] < ref:
+            while i <= j and pr[i] < ref_start:
                 keep[i] = False
                 i += 1
-            while j >= i and pr[j] < ref:
+            while j >= i and pr[j] < self.edge_trim_fraction * med:
                 keep[j] = False
                 j -= 1
         return ts[keep]
@@ -278,7 +285,7 @@ class RobustDetector:
             sal[per[pk] < self.periodicity_min] = -1.0
         sel = self._beat_track(tp, sal, T)
         ts = tp[sel]
-        if self.edge_trim_fraction > 0 and ts.size:
+        if (self.edge_trim_fraction > 0 or self.onset_trim_fraction > 0) and ts.size:
             ts = self._trim_edges(ts, prom[sel])
         if self.refine_window_s is not None and ts.size:
             # move each event to the impact peak of the lightly filtered magnitude near the smooth peak
