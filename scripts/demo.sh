@@ -7,15 +7,24 @@ OUT="${1:-out/demo}"
 BOOTNAV="${BOOTNAV:-$HERE/.venv/bin/bootnav}"
 [ -x "$BOOTNAV" ] || BOOTNAV="bootnav"
 
-# Prefer a recording shipped in recordings/ (bootnav's own HDF5 or a canonical IMU CSV); otherwise the
-# x-io NGIMU short closed-loop walk (MIT licence, xioTechnologies/Gait-Tracking) from the shared datasets.
+# Prefer a recording shipped in recordings/ (the x-io closed loop, else any recording with a
+# <name>.reference.json); otherwise the x-io NGIMU short closed-loop walk (MIT licence,
+# xioTechnologies/Gait-Tracking) from the shared datasets. `bootnav process` writes its results into the
+# HDF5 recording it reads, so a recording from recordings/ is processed as a copy inside OUTDIR.
 INPUT=""
 REF_ARGS=()
+mkdir -p "$OUT"
 if [ -d "$HERE/recordings" ]; then
-    INPUT="$(find "$HERE/recordings" -maxdepth 2 -type f \( -name '*.h5' -o -name 'imu.csv.gz' \) | sort | head -n 1)"
-    if [ -n "$INPUT" ] && [ -f "$(dirname "$INPUT")/reference.json" ]; then
-        REF_ARGS=(--reference "$(dirname "$INPUT")/reference.json")
-    fi
+    for cand in "$HERE/recordings/xio_ngimu_short_walk.h5" "$HERE"/recordings/*.h5; do
+        ref="${cand%.h5}.reference.json"
+        if [ -f "$cand" ] && [ -f "$ref" ]; then
+            cp "$cand" "$OUT/recording.h5"
+            INPUT="$OUT/recording.h5"
+            REF_ARGS=(--reference "$ref")
+            echo "demo: $(basename "$cand") from recordings/ (copied to $INPUT)"
+            break
+        fi
+    done
 fi
 if [ -z "$INPUT" ]; then
     for cand in "$HERE/../shared/datasets/xio_ngimu_loops/short_walk/imu.csv.gz" \
@@ -33,4 +42,5 @@ echo "demo: processing $INPUT -> $OUT"
 echo
 echo "demo: plots (PNG):"
 ls -1 "$OUT"/*.png
-echo "demo: open $OUT/5_path_2d.png for the path seen from above; $OUT/summary.json holds every figure."
+echo "demo: open $OUT/5_path_2d.png (or $OUT/path.html in a browser) for the path seen from above;"
+echo "      $OUT/summary.json holds every figure."
