@@ -53,7 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     w.add_argument("--reference", metavar="FILE",
                    help="reference path: CSV (t_s,x_m,y_m[,z_m] or x_m,y_m[,z_m]) or JSON "
                         "({\"closed_loop\": true} / {\"straight_m\": 9} / {\"waypoints\": [...]}), "
-                        "or such a JSON object inline; see docs/metrics.md")
+                        "or such a JSON object inline, or 'truth' (a simulated recording's /truth); see docs/metrics.md")
     w.add_argument("--closed-loop", action="store_true", help="the walk ends where it started (closure metrics)")
     w.add_argument("--geo-anchor", type=_floats, metavar="LAT,LON[,H]", help="WGS-84 position of the start for GeoJSON")
     w.add_argument("--results-name", metavar="NAME", help="HDF5 results group /results/NAME (default 'default')")

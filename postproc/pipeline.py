@@ -295,16 +295,18 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         clock = now
         _call_progress(progress, stage, 1.0)
 
-    ref = None
-    if settings.reference:  # a bad reference file fails before any work is done
-        from .reference import compute_metrics, load_reference
+    from .reference import compute_metrics, load_reference, truth_reference
 
+    ref = None
+    if settings.reference and settings.reference != "truth":  # a bad reference fails before any work
         ref = load_reference(settings.reference)
     _call_progress(progress, "load", 0.0)
     rec, path, hdf5 = load_source(source)
     name = str(path) if path else "recording"
     if rec.n < 3:
         raise InputError(f"{name}: only {rec.n} samples; nothing to process")
+    if settings.reference == "truth":
+        ref = truth_reference(rec, path if hdf5 else None)
     lap("load")
 
     idx = crop_index(rec.t_s, settings.crop_s, name)

@@ -10,6 +10,7 @@ Reference file (``--reference FILE``)
 * CSV with a header: ``t_s,x_m,y_m[,z_m]`` (a timed reference trajectory, or surveyed footprints with
   their times) or ``x_m,y_m[,z_m]`` (waypoints of the walked polyline, in walking order), in any column
   order; an index column ``stride`` is ignored (the datasets' ``truth_footprints.csv``). ``.csv.gz`` accepted.
+* ``truth``: the exact trajectory in a simulated recording's ``/truth`` group (``truth_reference``).
 * JSON: ``{"closed_loop": true}`` (the walk ends where it started; ``approx_length_m`` optional, as in the
   datasets' ``truth.json``), ``{"straight_m": 9}`` (a straight line of 9 m; optional ``"height_m"`` for
   the end height), or ``{"waypoints": [[x, y], [x, y, z], ...]}``.
@@ -169,6 +170,21 @@ def _from_csv(path: Path, text: str) -> Reference:
             raise InputError(f"{path}: line {back[0] + 3}: t_s not increasing ({t[back[0]]} then {t[back[0] + 1]})")
         return Reference("trajectory", pts, t_s=t, has_z="z_m" in col, source=str(path))
     return Reference("waypoints", pts, has_z="z_m" in col, source=str(path))
+
+
+def truth_reference(rec, path) -> Reference:
+    """``--reference truth``: the simulator's exact sensor trajectory stored in the recording's ``/truth``
+    (row-aligned with ``/imu``, so matched on the recording's own clock)."""
+    from logger.recording import load
+
+    truth = load(path).truth if path is not None else getattr(rec, "truth", None)
+    if not truth or "pos_n_m" not in truth:
+        raise InputError(f"{path or 'recording'}: --reference truth needs a /truth group with pos_n_m "
+                         "(recordings written by `bootnav simulate`)")
+    pos = np.asarray(truth["pos_n_m"], float)
+    if len(pos) != rec.n:
+        raise InputError(f"{path}: /truth has {len(pos)} rows, /imu {rec.n}: not row-aligned")
+    return Reference("trajectory", pos, t_s=np.asarray(rec.t_s, float), has_z=True, source=f"{path}:/truth")
 
 
 def point_at_arclength(points: np.ndarray, s: float) -> np.ndarray:

@@ -359,3 +359,13 @@ def test_running_never_gives_a_silent_garbage_path(tmp_path):
         return
     h_bound, _ = error_budget(res)
     assert _truth_errors(res, r)["final_h_err_m"] <= h_bound
+
+
+def test_reference_truth_of_a_simulated_recording(tmp_path, walk_arrays):
+    res, path = _simulate(tmp_path, "paper-stairs")
+    r = process(path, ProcessSettings(reference="truth"))
+    assert r.metrics["reference_kind"] == "trajectory" and r.metrics["reference_source"].endswith(":/truth")
+    assert r.metrics["mean_h_err_m"] == pytest.approx(_truth_errors(res, r)["mean_h_err_m"])
+    assert r.metrics["height_ref_m"] == pytest.approx(res.truth["pos_n_m"][-1, 2] - res.truth["pos_n_m"][0, 2])
+    with pytest.raises(InputError, match="needs a /truth group"):
+        process(_write(tmp_path, *walk_arrays, name="no_truth.h5"), ProcessSettings(reference="truth"))
