@@ -154,7 +154,11 @@ def format_summary(summary: dict, files: dict) -> str:
                      f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m{note})")
         lines.append(f"height       {p['height_change_m']:+.2f} m net; floors climbed {p['floors_climbed']}, "
                      f"descended {p['floors_descended']} (floor height {p['floor_height_m']:g} m)")
-    if m and "distance_error_pct" in m:
+    if m and "stride_mae_m" in m:
+        lines.append(f"strides ref  {m['strides_ref']} reference strides (foot {m['stride_foot']}): stride length "
+                     f"MAE {m['stride_mae_m']:.3f} m ({m['stride_mae_pct']:.1f} %), bias {m['stride_bias_m']:+.3f} m; "
+                     f"distance error {m['distance_error_pct']:.2f} % ({m['distance_error_m']:.3f} m)")
+    elif m and "distance_error_pct" in m:
         lines.append(f"end point    {m['final_error_m']:.3f} m from the reference's end")
         lines.append(f"reference    distance error {m['distance_error_pct']:.2f} % ({m['distance_error_m']:.3f} m), "
                      f"deviation {m['deviation_error_pct']:.2f} % ({m['deviation_error_m']:.3f} m), "

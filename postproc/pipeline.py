@@ -355,7 +355,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     steps = segment_strides(t_s, pos_n, stance)
     warnings += check_strides(name, steps, settings.checks, stance_res.method)
     path_stats = path_summary(t_s, pos_n, stance, floors)
-    metrics = compute_metrics(ref, t_s, pos_n, stance) if ref is not None else None
+    metrics = compute_metrics(ref, t_s, pos_n, stance, rec.meta.get("mount")) if ref is not None else None
     lap("strides")
 
     summary = {

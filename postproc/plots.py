@@ -175,15 +175,17 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     _, fp = footprints(result.t_s, pos, stance_phases(result.stance))
     summ = result.summary.get("path", {})
     stats = f"distance {summ.get('distance_m', 0):.2f} m"
-    open_path = result.reference is not None and result.reference.kind != "closed_loop"
-    if result.metrics and open_path and "final_error_m" in result.metrics:
-        stats += f", end-point error {result.metrics['final_error_m']:.2f} m"
+    m = result.metrics or {}
+    if "final_error_m" in m:
+        stats += f", end-point error {m['final_error_m']:.2f} m"
     elif "closure_3d_m" in summ:
         stats += f", closure {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
-    if result.metrics and "distance_error_pct" in result.metrics:
-        m = result.metrics
+    if "deviation_error_pct" in m:
         stats += (f"\ndistance err {m['distance_error_pct']:.1f} %, deviation {m['deviation_error_pct']:.1f} %, "
                   f"height err {m['height_error_pct']:.1f} %")
+    elif "stride_mae_m" in m:
+        stats += (f"\nstride length MAE {m['stride_mae_m']:.3f} m vs reference, "
+                  f"distance err {m['distance_error_pct']:.1f} %")
 
     # 5 path from above
     fig, ax = plt.subplots(figsize=(7.5, 7.5))

@@ -10,6 +10,8 @@ Reference file (``--reference FILE``)
 * CSV with a header: ``t_s,x_m,y_m[,z_m]`` (a timed reference trajectory, or surveyed footprints with
   their times) or ``x_m,y_m[,z_m]`` (waypoints of the walked polyline, in walking order), in any column
   order; an index column ``stride`` is ignored (the datasets' ``truth_footprints.csv``). ``.csv.gz`` accepted.
+* CSV ``[foot,]t_start_s,t_end_s,stride_length_m``: reference stride lengths (e.g. motion capture; the
+  datasets' ``truth_strides.csv``) -> ``stride_mae_m``, ``stride_bias_m`` and the summed distance error.
 * ``truth``: the exact trajectory in a simulated recording's ``/truth`` group (``truth_reference``).
 * JSON: ``{"closed_loop": true}`` (the walk ends where it started; ``approx_length_m`` optional, as in the
   datasets' ``truth.json``), ``{"straight_m": 9}`` (a straight line of 9 m; optional ``"height_m"`` for
@@ -64,8 +66,9 @@ ALIGN_DISTANCE_M = 0.8
 class Reference:
     """A reference path in its own right-handed, z-up frame (metres)."""
 
-    kind: str  # "closed_loop" | "straight" | "waypoints" | "trajectory"
+    kind: str  # "closed_loop" | "straight" | "waypoints" | "trajectory" | "strides"
     points_n: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (M, 3)
+    strides: dict | None = None  # "strides": t_start_s, t_end_s, stride_length_m arrays
     t_s: np.ndarray | None = None  # (M,) for "trajectory"
     has_z: bool = False
     approx_length_m: float | None = None
@@ -74,6 +77,8 @@ class Reference:
     @property
     def length_m(self) -> float | None:
         """Horizontal polyline length L_ref (None for a closed loop without geometry)."""
+        if self.strides is not None:
+            return float(np.sum(self.strides["stride_length_m"]))
         if len(self.points_n) < 2:
             return self.approx_length_m
         d = np.diff(self.points_n[:, :2], axis=0)
@@ -146,6 +151,8 @@ def _from_csv(path: Path, text: str) -> Reference:
     if not lines:
         raise InputError(f"{path}: empty reference file")
     header = [h.strip() for h in lines[0].split(",")]
+    if {"t_start_s", "t_end_s", "stride_length_m"} <= set(header):
+        return _strides_csv(path, text, header)
     allowed = ({"t_s", "x_m", "y_m"}, {"x_m", "y_m"})
     # "stride" (an index column, as in the datasets' truth_footprints.csv) is accepted and ignored
     if not any(a <= set(header) for a in allowed) or not set(header) <= {"t_s", "x_m", "y_m", "z_m", "stride"}:
@@ -170,6 +177,61 @@ def _from_csv(path: Path, text: str) -> Reference:
             raise InputError(f"{path}: line {back[0] + 3}: t_s not increasing ({t[back[0]]} then {t[back[0] + 1]})")
         return Reference("trajectory", pts, t_s=t, has_z="z_m" in col, source=str(path))
     return Reference("waypoints", pts, has_z="z_m" in col, source=str(path))
+
+
+def _strides_csv(path: Path, text: str, header: list[str]) -> Reference:
+    """Reference stride lengths with their start/end times (the datasets' truth_strides.csv)."""
+    cols = [header.index(c) for c in ("t_start_s", "t_end_s", "stride_length_m")]
+    try:
+        data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2, usecols=cols)
+    except ValueError as exc:
+        raise InputError(f"{path}: unreadable number ({exc})") from exc
+    if len(data) == 0 or not np.all(np.isfinite(data)):
+        raise InputError(f"{path}: need finite rows of t_start_s,t_end_s,stride_length_m")
+    bad = np.flatnonzero(data[:, 1] <= data[:, 0])
+    if len(bad):
+        raise InputError(f"{path}: line {bad[0] + 2}: t_end_s must be after t_start_s")
+    strides = {"t_start_s": data[:, 0], "t_end_s": data[:, 1], "stride_length_m": data[:, 2]}
+    if "foot" in header:
+        k = header.index("foot")
+        strides["foot"] = np.array([ln.split(",")[k].strip() for ln in text.splitlines()[1:] if ln.strip()])
+    return Reference("strides", strides=strides, source=str(path))
+
+
+def stride_metrics(ref: Reference, t_s: np.ndarray, pos_n: np.ndarray, mount: str | None = None) -> dict:
+    """Estimated stride length = horizontal distance between the estimate's positions at each reference
+    stride's start and end time (METRICS.md ``stride_lengths``); MAE, bias, and the summed distance.
+
+    A file listing both feet is reduced to one foot (so the summed distance counts each metre once): the
+    recording's own foot when its ``mount`` says left/right, else the foot with the most strides."""
+    st = dict(ref.strides)
+    foot = None
+    if "foot" in st:
+        feet, counts = np.unique(st["foot"], return_counts=True)
+        side = {"left": "L", "right": "R"}
+        foot = next((side[k] for k in side if mount and k in str(mount).lower() and side[k] in feet),
+                    str(feet[np.argmax(counts)]))
+        keep = st["foot"] == foot
+        st = {k: v[keep] for k, v in st.items()}
+    inside = (st["t_start_s"] >= t_s[0]) & (st["t_end_s"] <= t_s[-1])
+    if not inside.any():
+        raise InputError(f"{ref.source}: no reference stride lies within the processed time "
+                         f"{t_s[0]:.2f}-{t_s[-1]:.2f} s")
+    at = lambda tt: np.column_stack([np.interp(tt, t_s, pos_n[:, k]) for k in range(2)])  # noqa: E731
+    est = np.linalg.norm(at(st["t_end_s"][inside]) - at(st["t_start_s"][inside]), axis=1)
+    true = st["stride_length_m"][inside]
+    err = est - true
+    return {
+        "stride_foot": foot,
+        "strides_ref": int(inside.sum()),
+        "stride_mae_m": float(np.abs(err).mean()),
+        "stride_bias_m": float(err.mean()),
+        "stride_mae_pct": float(100 * np.abs(err).mean() / true.mean()),
+        "distance_ref_m": float(true.sum()),
+        "distance_est_strides_m": float(est.sum()),
+        "distance_error_m": float(abs(est.sum() - true.sum())),
+        "distance_error_pct": float(100 * abs(est.sum() - true.sum()) / true.sum()),
+    }
 
 
 def truth_reference(rec, path) -> Reference:
@@ -243,7 +305,8 @@ def distance_to_polyline(p_xy: np.ndarray, poly: np.ndarray) -> np.ndarray:
     return out
 
 
-def compute_metrics(ref: Reference, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> dict:
+def compute_metrics(ref: Reference, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray,
+                    mount: str | None = None) -> dict:
     """Table 1 metrics + closure (definitions in the module docstring). Keys end in _m or _pct."""
     t_s = np.asarray(t_s, float)
     aligned, ref_pts, yaw = align_to_reference(ref, t_s, pos_n)
@@ -265,6 +328,9 @@ def compute_metrics(ref: Reference, t_s: np.ndarray, pos_n: np.ndarray, stance: 
     if ref.kind == "closed_loop":
         if ref.approx_length_m:
             out["distance_ref_approx_m"] = ref.approx_length_m
+        return out
+    if ref.kind == "strides":
+        out.update(stride_metrics(ref, t_s, np.asarray(pos_n, float), mount))
         return out
     l_ref = ref.length_m
     pct = lambda m: float(100.0 * m / l_ref) if l_ref else float("nan")  # noqa: E731

@@ -238,3 +238,22 @@ def test_footprint_csv_with_stride_column(tmp_path):
     assert m["alignment_yaw_rad"] == pytest.approx(0.0, abs=1e-12)
     assert m["mean_h_err_m"] == pytest.approx(0.1 * 4 / 5, abs=1e-9)
     assert m["final_h_err_m"] == pytest.approx(0.1, abs=1e-9)
+
+
+def test_stride_length_reference_picks_the_recordings_foot(tmp_path):
+    """truth_strides.csv (foot,t_start_s,t_end_s,stride_length_m) listing both feet: a left-boot
+    recording is scored on the L rows only; hand-made answer: each estimated stride is 1.0 m."""
+    fp = [[k * 1.0, 0, 0] for k in range(6)]
+    t, pos, stance = walk(fp)  # stance phase k spans samples 40k .. 40k+19
+    mid = [(40 * k + 10) * 0.01 for k in range(6)]
+    rows = [f"L,{mid[k]:.3f},{mid[k + 1]:.3f},1.1" for k in range(5)]  # reference says 1.1 m
+    rows += [f"R,{mid[k] + 0.2:.3f},{mid[k + 1] + 0.2:.3f},9.9" for k in range(4)]  # the other foot
+    ref = tmp_path / "truth_strides.csv"
+    ref.write_text("foot,t_start_s,t_end_s,stride_length_m\n" + "\n".join(rows) + "\n")
+    m = compute_metrics(load_reference(ref), t, pos, stance, mount="left_boot")
+    assert m["stride_foot"] == "L" and m["strides_ref"] == 5
+    assert m["stride_mae_m"] == pytest.approx(0.1, abs=1e-9)
+    assert m["stride_bias_m"] == pytest.approx(-0.1, abs=1e-9)
+    assert m["distance_ref_m"] == pytest.approx(5.5)
+    assert m["distance_error_pct"] == pytest.approx(100 * 0.5 / 5.5)
+    assert compute_metrics(load_reference(ref), t, pos, stance, mount="right_boot")["stride_foot"] == "R"
