@@ -42,14 +42,15 @@ WGS84_E2 = 6.69437999014e-3
 
 
 def _write_csv(path: Path, header: tuple[str, ...], columns: list[np.ndarray], fmts: list[str]) -> None:
-    """Write columns fast: one C-level %-format per block of rows (np.savetxt loops per row in Python)."""
-    data = np.column_stack([np.asarray(c, dtype=np.float64) for c in columns]) if columns[0].size else np.zeros((0, len(header)))
+    """Write columns fast: one C-level %-format per block of rows (np.savetxt loops per row in Python).
+    Rows are stacked block by block, so no full (N, k) copy of the data is ever made."""
     row = ",".join(fmts) + "\n"
+    n = len(columns[0])
     with open(path, "w", newline="") as f:
         f.write(",".join(header) + "\n")
-        block = 100_000
-        for i in range(0, len(data), block):
-            chunk = data[i : i + block]
+        block = 20_000  # rows per format call: bounds the temporary Python floats (~5 MB)
+        for i in range(0, n, block):
+            chunk = np.column_stack([np.asarray(c[i : i + block], dtype=np.float64) for c in columns])
             f.write((row * len(chunk)) % tuple(chunk.ravel()))
 
 
