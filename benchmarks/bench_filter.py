@@ -239,14 +239,19 @@ def bench_hour():
               f"{sol.info['smoother_segments']} smoother segments  [target: whole pipeline < 5 s, < 500 MB]")
 
 
+PREVIOUS_DEFAULT = dict(zaru=False, zupt_lever_arm_m=0.0, zupt_onset_delay_s=0.0, sigma_gyro_bias_rw=1e-4,
+                        sat_acc_sigma_mps2=0.0, sat_gyro_sigma_radps=0.0)
 REAL_CONFIGS = {
     "9 states, no smoother": dict(n_states=9, smoother="none"),
     "9 states + RTS": dict(n_states=9),
     "15 states, no smoother": dict(n_states=15, smoother="none"),
-    "15 states + RTS (default)": dict(),
+    "15 + RTS, previous default": PREVIOUS_DEFAULT,
+    "15 + RTS (default)": dict(),
+    "default without ZARU": dict(zaru=False),
+    "default w/o onset delay": dict(zupt_onset_delay_s=0.0),
+    "default w/o rolling-foot R": dict(zupt_lever_arm_m=0.0),
     "paper mode (Riccati gain)": dict(mode="riccati"),
-    "15 + RTS + ZARU": dict(zaru=True),
-    "15 + RTS + heading aid": dict(heading_aid="dominant_directions"),
+    "default + heading aid": dict(heading_aid="dominant_directions"),
 }
 
 
