@@ -326,3 +326,21 @@ def test_short_and_nan_input():
         detect_stance(t, acc[:-1], gyro, DetectorSettings(), G)
     with pytest.raises(ValueError, match="unknown stance detector"):
         DetectorSettings(method="glrt2")
+
+
+def test_clipping_on_both_rails_of_a_twos_complement_sensor():
+    """MPU6050 rails are -32768 and +32767 counts (3e-5 apart, relative): both plateaus are found, as the
+    iez_mpu6050 README counts (raw value at -32768 or 32767); a value repeated below the opposite extreme
+    (e.g. duplicated rows) is not a rail."""
+    from postproc.detectors._common import clipped_samples
+
+    lsb = math.radians(1.0 / 131.0)  # ±250 °/s range
+    x = np.sin(np.linspace(0, 12 * np.pi, 1200)) * 40000 * lsb
+    counts = np.clip(np.round(x / lsb), -32768, 32767)
+    n_rail = int(np.sum(counts == 32767) + np.sum(counts == -32768))
+    assert np.sum(counts == 32767) >= 3 and np.sum(counts == -32768) >= 3
+    assert clipped_samples((counts * lsb)[:, None]).sum() == n_rail
+    y = np.sin(np.linspace(0, 6, 500)) * 10.0
+    y[300:303] = -7.0  # a repeated value, but the positive side reaches 10: not full scale
+    y[y < -7.0] = -6.5
+    assert not clipped_samples(y[:, None]).any()

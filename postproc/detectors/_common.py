@@ -30,15 +30,25 @@ def clipped_samples(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-
     """Samples of an (N, k) signal that sit at a per-axis full-scale plateau (bool (N,)).
 
     A clipped axis repeats its extreme value exactly; an unclipped one reaches its extreme once or twice.
-    Flags |x| >= (1 - rel_tol) * max|x| on an axis whose extreme is hit ``min_repeats`` times or more,
-    but by less than half of the samples (a constant axis is not clipping).
+    Each sign is tested on its own, because the two rails of a two's-complement sensor differ by one LSB
+    (MPU6050: −32768 and +32767 counts, i.e. 3e-5 relative — more than ``rel_tol``): flags
+    x >= (1 − rel_tol) max x (and likewise x <= (1 − rel_tol) min x) on an axis whose extreme on that side
+    is hit ``min_repeats`` times or more, but by less than half of the samples (a constant axis is not
+    clipping), and is not exceeded in magnitude by the other side (a full-scale range is symmetric: a
+    plateau below the opposite extreme is a repeated value, e.g. a duplicated row, not a rail).
     """
-    x = np.abs(np.asarray(x, dtype=np.float64))
-    peak = np.nanmax(x, axis=0)
-    at_peak = x >= peak * (1.0 - rel_tol)
-    count = at_peak.sum(axis=0)
-    clipped_axes = (count >= min_repeats) & (count < 0.5 * x.shape[0])
-    return np.any(at_peak & clipped_axes & (peak > 0), axis=1)
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    out = np.zeros(x.shape[0], dtype=bool)
+    pos_peak = np.nanmax(x, axis=0)
+    neg_peak = -np.nanmin(x, axis=0)
+    for y, peak, other in ((x, pos_peak, neg_peak), (-x, neg_peak, pos_peak)):
+        at_peak = y >= peak * (1.0 - rel_tol)
+        count = at_peak.sum(axis=0)
+        rail = (count >= min_repeats) & (count < 0.5 * x.shape[0]) & (peak > 0) & (peak >= other * (1.0 - 1e-3))
+        out |= np.any(at_peak & rail, axis=1)
+    return out
 
 
 def saturation_mask(saturated, n: int) -> np.ndarray:

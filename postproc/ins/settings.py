@@ -62,11 +62,12 @@ class FilterSettings:
         σ_k² = σ² + κ² |signal_k|². Default 0: measured no gain (0.02-0.05 traded one set against another).
     sat_acc_sigma_mps2, sat_gyro_sigma_radps: extra per-sample std of a SATURATED (clipped) sample along the
         clipped body axis (``run_filter(saturated=...)``, ``filter.saturation_variance``): the true value
-        beyond full scale is unknown. Defaults 5 m/s², 0.3 rad/s: on iez_mpu6050 (±2 g / ±250 °/s files clip)
-        closure_v 0.47 -> 0.36 m, closure 3.1 -> 3.2 % (median 2.0 -> 1.8 %); no other set clips. Larger
-        values made the clipped loops worse (gyro 3 rad/s: conf-0000 2.0 -> 4.2 %; acc 50 m/s²: 3.8 %), an
-        isotropic (all-axes) inflation too, and so did bridging the clipped plateau with a parabola through
-        its neighbours (conf-3030 12.8 -> 32 %): the clipped excess is not recoverable, only its uncertainty.
+        beyond full scale is unknown (a foot swing that clips a ±250 °/s gyro peaks ~1-2 rad/s above it).
+        Defaults 5 m/s², 1 rad/s. iez_mpu6050 (the ±2 g / ±250 °/s files clip; with the both-rails clipping
+        mask of detectors._common): closure 3.1 -> 2.2 %, closure_v 0.47 -> 0.29 m (gyro 0.3: 2.6 %, 2: 2.3 %;
+        conf-3030 8.1 -> 4.7 %); no other set clips. An isotropic (all-axes) inflation was worse (the yaw
+        part is unobservable), and so was bridging the clipped plateau with a parabola through its
+        neighbours (conf-3030 12.8 -> 32 %): the clipped excess is not recoverable, only its uncertainty.
     """
 
     n_states: int = 15
@@ -83,7 +84,7 @@ class FilterSettings:
     zupt_onset_delay_s: float = 0.1
     zupt_onset_max_fraction: float = 1.0 / 3.0
     sat_acc_sigma_mps2: float = 5.0
-    sat_gyro_sigma_radps: float = 0.3
+    sat_gyro_sigma_radps: float = 1.0
     zaru: bool = True
     sigma_zaru_radps: float = 0.1 * DEG
     zaru_rate_factor: float = 1.0
