@@ -103,3 +103,18 @@ def test_accel_calibration_file_applied_with_documented_formula(tmp_path):
     broken.write_text("{not json")
     with pytest.raises(InputError, match="line 1"):
         load_accel_calibration(broken)
+
+
+def test_gyro_bias_from_the_quiet_core_ignores_a_small_motion_inside_the_still_period():
+    """A 0.4 s foot shift (0.04 rad/s rate, under the still thresholds) inside a 3 s rest: the quiet-core
+    mean recovers the bias to the noise level (σ = 0.003 rad/s over >= 200 samples: 5σ/sqrt(200) = 1.1e-3),
+    the plain mean of the whole period would be off by ~0.04 × 0.4 / 3 = 5e-3 rad/s."""
+    t, acc, gyro, f_rest, n_rest = _rest_then_walk(0.0, 0.0)
+    k = int(1.2 * 200)
+    gyro[k:k + 80, 2] += 0.04 * np.sin(np.linspace(0, np.pi, 80)) * 1.57  # mean 0.04 rad/s over 0.4 s
+    still = find_still_period(t, acc, gyro)
+    assert still is not None and still.start == 0 and still.stop > k + 80  # the shift passes the still test
+    st = initial_alignment(t, acc, gyro)
+    np.testing.assert_allclose(st.gyro_bias_b, [0.01, -0.02, 0.005], atol=1.1e-3)
+    plain = initial_alignment(t, acc, gyro, CalibrationSettings(still_quiet_ratio=0.0))
+    assert abs(plain.gyro_bias_b[2] - 0.005) > 3e-3
