@@ -14,7 +14,13 @@ K = P Hᵀ (H P Hᵀ + R)⁻¹, δx = K z, Joseph form P ← (I−KH) P (I−KH)
 "+ k_n v_n": that is this update with z's minus sign absorbed in k_n.
 Reset: p̂ += δp, v̂ += δv, b̂ += δb, q̂ ← exp(δθ/2) ⊗ q̂ (the quaternion form of ψ ← a(dθ) ψ; exact rotation,
 renormalised, not the first-order R ← (I − [δθ×]) R), then δx ← 0.
-Optional ZARU (15 states): z = ω_m − b̂_g = δb_g + ν in stance, sequential after the ZUPT.
+Rolling-foot ZUPT noise: R_k = (σ_zupt² + r² |ω_k − b̂_g|²) I (a foot rolling over heel/toe at ω moves the
+sensor at ≈ ω r). ZUPT onset delay: the first min(0.1 s, 1/3 of the phase) of each stance phase gets no
+update (``delay_zupt_onsets``: the foot still settles after heel strike).
+ZARU (15 states, on by default): z = ω_m − b̂_g = δb_g + ν in stance, sequential after the ZUPT, with the
+"quiet-core" noise R_k = (σ_zaru² + c² |ω_k − b̂_g|²) I so that it only bites where the foot is really still.
+Saturated samples (``saturated=`` mask): per-sample process noise along the clipped body axis,
+Q_v += C diag(σ_sat,a²) Cᵀ Δt₀Δt, Q_θ += C diag(σ_sat,g²) Cᵀ Δt₀Δt (``saturation_variance``).
 Optional heuristic heading aid (``heading_aid="dominant_directions"``, off by default; settings.py):
 a scalar yaw pseudo-measurement at stance onsets, sequential after the ZUPT (innovation −e − δθ_U).
 "riccati" mode: constant continuous gain from eq. 5 (riccati.py); P is still propagated and Joseph-updated
