@@ -148,7 +148,7 @@ def build() -> list[dict]:
         stream("stream_only_garbage", "no sync word at all", [bytes(range(32))], [["resync", 0, 32]]),
     ]
 
-    sd_ok = [S1, S_EXT, SampleFrame(123456, 0, (0, 0, 2048), (0, 0, 0), -3920)]
+    sd_ok = [S1, S_EXT, SampleFrame(0, 123456, (0, 0, 2048), (0, 0, 0), -3920)]
     for i, f in enumerate(sd_ok):
         vectors.append({"kind": "sdline", "name": f"sd_valid_{i}", "description": "valid data line",
                         "line": format_sd_line(f),
