@@ -204,7 +204,7 @@ def test_zupt_onset_delay_recovers_motion_inside_early_stance():
         early[max(0, a - int(round(0.06 / dt))):a] = True
     init = TruthInit(w.q_nb[0], np.zeros(3))
     fs = dict(zupt_lever_arm_m=0.0, zaru=False)
-    exact = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(**fs))
+    exact = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, FilterSettings(zupt_onset_delay_s=0.0, **fs))
     plain = run_filter(w.t_s, w.acc_b, w.gyro_b, early, init, w.gravity, FilterSettings(zupt_onset_delay_s=0.0, **fs))
     delayed = run_filter(w.t_s, w.acc_b, w.gyro_b, early, init, w.gravity, FilterSettings(zupt_onset_delay_s=0.1, **fs))
     assert delayed.info["zupt_onset_samples_skipped"] > 0 and plain.info["zupt_onset_samples_skipped"] == 0

@@ -15,7 +15,7 @@ K = P Hᵀ (H P Hᵀ + R)⁻¹, δx = K z, Joseph form P ← (I−KH) P (I−KH)
 Reset: p̂ += δp, v̂ += δv, b̂ += δb, q̂ ← exp(δθ/2) ⊗ q̂ (the quaternion form of ψ ← a(dθ) ψ; exact rotation,
 renormalised, not the first-order R ← (I − [δθ×]) R), then δx ← 0.
 Rolling-foot ZUPT noise: R_k = (σ_zupt² + r² |ω_k − b̂_g|²) I (a foot rolling over heel/toe at ω moves the
-sensor at ≈ ω r). ZUPT onset delay: the first min(0.1 s, 1/3 of the phase) of each stance phase gets no
+sensor at ≈ ω r). ZUPT onset delay: the first min(0.15 s, 1/3 of the phase) of each stance phase gets no
 update (``delay_zupt_onsets``: the foot still settles after heel strike).
 ZARU (15 states, on by default): z = ω_m − b̂_g = δb_g + ν in stance, sequential after the ZUPT, with the
 "quiet-core" noise R_k = (σ_zaru² + c² |ω_k − b̂_g|²) I so that it only bites where the foot is really still.
@@ -25,6 +25,15 @@ Optional heuristic heading aid (``heading_aid="dominant_directions"``, off by de
 a scalar yaw pseudo-measurement at stance onsets, sequential after the ZUPT (innovation −e − δθ_U).
 "riccati" mode: constant continuous gain from eq. 5 (riccati.py); P is still propagated and Joseph-updated
 with that (suboptimal) gain so ``pos_sigma_n`` stays meaningful.
+
+Tried on the foot-set eval and NOT kept (no gain or worse; mean over the 10 goal metrics relative to the
+default, < 1 = better): an along-gravity accelerometer-bias prior from the still period ((|f̄| − g) f̄/|f̄|;
+1.000: the ZUPTs of the still period learn it within a second anyway); a two-sample coning term
+(Δt²/12) ω_{k−1} × ω_k in the attitude step (1.007; with trapezoidal rates 1.11: pyshoe_vicon's running
+heading drift, −0.9 °/s, is not coning); no yaw (or gyro-bias) row in the ZUPT gain (1.04 / 1.01);
+an impact term (τ (|f| − g))² in the ZUPT R, τ = 5-40 ms (1.001-1.044; it does not replace the onset delay);
+cutting the last 20-100 ms of each stance too (1.03-1.06); de-jittering timestamps with a linear sample
+clock (1.001).
 """
 
 from __future__ import annotations

@@ -30,6 +30,15 @@ class FilterSettings:
         model: with n_states=15 the biases stay at their initial values (a warning says so).
     engine: "fast" (numba, production) or "reference" (filterpy ``KalmanFilter``, per-sample Python loop).
     sigma_acc_mps2, sigma_gyro_radps: per-sample IMU noise at the nominal rate (see module docstring).
+        σ_g 0.6 °/s (was 0.5) together with the 0.15 s onset delay (below): one joint change measured on the
+        foot-set eval (benchmarks/accuracy_foot.py), before -> after: pyshoe_vicon 0.0662 -> 0.0658 m,
+        xio closure 0.695 -> 0.666 % (closure_v 0.199 -> 0.183 m), openshoe 0.633 -> 0.631 %, koroglu_footprints
+        1.740 -> 1.741 %, koroglu_rectangles 1.216 -> 1.220 %, iez 2.22 -> 2.11 % (closure_v 0.288 -> 0.265 m),
+        voisard 3.609 -> 3.607 %, gaitmap stride MAE 0.0311 -> 0.0306 m; stairs unchanged (gaitmap stair_up
+        dz L/R 4.51/5.22 m, three-floors sim climb 8.92 of 9 m). Grid 0.125-0.175 s × 0.6-0.8 °/s ×
+        max_fraction 1/3-0.5 is smooth: longer delay / larger fraction -> better loops and gaitmap, worse
+        pyshoe_vicon (running); larger σ_g -> better pyshoe_vicon, openshoe, rectangles, worse footprints
+        (0.8 °/s, 0.4: xio 0.66 %, gaitmap 0.029 m but footprints 1.79 %, pyshoe 0.066 m).
     sigma_acc_bias_rw, sigma_gyro_bias_rw: bias random walks, m/s²/√s and rad/s/√s (15 states only).
         Gyro 3e-5 rad/s/√s (0.1 mrad/s drift in 10 s, 1.8 mrad/s in an hour; OpenShoe uses far less): with
         ZARU on, 1e-4 let the bias follow the foot's real slow rotation in stance (koroglu_rectangles closure
@@ -58,6 +67,7 @@ class FilterSettings:
         pyshoe_vicon 0.066 -> 0.067 m (median 0.054 -> 0.051), gaitmap stride MAE 0.039 -> 0.031 m;
         openshoe 0.50 -> 0.56 %. Larger delays keep improving the loops' height a little (0.2 s: xio 0.14 m)
         at the cost of pyshoe_vicon's running trials. 0 = off (every detected stance sample is a ZUPT).
+        Default now 0.15 s (loading response 0.1-0.15 s of a 1.0-1.4 s gait cycle; see sigma_gyro_radps).
     acc_scale_noise, gyro_scale_noise: κ of a signal-proportional (scale-factor) per-sample noise,
         σ_k² = σ² + κ² |signal_k|². Default 0: measured no gain (0.02-0.05 traded one set against another).
     sat_acc_sigma_mps2, sat_gyro_sigma_radps: extra per-sample std of a SATURATED (clipped) sample along the
@@ -75,14 +85,14 @@ class FilterSettings:
     mode: str = "time_varying"
     engine: str = "fast"
     sigma_acc_mps2: float = 0.5
-    sigma_gyro_radps: float = 0.5 * DEG
+    sigma_gyro_radps: float = 0.6 * DEG
     acc_scale_noise: float = 0.0
     gyro_scale_noise: float = 0.0
     sigma_acc_bias_rw: float = 1e-3
     sigma_gyro_bias_rw: float = 3e-5
     sigma_zupt_mps: float = 0.01
     zupt_lever_arm_m: float = 0.05
-    zupt_onset_delay_s: float = 0.1
+    zupt_onset_delay_s: float = 0.15
     zupt_onset_max_fraction: float = 1.0 / 3.0
     sat_acc_sigma_mps2: float = 5.0
     sat_gyro_sigma_radps: float = 1.0
