@@ -36,6 +36,11 @@ half-decade SHOE grid; the best single fixed threshold gives 0.31 m). Tried and 
 data): thresholds per stride valley from peak picking, the span scaled by the autocorrelation stride
 period, σ's normalised by the recording's own noise floor, an extra acceleration-only gate (better
 vertical closure on the loops, worse horizontal on pyshoe_vicon).
+Re-checked with the 0.15 s ZUPT onset delay (filter settings): α is NOT flat any more near 0.3. α 0.31: pyshoe_vicon
+0.0658 -> 0.0642 m but xio 0.666 -> 0.672 %; α >= 0.32 makes koroglu_footprints/run34 FAIL the pipeline's
+stance sanity check (stance at a median 0.5 rad/s), which only looks like a gain in the set mean
+(final_fp_err 1.74 -> 1.13 %); α 0.35: pyshoe_vicon 2018-02-22 0.065 -> 0.126 m. Kept 0.3; run34 sits near that
+cliff (its stance valleys are high), so a detector change must be checked per trial, not on set means.
 References: Skog et al. 2010 (SHOE); Wahlström & Skog 2021 (review: adaptive thresholds, gait-speed
 dependence of the optimal γ); Otsu 1979 (threshold between the two modes of a histogram).
 """
