@@ -146,17 +146,28 @@ def stride_length_metrics(t_est, pos_est, t_start, t_end, length_truth) -> dict:
     return {"stride_mae_m": float(np.mean(np.abs(e))), "stride_bias_m": float(np.mean(e)), "n_strides": int(len(e))}
 
 
-def out_and_back_metrics(step_t, step_xy, t_start, t_end, distance_truth) -> dict:
-    """distance_err_pct of the estimated horizontal distance walked between two times.
+def out_and_back_metrics(t_est, pos_est, stance_t, stance_xy, t_start, t_end, distance_truth) -> dict:
+    """distance_err_pct of the estimated horizontal distance walked between two times (foot-mounted).
 
-    ``step_t``/``step_xy``: times and horizontal positions of consecutive stance phases (foot) or steps
-    (PDR); the walked distance is the sum of horizontal displacements between those inside the window.
+    The walked distance is the horizontal length of the polyline through the position at ``t_start``, every
+    stance-phase (footfall) position whose time lies strictly inside the window, and the position at
+    ``t_end`` — so a footfall at either end of the window is neither lost nor counted twice.
     """
+    start = _interp_rows(np.array([t_start, t_end]), np.asarray(t_est, float), np.asarray(pos_est, float)[:, :2])
+    stance_t = np.asarray(stance_t, float)
+    inside = (stance_t > t_start) & (stance_t < t_end)
+    p = np.vstack([start[:1], np.asarray(stance_xy, float)[inside, :2], start[1:]])
+    est = float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
+    return {"distance_est_m": est, "distance_err_pct": 100.0 * (est - distance_truth) / distance_truth}
+
+
+def step_distance_metrics(step_t, step_len, t_start, t_end, distance_truth,
+                          tolerance: float = EVENT_TOLERANCE_S) -> dict:
+    """distance_err_pct for step-and-heading (PDR): the sum of the lengths of the steps detected between
+    the two times (± the event tolerance, as a step's contact may be stamped slightly outside)."""
     step_t = np.asarray(step_t, float)
-    step_xy = np.asarray(step_xy, float)[:, :2]
-    inside = (step_t >= t_start - EVENT_TOLERANCE_S) & (step_t <= t_end + EVENT_TOLERANCE_S)
-    p = step_xy[inside]
-    est = float(np.sum(np.hypot(*np.diff(p, axis=0).T))) if len(p) > 1 else 0.0
+    inside = (step_t >= t_start - tolerance) & (step_t <= t_end + tolerance)
+    est = float(np.sum(np.asarray(step_len, float)[inside]))
     return {"distance_est_m": est, "distance_err_pct": 100.0 * (est - distance_truth) / distance_truth}
 
 

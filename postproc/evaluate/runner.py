@@ -158,7 +158,8 @@ def _score_foot(est: FootEstimate, folder: Path, kinds: list[str], imu_name: str
         onsets = np.array([est.t_s[a] for a, _ in phases])
         out.update(M.step_event_metrics(onsets, c["t_s"][c["foot"] == letter]))
     if "out_and_back" in kinds:
-        out.update(M.out_and_back_metrics(stance_t, stance_p, truth["t_start_s"], truth["t_end_s"], truth["distance_m"]))
+        out.update(M.out_and_back_metrics(est.t_s, est.pos_n, stance_t, stance_p, truth["t_start_s"],
+                                          truth["t_end_s"], truth["distance_m"]))
         out["abs_distance_err_pct"] = abs(out["distance_err_pct"])
     return out, plot
 
@@ -197,8 +198,8 @@ def _score_pdr(est: PdrEstimate, folder: Path, kinds: list[str]) -> tuple[dict, 
         c = read_csv_columns(folder / "truth_step_lengths.csv")
         out.update(M.step_length_metrics(est.step_t, est.step_len, c["t_s"], c["step_length_m"]))
     if "out_and_back" in kinds:
-        out.update(M.out_and_back_metrics(est.step_t, est.step_xy, truth["t_start_s"], truth["t_end_s"],
-                                          truth["distance_m"]))
+        out.update(M.step_distance_metrics(est.step_t, est.step_len, truth["t_start_s"], truth["t_end_s"],
+                                           truth["distance_m"]))
         out["abs_distance_err_pct"] = abs(out["distance_err_pct"])
     return out, {"est_xy": est.step_xy}
 
