@@ -236,7 +236,9 @@ def test_adaptive_one_stance_per_stride_on_footprint_walks(datasets):
         res = detect_stance(t, a[:, 1:4], a[:, 4:7], DetectorSettings(), G)
         starts, stops = res.phases()
         inside = int(((t[starts] > fp_t[0]) & (t[stops - 1] < fp_t[-1] - 0.3)).sum())
-        assert abs(inside - (fp_t.size - 2)) <= 1, (run, inside, fp_t.size - 2)
+        # +2 allowed: run35 ends with 2.5 s between its last two footprints, in which the walker shuffles
+        # (two short real stance phases at 28.5 s and 29.2 s that no footprint was surveyed for).
+        assert -1 <= inside - (fp_t.size - 2) <= 2, (run, inside, fp_t.size - 2)
         lo, hi = t[starts][None, :], t[stops - 1][None, :]
         gap = np.maximum(np.maximum(lo - fp_t[:, None], fp_t[:, None] - hi), 0.0).min(axis=1)  # 0 if inside
         n_fp += fp_t.size
@@ -344,3 +346,21 @@ def test_clipping_on_both_rails_of_a_twos_complement_sensor():
     y[300:303] = -7.0  # a repeated value, but the positive side reaches 10: not full scale
     y[y < -7.0] = -6.5
     assert not clipped_samples(y[:, None]).any()
+
+
+def test_isolated_short_stance_is_kept_but_fragments_are_dropped():
+    """A 40 ms quiet run between two long swings is a running foot-flat (kept); the same run 0.1 s from a
+    longer stance is a fragment (dropped)."""
+    from postproc.detectors import postprocess
+
+    t = np.arange(400) / 200.0
+    mask = np.zeros(400, bool)
+    mask[100:108] = True  # 40 ms, isolated by 0.5 s on both sides
+    mask[300:340] = True  # a normal 200 ms stance
+    mask[360:368] = True  # 40 ms fragment, 0.1 s after it
+    out = postprocess.remove_short_fragments(mask, t, 0.05, 0.005, isolated_min_s=0.035, isolation_s=0.4)
+    assert out[100:108].all() and out[300:340].all() and not out[360:368].any()
+    too_short = np.zeros(400, bool)
+    too_short[100:104] = True  # 20 ms: below the isolated minimum
+    assert not postprocess.remove_short_fragments(too_short, t, 0.05, 0.005, isolated_min_s=0.035,
+                                                  isolation_s=0.4).any()

@@ -73,6 +73,10 @@ class DetectorSettings:
     adaptive_floor_decades: float = 1.0
     adaptive_noise_quantile: float = 0.05
     adaptive_min_stance_s: float = 0.05
+    # a shorter stance run is kept when it is alone between two swings of >= adaptive_isolation_s
+    # (the brief foot-flat of a running stride), as long as it lasts adaptive_isolated_min_stance_s
+    adaptive_isolated_min_stance_s: float = 0.035
+    adaptive_isolation_s: float = 0.4
     adaptive_min_swing_s: float = 0.1
     adaptive_max_rate_radps: float = 4.0
 

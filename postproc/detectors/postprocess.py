@@ -54,6 +54,29 @@ def remove_short_runs(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: float
     return out
 
 
+def remove_short_fragments(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: float, *,
+                           isolated_min_s: float, isolation_s: float) -> np.ndarray:
+    """Like ``remove_short_runs``, but a short run that is the only stance within ``isolation_s`` on both
+    sides is kept when it lasts at least ``isolated_min_s``.
+
+    Why: a short quiet run next to a longer stance is a fragment (heel or toe roll) or a quiet instant in
+    mid-swing; an isolated one, between two full swings, is the brief foot-flat of a running stride
+    (≈ 50-70 ms), and dropping it leaves the whole stride unaided.
+    """
+    out = np.asarray(mask, dtype=bool).copy()
+    if min_s <= 0 or not out.any():
+        return out
+    starts, stops = runs(out)
+    dur = t_s[stops - 1] - t_s[starts] + dt
+    gap_before = np.r_[np.inf, t_s[starts[1:]] - t_s[stops[:-1] - 1]]
+    gap_after = np.r_[t_s[starts[1:]] - t_s[stops[:-1] - 1], np.inf]
+    isolated = (gap_before >= isolation_s) & (gap_after >= isolation_s) & (dur >= isolated_min_s)
+    short = (dur < min_s) & ~isolated
+    for a, b in zip(starts[short], stops[short]):
+        out[a:b] = False
+    return out
+
+
 def clean_stance(stance: np.ndarray, t_s: np.ndarray, dt: float, *, min_swing_s: float = 0.0,
                  min_stance_s: float = 0.0) -> np.ndarray:
     """Fill swing gaps < min_swing_s (interior only), then drop stance runs < min_stance_s."""
