@@ -133,34 +133,27 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {result.summary['stance']['method']}")
     save(fig, "raw_imu")
 
-    # 2 gravity-free acceleration
+    def time_chart(key, values, labels, ylabel, title, loc, extra=None):
+        """Charts 2-4: three nav-frame components against time, stance and saturation shaded."""
+        fig, ax = plt.subplots(figsize=(10, 4.5))
+        _lines(ax, t, values, labels)
+        if extra is not None:
+            ax.plot(t, extra, color="k", lw=0.6, alpha=0.6, label="|a|")
+        _time_axes(ax, t, stance, sat, ylabel, first=True)
+        ax.set_xlabel("time (s)")
+        ax.set_title(title)
+        _legend(ax, loc=loc, ncol=6 if extra is not None else 5)
+        save(fig, key)
+
+    # 2 gravity-free acceleration, 3 velocity, 4 position vs time
     acc_n = gravity_free_acc_n(result.q_nb[d], result.acc_b[d], result.gravity_mps2)
-    fig, ax = plt.subplots(figsize=(10, 4.5))
-    _lines(ax, t, acc_n, ["a east", "a north", "a up"])
-    ax.plot(t, np.linalg.norm(acc_n, axis=1), color="k", lw=0.6, alpha=0.6, label="|a|")
-    _time_axes(ax, t, stance, sat, "acceleration (m/s²)", first=True)
-    ax.set_xlabel("time (s)")
-    ax.set_title("Acceleration in the navigation frame, gravity removed")
-    _legend(ax, loc="upper right", ncol=6)
-    save(fig, "acc_gravity_free")
-
-    # 3 velocity
-    fig, ax = plt.subplots(figsize=(10, 4.5))
-    _lines(ax, t, result.vel_n[d], ["v east", "v north", "v up"])
-    _time_axes(ax, t, stance, sat, "velocity (m/s)", first=True)
-    ax.set_xlabel("time (s)")
-    ax.set_title("Velocity of the boot (zero in stance: ZUPT)")
-    _legend(ax, loc="upper right", ncol=5)
-    save(fig, "velocity")
-
-    # 4 position vs time
-    fig, ax = plt.subplots(figsize=(10, 4.5))
-    _lines(ax, t, result.pos_n[d], ["x (east)", "y (north)", "z (up)"])
-    _time_axes(ax, t, stance, sat, "position (m)", first=True)
-    ax.set_xlabel("time (s)")
-    ax.set_title("Position vs time")
-    _legend(ax, loc="upper left", ncol=5)
-    save(fig, "position")
+    time_chart("acc_gravity_free", acc_n, ["a east", "a north", "a up"], "acceleration (m/s²)",
+               "Acceleration in the navigation frame, gravity removed", "upper right",
+               extra=np.linalg.norm(acc_n, axis=1))
+    time_chart("velocity", result.vel_n[d], ["v east", "v north", "v up"], "velocity (m/s)",
+               "Velocity of the boot (zero in stance: ZUPT)", "upper right")
+    time_chart("position", result.pos_n[d], ["x (east)", "y (north)", "z (up)"], "position (m)",
+               "Position vs time", "upper left")
 
     # aligned path + reference (when given) for charts 5 and 6
     pos = result.pos_n
