@@ -23,6 +23,7 @@ import time
 import numpy as np
 from numba import njit
 
+from postproc.ins.kernels import exp_times_quat, quat_times_exp
 from postproc.ins.smoother import rts_backward
 
 # parameter vector layout (kept in one float64 array so the kernel signature stays short)
@@ -152,18 +153,7 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, n, ric_u, ric_lam, 
             tx = (gyro[k, 0] - st[13]) * dt
             ty = (gyro[k, 1] - st[14]) * dt
             tz = (gyro[k, 2] - st[15]) * dt
-            an = math.sqrt(tx * tx + ty * ty + tz * tz)
-            cw = math.cos(0.5 * an)
-            s = math.sin(0.5 * an) / an if an > 1e-8 else 0.5 - an * an / 48.0
-            px, py, pz = s * tx, s * ty, s * tz
-            nw = qw * cw - qx * px - qy * py - qz * pz
-            nx = qw * px + qx * cw + qy * pz - qz * py
-            ny = qw * py - qx * pz + qy * cw + qz * px
-            nz = qw * pz + qx * py - qy * px + qz * cw
-            nn = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-            if nw < 0.0:
-                nn = -nn
-            qw, qx, qy, qz = nw / nn, nx / nn, ny / nn, nz / nn
+            qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, tx, ty, tz)
             st[6], st[7], st[8], st[9] = qw, qx, qy, qz
         c[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
         c[0, 1] = 2.0 * (qx * qy - qw * qz)
@@ -282,20 +272,7 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, n, ric_u, ric_lam, 
             if n == 15:
                 for i in range(6):
                     st[10 + i] += dx[9 + i]
-            tx, ty, tz = dx[6], dx[7], dx[8]
-            an = math.sqrt(tx * tx + ty * ty + tz * tz)
-            cw = math.cos(0.5 * an)
-            s = math.sin(0.5 * an) / an if an > 1e-8 else 0.5 - an * an / 48.0
-            px, py, pz = s * tx, s * ty, s * tz
-            qw, qx, qy, qz = st[6], st[7], st[8], st[9]
-            nw = cw * qw - px * qx - py * qy - pz * qz
-            nx = cw * qx + px * qw + py * qz - pz * qy
-            ny = cw * qy - px * qz + py * qw + pz * qx
-            nz = cw * qz + px * qy - py * qx + pz * qw
-            nn = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-            if nw < 0.0:
-                nn = -nn
-            st[6], st[7], st[8], st[9] = nw / nn, nx / nn, ny / nn, nz / nn
+            st[6], st[7], st[8], st[9] = exp_times_quat(st[6], st[7], st[8], st[9], dx[6], dx[7], dx[8])
         for i in range(3):
             pos[k, i] = st[i]
             vel[k, i] = st[3 + i]

@@ -33,6 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
+from postproc.ins.kernels import exp_times_quat
 from postproc.ins.quaternion import correct_attitude
 
 
@@ -184,19 +185,4 @@ def rts_backward(p_post, p_pred, fpar, dx_upd, m, n, start, pos, vel, q, ba, bg)
 @njit(cache=True)
 def _rotate_left(q, kk, tx, ty, tz):
     """q[kk] ← exp(δθ/2) ⊗ q[kk], normalised with w ≥ 0 (same algebra as quaternion.correct_attitude)."""
-    a = math.sqrt(tx * tx + ty * ty + tz * tz)
-    cw = math.cos(0.5 * a)
-    s = math.sin(0.5 * a) / a if a > 1e-8 else 0.5 - a * a / 48.0
-    px, py, pz = s * tx, s * ty, s * tz
-    w, x, y, z = q[kk, 0], q[kk, 1], q[kk, 2], q[kk, 3]
-    nw = cw * w - px * x - py * y - pz * z
-    nx = cw * x + px * w + py * z - pz * y
-    ny = cw * y - px * z + py * w + pz * x
-    nz = cw * z + px * y - py * x + pz * w
-    nn = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-    if nw < 0.0:
-        nn = -nn
-    q[kk, 0] = nw / nn
-    q[kk, 1] = nx / nn
-    q[kk, 2] = ny / nn
-    q[kk, 3] = nz / nn
+    q[kk, 0], q[kk, 1], q[kk, 2], q[kk, 3] = exp_times_quat(q[kk, 0], q[kk, 1], q[kk, 2], q[kk, 3], tx, ty, tz)
