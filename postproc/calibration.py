@@ -35,7 +35,6 @@ test, IEEE Std 1293 style model inverted).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -266,13 +265,10 @@ def load_accel_calibration(path: str | Path) -> AccelCalibration:
     """Read ``{"bias_mps2": [3 numbers], "matrix": [[3x3 numbers]]}``; clear error naming the file otherwise."""
     from bootnav.errors import InputError
 
+    from bootnav.jsonfile import read_json_file
+
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(f"{path}: accelerometer calibration file not found") from None
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+    doc = read_json_file(path, "accelerometer calibration file")
     try:
         bias = np.asarray(doc["bias_mps2"], dtype=np.float64)
         mat = np.asarray(doc["matrix"], dtype=np.float64)

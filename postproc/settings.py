@@ -143,13 +143,10 @@ class ProcessSettings:
 
     @classmethod
     def from_file(cls, path: str | Path) -> "ProcessSettings":
+        from bootnav.jsonfile import read_json_file
+
         path = Path(path)
-        try:
-            data = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise InputError(f"{path}: settings file not found") from None
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+        data = read_json_file(path, "settings file")
         try:
             return cls.from_dict(data)
         except InputError as exc:

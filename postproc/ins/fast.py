@@ -23,7 +23,7 @@ import time
 import numpy as np
 from numba import njit
 
-from postproc.ins.kernels import exp_times_quat, quat_times_exp
+from postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
 from postproc.ins.smoother import rts_backward
 
 # parameter vector layout (kept in one float64 array so the kernel signature stays short)
@@ -155,15 +155,7 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, n, ric_u, ric_lam, 
             tz = (gyro[k, 2] - st[15]) * dt
             qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, tx, ty, tz)
             st[6], st[7], st[8], st[9] = qw, qx, qy, qz
-        c[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
-        c[0, 1] = 2.0 * (qx * qy - qw * qz)
-        c[0, 2] = 2.0 * (qx * qz + qw * qy)
-        c[1, 0] = 2.0 * (qx * qy + qw * qz)
-        c[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
-        c[1, 2] = 2.0 * (qy * qz - qw * qx)
-        c[2, 0] = 2.0 * (qx * qz - qw * qy)
-        c[2, 1] = 2.0 * (qy * qz + qw * qx)
-        c[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+        rotmat_into(c, qw, qx, qy, qz)
         fbx, fby, fbz = acc[k, 0] - st[10], acc[k, 1] - st[11], acc[k, 2] - st[12]
         fx = c[0, 0] * fbx + c[0, 1] * fby + c[0, 2] * fbz
         fy = c[1, 0] * fbx + c[1, 1] * fby + c[1, 2] * fbz

@@ -1,5 +1,7 @@
 """Scalar quaternion kernels shared by the numba filter and smoother (wxyz, normalised, w >= 0).
 
+``rotmat_into`` is also the reference engine's DCM: ``quaternion.quat_to_rotmat`` runs its ``py_func``.
+
 Kept as tiny @njit functions that numba inlines, so the hot loops call one definition instead of
 repeating the algebra. ``exp(θ/2)`` is the unit quaternion of the rotation vector θ; for |θ| < 1e-8 the
 sin(|θ|/2)/|θ| factor uses its series 1/2 − |θ|²/48.
@@ -46,3 +48,17 @@ def exp_times_quat(qw, qx, qy, qz, tx, ty, tz):
                        cw * qx + px * qw + py * qz - pz * qy,
                        cw * qy - px * qz + py * qw + pz * qx,
                        cw * qz + px * qy - py * qx + pz * qw)
+
+
+@njit(cache=True, inline="always")
+def rotmat_into(c, qw, qx, qy, qz):
+    """Write the direction-cosine matrix ``C_nb`` of the unit quaternion ``q_nb`` into ``c`` (v_n = C_nb v_b)."""
+    c[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+    c[0, 1] = 2.0 * (qx * qy - qw * qz)
+    c[0, 2] = 2.0 * (qx * qz + qw * qy)
+    c[1, 0] = 2.0 * (qx * qy + qw * qz)
+    c[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+    c[1, 2] = 2.0 * (qy * qz - qw * qx)
+    c[2, 0] = 2.0 * (qx * qz - qw * qy)
+    c[2, 1] = 2.0 * (qy * qz + qw * qx)
+    c[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)

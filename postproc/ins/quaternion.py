@@ -1,8 +1,8 @@
 """Unit-quaternion helpers (wxyz, scalar first; ``q_nb`` rotates body -> nav).
 
-All functions are plain NumPy on small arrays *and* numba-compatible: ``fast.py`` compiles them with
-``numba.njit`` while ``reference.py`` calls them as ordinary Python, so both engines share one definition
-of the attitude algebra (the engines differ in the filter, not in what a quaternion means).
+Plain NumPy on small arrays, used by the reference engine, the mechanization check and the tests. The
+fast engine uses the scalar kernels of ``kernels.py``; the DCM has one definition there
+(``kernels.rotmat_into``), which ``quat_to_rotmat`` runs as plain Python.
 
 Conventions (bootnav.CONVENTIONS): ``q_nb = [w, x, y, z]``; ``v_n = C(q_nb) v_b``;
 body angular rate integrates on the right, ``q_nb(t+dt) = q_nb(t) ⊗ exp(ω_b dt / 2)``; a nav-frame
@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from postproc.ins.kernels import rotmat_into
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -56,17 +58,8 @@ def rotvec_to_quat(theta: np.ndarray) -> np.ndarray:
 
 def quat_to_rotmat(q: np.ndarray) -> np.ndarray:
     """Direction-cosine matrix ``C_nb`` of a unit quaternion ``q_nb`` (v_n = C_nb v_b)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
     c = np.empty((3, 3))
-    c[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    c[0, 1] = 2.0 * (x * y - w * z)
-    c[0, 2] = 2.0 * (x * z + w * y)
-    c[1, 0] = 2.0 * (x * y + w * z)
-    c[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    c[1, 2] = 2.0 * (y * z - w * x)
-    c[2, 0] = 2.0 * (x * z - w * y)
-    c[2, 1] = 2.0 * (y * z + w * x)
-    c[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    rotmat_into.py_func(c, q[0], q[1], q[2], q[3])
     return c
 
 
