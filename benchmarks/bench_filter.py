@@ -1,4 +1,4 @@
-"""Benchmark of postproc.ins: filter speed (both engines, a per-sample NumPy loop), 1-h end-to-end time and
+"""Benchmark of bootnav.postproc.ins: filter speed (both engines, a per-sample NumPy loop), 1-h end-to-end time and
 memory, and the smoother's effect on the real developer recordings (METRICS.md definitions).
 
     .venv/bin/python benchmarks/bench_filter.py [--quick] [--no-real]
@@ -23,8 +23,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from postproc.ins import FilterSettings, run_filter  # noqa: E402
-from postproc.ins.quaternion import quat_multiply, quat_to_rotmat, rotvec_to_quat  # noqa: E402
+from bootnav.postproc.ins import FilterSettings, run_filter  # noqa: E402
+from bootnav.postproc.ins.quaternion import quat_multiply, quat_to_rotmat, rotvec_to_quat  # noqa: E402
 
 DATASETS = REPO.parent / "shared" / "datasets"
 
@@ -49,7 +49,7 @@ def load_csv(path: Path):
 def simple_shoe(acc_b, gyro_b, gravity, window=5, sigma_a=0.01, sigma_w=math.radians(0.1), gamma=3e5):
     """SHOE/GLRT (Skog 2010; seed-004 eq. 2, squared form), centred window; stance where T < γ.
 
-    Fallback only (the project's detector is postproc.detectors). γ = 3e5 agreed best with the VICON stance
+    Fallback only (the project's detector is bootnav.postproc.detectors). γ = 3e5 agreed best with the VICON stance
     labels of two pyshoe_vicon trials (94 % of samples); OpenShoe at 820 Hz: window 3, γ = 3e4."""
     n = acc_b.shape[0]
     k = np.ones(window) / window
@@ -61,11 +61,11 @@ def simple_shoe(acc_b, gyro_b, gravity, window=5, sigma_a=0.01, sigma_w=math.rad
 
 
 def detect(t, acc, gyr, g):
-    """The project's default detector if present (postproc.detectors), else the simple SHOE above."""
+    """The project's default detector if present (bootnav.postproc.detectors), else the simple SHOE above."""
     try:
-        from postproc.detectors import detect_stance
+        from bootnav.postproc.detectors import detect_stance
 
-        return detect_stance(t, acc, gyr, None, g).stance, "postproc.detectors (default)"
+        return detect_stance(t, acc, gyr, None, g).stance, "bootnav.postproc.detectors (default)"
     except Exception as exc:  # detector package missing or failing: still benchmark the filter
         return simple_shoe(acc, gyr, g), f"simple SHOE ({type(exc).__name__})"
 
@@ -80,7 +80,7 @@ def level_init(acc, gyr, stance, n_max=400):
     i1 = max(i1, i0 + 1)
     f = acc[i0:i1].mean(axis=0)
     roll, pitch = math.atan2(f[1], f[2]), math.atan2(-f[0], math.hypot(f[1], f[2]))
-    from postproc.ins.quaternion import euler_to_quat
+    from bootnav.postproc.ins.quaternion import euler_to_quat
 
     bias = gyr[i0:i1].mean(axis=0) if i1 - i0 >= 20 else np.zeros(3)
     return Init(euler_to_quat(roll, pitch, 0.0), bias)
@@ -184,7 +184,7 @@ def timed(fn, repeat=3):
 
 
 def bench_speed(quick: bool):
-    from postproc.ins.fast import warm_up
+    from bootnav.postproc.ins.fast import warm_up
 
     t0 = time.perf_counter()
     warm = warm_up()

@@ -26,7 +26,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from logger.protocol import FrameParser, pack_samples  # noqa: E402
+from bootnav.logger.protocol import FrameParser, pack_samples  # noqa: E402
 
 
 def bench_parser(n: int = 200_000, chunk: int = 4096, corrupt: float = 0.0) -> dict:
@@ -71,7 +71,7 @@ def bench_pty(rate: float, seconds: float, tmp: Path) -> dict:
     wall = time.monotonic() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
-    from logger.recording import load
+    from bootnav.logger.recording import load
 
     r = load(out)
     rep = json.loads(report.read_text())

@@ -28,10 +28,10 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, default=None, help="cache the generated recording here")
     args = parser.parse_args()
 
-    from postproc.outputs import write_outputs
-    from postproc.pipeline import process
-    from postproc.settings import ProcessSettings
-    from simulator import simulate, write_h5
+    from bootnav.postproc.outputs import write_outputs
+    from bootnav.postproc.pipeline import process
+    from bootnav.postproc.settings import ProcessSettings
+    from bootnav.simulator import simulate, write_h5
 
     work = Path(tempfile.mkdtemp(prefix="bench_process_"))
     rec = args.keep or work / "long.h5"

@@ -23,8 +23,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from postproc.pdr.evaluate import evaluate_trial, list_trials, position_of  # noqa: E402
-from postproc.pdr.pipeline import PdrSettings  # noqa: E402
+from bootnav.postproc.pdr.evaluate import evaluate_trial, list_trials, position_of  # noqa: E402
+from bootnav.postproc.pdr.pipeline import PdrSettings  # noqa: E402
 
 DETECTORS = ["robust", "peak_group", "li", "leppakoski", "footpath", "peak_valley", "zero_crossing", "pan_tompkins",
              "template"]
@@ -51,11 +51,11 @@ def _job(args):
 
 
 def _foot_job(trial) -> dict:
-    """Foot IMUs of one Voisard walk: the foot-mounted ZUPT pipeline (postproc.pipeline.process) -> strides
+    """Foot IMUs of one Voisard walk: the foot-mounted ZUPT pipeline (bootnav.postproc.pipeline.process) -> strides
     -> the steps table, and the seed-000 §2.5 two-axis foot detector (literal and engineered)."""
-    from postproc.pdr.detectors import TwoAxisFootDetector
-    from postproc.pdr.evaluate import event_metrics, load_imu_csv
-    from postproc.pdr.foot_ins import steps_from_foot_ins
+    from bootnav.postproc.pdr.detectors import TwoAxisFootDetector
+    from bootnav.postproc.pdr.evaluate import event_metrics, load_imu_csv
+    from bootnav.postproc.pdr.foot_ins import steps_from_foot_ins
 
     row = {"id": trial.id, "detector": "foot_zupt", "length": "-", "error": None}
     feet = ("imu_left.csv.gz", "imu_right.csv.gz")
@@ -68,7 +68,7 @@ def _foot_job(trial) -> dict:
         key = "two_axis" if lit else "two_axis_eng"
         row[f"{key}_f1"], row[f"{key}_count_err_pct"] = m2["f1"], m2["count_err_pct"]
     try:
-        from postproc.pipeline import process
+        from bootnav.postproc.pipeline import process
 
         tj = trial.info["truth_json"]
         times, dist = [], []

@@ -1,9 +1,9 @@
 """Tune / compare stance detectors on the real foot-mounted recordings in shared/datasets.
 
 For every foot trial with position truth: load the IMU (gzip CSV -> numpy), level on the initial still
-period (postproc.calibration), detect stance with each detector configuration, run the ZUPT filter
-(postproc.ins.run_filter when present, else a private fallback integrator given by --fallback), and score
-with postproc.evaluate.metrics exactly as METRICS.md defines (pyshoe_vicon: armse_2d + stance precision/
+period (bootnav.postproc.calibration), detect stance with each detector configuration, run the ZUPT filter
+(bootnav.postproc.ins.run_filter when present, else a private fallback integrator given by --fallback), and score
+with bootnav.postproc.evaluate.metrics exactly as METRICS.md defines (pyshoe_vicon: armse_2d + stance precision/
 recall; loops: closure_pct; koroglu_footprints: final_fp_err_pct; voisard feet: |distance_err_pct|;
 gaitmap level walk: stride_mae_m).
 
@@ -45,7 +45,7 @@ SHOE_GRID = [10.0 ** e for e in np.arange(4.0, 10.01, 0.5)]
 
 
 def configs(quick: bool = False) -> dict:
-    from postproc.detectors import DetectorSettings
+    from bootnav.postproc.detectors import DetectorSettings
 
     out = {"adaptive": DetectorSettings(method="adaptive"),
            # pyshoe's G with the σ's as briefed (OpenShoe's): marks ~100 % of samples as stance here
@@ -79,7 +79,7 @@ FILTER_OVERRIDES: dict = {}
 
 def filter_positions(t, acc, gyro, stance, init, g):
     try:
-        from postproc.ins import FilterSettings, run_filter  # the filter engineer's module
+        from bootnav.postproc.ins import FilterSettings, run_filter  # the filter engineer's module
 
         return run_filter(t, acc, gyro, stance, init, g, FilterSettings(**FILTER_OVERRIDES)).pos_n
     except ImportError:
@@ -89,8 +89,8 @@ def filter_positions(t, acc, gyro, stance, init, g):
 
 
 def score(folder: Path, kinds: list[str], fname: str, t, pos, stance) -> dict:
-    from postproc.evaluate import metrics as M
-    from postproc.evaluate.runner import read_csv_columns
+    from bootnav.postproc.evaluate import metrics as M
+    from bootnav.postproc.evaluate.runner import read_csv_columns
 
     out: dict = {}
     suffix = fname.replace("imu", "").replace(".csv.gz", "")
@@ -124,8 +124,8 @@ def run_trial(job) -> list[tuple]:
     root, trial, fname, cfgs, overrides = job
     FILTER_OVERRIDES.clear()
     FILTER_OVERRIDES.update(overrides)
-    from postproc.calibration import CalibrationSettings, initial_alignment
-    from postproc.detectors import detect_stance
+    from bootnav.postproc.calibration import CalibrationSettings, initial_alignment
+    from bootnav.postproc.detectors import detect_stance
 
     folder = root / trial["path"] if "path" in trial else root / trial["id"]
     a = read_csv(folder / fname)

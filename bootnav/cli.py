@@ -16,14 +16,14 @@ from bootnav.errors import BootnavError
 
 # name -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "record": ("logger.cli_record", "record binary frames from a serial port into an HDF5 recording"),
-    "import": ("logger.cli_import", "import an SD-card log or a CSV from another IMU into HDF5"),
-    "info": ("logger.cli_info", "summarise a recording (rate, gaps, drops, CRC errors, saturation)"),
-    "emulate": ("logger.cli_emulate", "fake boot sensor on a pseudo-terminal streaming protocol frames"),
-    "simulate": ("simulator.cli", "simulate a boot walk with exact truth and an MPU6050 error model"),
-    "process": ("postproc.cli_process", "reconstruct the 3-D path from a recording (ZUPT Kalman filter)"),
-    "pdr": ("postproc.pdr.cli", "step-and-heading dead reckoning for waist/phone sensors"),
-    "eval": ("postproc.evaluate.cli", "accuracy and speed on the public datasets, with a report"),
+    "record": ("bootnav.logger.cli_record", "record binary frames from a serial port into an HDF5 recording"),
+    "import": ("bootnav.logger.cli_import", "import an SD-card log or a CSV from another IMU into HDF5"),
+    "info": ("bootnav.logger.cli_info", "summarise a recording (rate, gaps, drops, CRC errors, saturation)"),
+    "emulate": ("bootnav.logger.cli_emulate", "fake boot sensor on a pseudo-terminal streaming protocol frames"),
+    "simulate": ("bootnav.simulator.cli", "simulate a boot walk with exact truth and an MPU6050 error model"),
+    "process": ("bootnav.postproc.cli_process", "reconstruct the 3-D path from a recording (ZUPT Kalman filter)"),
+    "pdr": ("bootnav.postproc.pdr.cli", "step-and-heading dead reckoning for waist/phone sensors"),
+    "eval": ("bootnav.postproc.evaluate.cli", "accuracy and speed on the public datasets, with a report"),
 }
 
 

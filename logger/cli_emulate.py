@@ -1,4 +1,4 @@
-"""``bootnav emulate``: a fake boot sensor on a pseudo-terminal (see ``logger.emulator``)."""
+"""``bootnav emulate``: a fake boot sensor on a pseudo-terminal (see ``bootnav.logger.emulator``)."""
 
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from bootnav.errors import BootnavError
-    from logger.emulator import FAULT_KINDS, Emulator, EmulatorSettings
+    from bootnav.logger.emulator import FAULT_KINDS, Emulator, EmulatorSettings
 
     kinds = tuple(k for k in args.corrupt_kinds.split(",") if k)
     bad = [k for k in kinds if k not in FAULT_KINDS]

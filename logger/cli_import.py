@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from logger.importers import builtin_names, load_profile, read_any, write_result
+    from bootnav.logger.importers import builtin_names, load_profile, read_any, write_result
 
     if args.profile == "list" or str(args.file) == "list":
         for name in builtin_names():

@@ -24,7 +24,7 @@ def summarize(path) -> dict:
     """The summary ``bootnav info`` prints (also used by tests and other tools)."""
     import numpy as np
 
-    from logger.recording import load
+    from bootnav.logger.recording import load
 
     rec = load(path, with_truth=False)
     t = rec.t_s

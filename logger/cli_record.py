@@ -1,4 +1,4 @@
-"""``bootnav record``: serial port -> HDF5 recording (see ``logger.serial_recorder``)."""
+"""``bootnav record``: serial port -> HDF5 recording (see ``bootnav.logger.serial_recorder``)."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from bootnav.errors import BootnavError
-    from logger.serial_recorder import RecorderSettings, SerialRecorder
+    from bootnav.logger.serial_recorder import RecorderSettings, SerialRecorder
 
     out = Path(args.out)
     if out.exists() and not args.force:  # never lose a session by re-running a command

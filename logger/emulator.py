@@ -32,15 +32,15 @@ from pathlib import Path
 
 import numpy as np
 
-from logger import mpu6050
-from logger.protocol import (
+from bootnav.logger import mpu6050
+from bootnav.logger.protocol import (
     CMD_RESEND_HEADER,
     SAMPLE_DTYPE,
     HeaderFrame,
     StatusFrame,
     pack_samples,
 )
-from logger.timebase import T_US_MODULUS, signed_delta
+from bootnav.logger.timebase import T_US_MODULUS, signed_delta
 
 FAULT_KINDS = ("bitflip", "garbage", "drop")
 
@@ -144,7 +144,7 @@ def synthetic_signal(duration_s: float, rate_hz: float, accel_fs: int = 3, gyro_
 
 def load_source(path, accel_fs: int | None = None, gyro_fs: int | None = None) -> SourceSignal:
     """Counts from a recording: int16 counts as stored, or SI floats quantised with the declared ranges."""
-    from logger.recording import load
+    from bootnav.logger.recording import load
 
     rec = load(path, with_truth=False)
     meta = rec.meta

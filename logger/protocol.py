@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
+from bootnav.logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
 
 SYNC = b"\xA5\x5A"
 SYNC0, SYNC1 = 0xA5, 0x5A

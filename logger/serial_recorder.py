@@ -24,10 +24,10 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from bootnav.errors import BootnavError
-from logger import mpu6050
-from logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
-from logger.recording import RecordingWriter, counts_channel, make_events, timing_summary
-from logger.timebase import Timebase
+from bootnav.logger import mpu6050
+from bootnav.logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
+from bootnav.logger.recording import RecordingWriter, counts_channel, make_events, timing_summary
+from bootnav.logger.timebase import Timebase
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS = 3, 3  # ±16 g, ±2000 °/s: what a boot needs (see PROTOCOL.md)

@@ -64,11 +64,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def build_settings(args):
     """Defaults < --settings file < command-line options."""
-    from postproc.settings import ProcessSettings
+    from bootnav.postproc.settings import ProcessSettings
 
     s = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
     if args.detector:
-        from postproc.detectors import DetectorSettings
+        from bootnav.postproc.detectors import DetectorSettings
 
         try:
             s.detector = DetectorSettings(**{**s.detector.to_dict(), "method": args.detector})
@@ -173,8 +173,8 @@ def format_summary(summary: dict, files: dict) -> str:
 
 
 def _one(input_path: str, settings, out_dir: str, progress) -> tuple[dict, dict]:
-    from postproc.outputs import write_outputs
-    from postproc.pipeline import process
+    from bootnav.postproc.outputs import write_outputs
+    from bootnav.postproc.pipeline import process
 
     result = process(input_path, settings, progress=progress)
     files = write_outputs(result, out_dir)
@@ -185,7 +185,7 @@ def _batch_job(job) -> tuple[str, dict | None, dict | None, str | None]:
     from bootnav.errors import BootnavError
 
     input_path, settings_dict, out_dir = job
-    from postproc.settings import ProcessSettings
+    from bootnav.postproc.settings import ProcessSettings
 
     try:
         summary, files = _one(input_path, ProcessSettings.from_dict(settings_dict), out_dir, None)

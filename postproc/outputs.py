@@ -3,7 +3,7 @@
 * ``trajectory.csv``: ``t_s,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,stance``, one row per processed sample,
   nav frame ENU (x east, y north, z up), origin at the first processed sample; stance 1 = foot at rest.
 * ``steps.csv``: ``t_s,x_m,y_m,z_m,stride_length_m,dz_m,heading_rad``, one row per stride
-  (``postproc.strides``): mid time of the stance phase ending the stride, its footprint, horizontal
+  (``bootnav.postproc.strides``): mid time of the stance phase ending the stride, its footprint, horizontal
   length, height change, and direction ``atan2(Δy, Δx)`` counter-clockwise from x (east).
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
@@ -138,7 +138,7 @@ def results_arrays(result) -> tuple[dict, dict]:
 
 def write_hdf5_results(result, out_dir: Path) -> tuple[Path, str, list[str]]:
     """Write ``/results/<name>`` (+ ``/steps``); returns (file, group, warnings)."""
-    from logger.recording import write_group, write_recording
+    from bootnav.logger.recording import write_group, write_recording
 
     warnings: list[str] = []
     name = result.settings.output.results_name
@@ -160,7 +160,7 @@ def write_hdf5_results(result, out_dir: Path) -> tuple[Path, str, list[str]]:
         meta.setdefault("source_file", str(result.source) if result.source else "")
         imported = rec.raw.get("import_result")
         if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
-            from logger.importers.core import write_result
+            from bootnav.logger.importers.core import write_result
 
             write_result(imported, target)
         else:

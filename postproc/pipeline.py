@@ -3,21 +3,21 @@
 Stages (seed-004 §3, the paper's pipeline with the standard reconstructions it cites), each timed in
 ``summary["timings_s"]``:
 
-1. **load**: HDF5 recording (``logger.recording.load``) or an importable file (``logger.importers``),
+1. **load**: HDF5 recording (``bootnav.logger.recording.load``) or an importable file (``bootnav.logger.importers``),
    e.g. the canonical ``imu.csv.gz``, which needs no options.
 2. **checks**: crop to ``crop_s`` (paper: 103-176 s), then refuse input that would give a garbage path
    (NaN, time going backwards, gaps the integration cannot bridge, too short) with the sample index and
    time; flag saturated bursts and short gaps as warnings (kept in the summary).
 3. **calibration**: optional accelerometer calibration file, gravity (WGS-84 normal gravity from
    latitude/height unless given), roll/pitch and gyro bias from the initial still period
-   (``postproc.calibration``).
-4. **detection**: stance (zero-velocity) detector (``postproc.detectors``, eq. 2); too few stance phases
+   (``bootnav.postproc.calibration``).
+4. **detection**: stance (zero-velocity) detector (``bootnav.postproc.detectors``, eq. 2); too few stance phases
    or an implausible stance fraction is an error, never a silent path.
-5. **filter**: ZUPT error-state Kalman filter + RTS smoother (``postproc.ins.run_filter``, eqs. 1, 3-7).
-6. **strides**: strides, distance, closure, floors (``postproc.strides``); reference metrics when a
-   reference file is given (``postproc.reference``).
+5. **filter**: ZUPT error-state Kalman filter + RTS smoother (``bootnav.postproc.ins.run_filter``, eqs. 1, 3-7).
+6. **strides**: strides, distance, closure, floors (``bootnav.postproc.strides``); reference metrics when a
+   reference file is given (``bootnav.postproc.reference``).
 
-``process`` writes nothing; ``postproc.outputs.write_outputs`` and ``postproc.plots`` do.
+``process`` writes nothing; ``bootnav.postproc.outputs.write_outputs`` and ``bootnav.postproc.plots`` do.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import numpy as np
 
 from bootnav import CONVENTIONS, __version__
 from bootnav.errors import InputError
-from logger.recording import EVENT_DTYPE, SATURATION_BITS, Recording, load
+from bootnav.logger.recording import EVENT_DTYPE, SATURATION_BITS, Recording, load
 
 from .settings import InputChecks, OutputSettings, ProcessSettings  # noqa: F401  (re-exported API)
 from .strides import path_summary, segment_strides, stance_phases
@@ -101,16 +101,16 @@ def _import(path: Path) -> Recording:
     """
     try:
         try:
-            from logger.importers import read_any
+            from bootnav.logger.importers import read_any
         except ImportError:
-            from logger.importers.core import read_any
+            from bootnav.logger.importers.core import read_any
     except ImportError:  # importers not installed in this build: the canonical CSV still works
         return _read_canonical_csv(path)
     try:
         imp = read_any(path)
     except ImportError:  # a half-installed importer package: the canonical CSV still works
         return _read_canonical_csv(path)
-    from logger.recording import make_events
+    from bootnav.logger.recording import make_events
 
     events = sorted(imp.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
     return Recording(path=path, t_s=np.asarray(imp.t_s, np.float64), acc_mps2=imp.acc_mps2,

@@ -237,7 +237,7 @@ def stride_metrics(ref: Reference, t_s: np.ndarray, pos_n: np.ndarray, mount: st
 def truth_reference(rec, path) -> Reference:
     """``--reference truth``: the simulator's exact sensor trajectory stored in the recording's ``/truth``
     (row-aligned with ``/imu``, so matched on the recording's own clock)."""
-    from logger.recording import load
+    from bootnav.logger.recording import load
 
     truth = load(path).truth if path is not None else getattr(rec, "truth", None)
     if not truth or "pos_n_m" not in truth:

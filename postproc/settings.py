@@ -79,7 +79,7 @@ class ProcessSettings:
         ``strides.FloorSettings`` (None = floors from the footprint height; a value = from stair strides
         only, default 0.1 m: on a simulated 1 h walk the z drift of -16 m counted 8 floors up and 13 down from
         the height, 0/0 (the truth) from the stair strides; the three-floor climb counts 3 either way).
-    reference: reference file for Table 1 metrics (``postproc.reference``), or None.
+    reference: reference file for Table 1 metrics (``bootnav.postproc.reference``), or None.
     """
 
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)

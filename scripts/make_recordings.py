@@ -18,8 +18,8 @@ OUT = REPO / "recordings"
 
 
 def main(root: Path) -> None:
-    from logger.importers import import_file
-    from simulator import simulate, write_h5
+    from bootnav.logger.importers import import_file
+    from bootnav.simulator import simulate, write_h5
 
     OUT.mkdir(exist_ok=True)
     raw = root / "raw-formats"

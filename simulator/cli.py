@@ -22,9 +22,9 @@ def add_arguments(parser) -> None:
 
 
 def _list() -> int:
-    from simulator.imu_model import PROFILE_HELP
-    from simulator.imu_synth import MOUNTS
-    from simulator.scenarios import SCENARIOS
+    from bootnav.simulator.imu_model import PROFILE_HELP
+    from bootnav.simulator.imu_synth import MOUNTS
+    from bootnav.simulator.scenarios import SCENARIOS
 
     print("scenarios:")
     for name, sc in SCENARIOS.items():
@@ -43,9 +43,9 @@ def run(args) -> int:
         return _list()
     if not args.scenario or not args.out:
         raise InputError("give --scenario NAME and --out FILE (or --list)")
-    from simulator.imu_synth import MOUNTS
-    from simulator.simulate import simulate
-    from simulator.writers import write_h5, write_sd_txt
+    from bootnav.simulator.imu_synth import MOUNTS
+    from bootnav.simulator.simulate import simulate
+    from bootnav.simulator.writers import write_h5, write_sd_txt
 
     from pathlib import Path
 
@@ -72,7 +72,7 @@ def run(args) -> int:
         print("\r" + " " * 40 + "\r", end="", file=sys.stderr)
     path = write_sd_txt(res, args.out) if fmt == "sd-txt" else write_h5(res, args.out)
     if args.plot:
-        from simulator.plot import plot_result
+        from bootnav.simulator.plot import plot_result
 
         plot_result(res, args.plot)
     tr = res.truth

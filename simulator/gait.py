@@ -28,7 +28,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from simulator.trajectory import CHANNELS, Trajectory, hermite_coefficients, poly_eval
+from bootnav.simulator.trajectory import CHANNELS, Trajectory, hermite_coefficients, poly_eval
 
 X, Y, Z, YAW, PITCH, ROLL = range(6)
 

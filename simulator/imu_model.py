@@ -41,7 +41,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from logger.mpu6050 import (
+from bootnav.logger.mpu6050 import (
     ACCEL_LSB_PER_G, GYRO_LSB_PER_DPS, INT16_MAX, INT16_MIN, STANDARD_GRAVITY, accel_code, accel_scale_mps2,
     gyro_code, gyro_scale_radps,
 )

@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from logger.mpu6050 import STANDARD_GRAVITY
-from simulator.trajectory import Trajectory
+from bootnav.logger.mpu6050 import STANDARD_GRAVITY
+from bootnav.simulator.trajectory import Trajectory
 
 
 def _rot_zyx(yaw, pitch, roll) -> np.ndarray:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simulator.simulate import SimResult
+from bootnav.simulator.simulate import SimResult
 
 
 def plot_result(res: SimResult, path, zoom_s: tuple[float, float] | None = None) -> None:

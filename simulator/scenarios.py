@@ -11,7 +11,7 @@ from typing import Callable
 
 import numpy as np
 
-from simulator.gait import RUN, SHUFFLE, STAIRS_DOWN, STAIRS_UP, WALK, PathBuilder
+from bootnav.simulator.gait import RUN, SHUFFLE, STAIRS_DOWN, STAIRS_UP, WALK, PathBuilder
 
 
 @dataclass(frozen=True)

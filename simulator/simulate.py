@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from logger.recording import SATURATION_BITS, make_events
-from simulator.gait import GAIT_CODES
-from simulator.imu_model import ErrorModel, SensorProfile, drop_mask, get_profile, quantize, timestamps
-from simulator.imu_synth import MOUNTS, Mount, describe_mount, synthesize
-from simulator.scenarios import Scenario, get_scenario
-from simulator.trajectory import Trajectory
+from bootnav.logger.recording import SATURATION_BITS, make_events
+from bootnav.simulator.gait import GAIT_CODES
+from bootnav.simulator.imu_model import ErrorModel, SensorProfile, drop_mask, get_profile, quantize, timestamps
+from bootnav.simulator.imu_synth import MOUNTS, Mount, describe_mount, synthesize
+from bootnav.simulator.scenarios import Scenario, get_scenario
+from bootnav.simulator.trajectory import Trajectory
 
 BLOCK_OUT = 1 << 14  # output samples per block (bounded memory for hour-long runs)
 
@@ -38,7 +38,7 @@ class SimResult:
     t_s: np.ndarray  # recorded time since the first sample (device clock), s
     acc: np.ndarray  # (N,3) int16 counts, or float m/s^2 for the ideal profile
     gyro: np.ndarray  # (N,3) int16 counts, or float rad/s
-    saturated: np.ndarray  # (N,) uint8 bitmask (logger.recording.SATURATION_BITS)
+    saturated: np.ndarray  # (N,) uint8 bitmask (bootnav.logger.recording.SATURATION_BITS)
     t_device: np.ndarray | None  # (N,) uint32 us (wraps)
     seq: np.ndarray | None  # (N,) uint16
     temp: np.ndarray | None  # (N,) int16 counts

@@ -10,10 +10,10 @@ import numpy as np
 
 from bootnav import __version__
 from bootnav.errors import InputError
-from logger.crc import crc16_ccitt_false_rows
-from logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code
-from logger.recording import counts_channel, si_channel, write_group, write_recording
-from simulator.simulate import SimResult
+from bootnav.logger.crc import crc16_ccitt_false_rows
+from bootnav.logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code
+from bootnav.logger.recording import counts_channel, si_channel, write_group, write_recording
+from bootnav.simulator.simulate import SimResult
 
 SIM_DEVICE_ID = 0x00051A00  # "SIM" device id in headers
 

@@ -31,7 +31,7 @@ def reopen_in_fresh_process(path) -> dict:
     """Load a recording in a new process; return a JSON summary with SHA-256 of each SI array."""
     code = (
         "import sys, json, hashlib, numpy as np\n"
-        "from logger.recording import load\n"
+        "from bootnav.logger.recording import load\n"
         "r = load(sys.argv[1])\n"
         "h = lambda a: hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()\n"
         "print(json.dumps({'n': r.n, 't_s': h(r.t_s), 'acc_raw': h(r.raw['acc']), 'gyro_raw': h(r.raw['gyro']),"

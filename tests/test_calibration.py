@@ -10,7 +10,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from bootnav.errors import InputError
-from postproc.calibration import (
+from bootnav.postproc.calibration import (
     CalibrationSettings,
     apply_accel_calibration,
     find_still_period,

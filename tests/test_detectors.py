@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from postproc.detectors import METHODS, DetectorSettings, detect_stance, postprocess
-from postproc.detectors.ared import ared_statistic
-from postproc.detectors.mag import mag_statistic
-from postproc.detectors.mv import mv_statistic
-from postproc.detectors.shoe import shoe_statistic
+from bootnav.postproc.detectors import METHODS, DetectorSettings, detect_stance, postprocess
+from bootnav.postproc.detectors.ared import ared_statistic
+from bootnav.postproc.detectors.mag import mag_statistic
+from bootnav.postproc.detectors.mv import mv_statistic
+from bootnav.postproc.detectors.shoe import shoe_statistic
 
 G = 9.80665
 SIGMA_A, SIGMA_G = 0.02, 0.005  # noise of the synthetic still segments (m/s², rad/s)
@@ -183,7 +183,7 @@ def test_clipping_plateaus_are_detected_without_a_mask():
     res = detect_stance(t, acc_c, gyro_c, DetectorSettings(), G)
     assert not res.stance[k:k + 6].any()
     assert res.info["n_saturated"] >= 6
-    from postproc.detectors._common import clipped_samples
+    from bootnav.postproc.detectors._common import clipped_samples
 
     # a constant (dead or noise-free) axis repeats its extreme everywhere: that is not clipping
     assert not clipped_samples(np.column_stack([np.full(100, G), np.linspace(-1, 1, 100)])).any()
@@ -206,7 +206,7 @@ def test_adaptive_stance_vs_vicon_labels(datasets):
     # themselves reaches only F1 0.89 on average (0.75-0.97). Bound for a detector with no tuning at all:
     # on average 3 of 4 labelled stance samples found and 3 of 4 detected stance samples confirmed
     # (precision and recall >= 0.75).
-    from postproc.evaluate.metrics import stance_metrics
+    from bootnav.postproc.evaluate.metrics import stance_metrics
 
     prec, rec = [], []
     trials = sorted(p for p in (datasets / "pyshoe_vicon").iterdir() if p.is_dir())
@@ -334,7 +334,7 @@ def test_clipping_on_both_rails_of_a_twos_complement_sensor():
     """MPU6050 rails are -32768 and +32767 counts (3e-5 apart, relative): both plateaus are found, as the
     iez_mpu6050 README counts (raw value at -32768 or 32767); a value repeated below the opposite extreme
     (e.g. duplicated rows) is not a rail."""
-    from postproc.detectors._common import clipped_samples
+    from bootnav.postproc.detectors._common import clipped_samples
 
     lsb = math.radians(1.0 / 131.0)  # ±250 °/s range
     x = np.sin(np.linspace(0, 12 * np.pi, 1200)) * 40000 * lsb
@@ -351,7 +351,7 @@ def test_clipping_on_both_rails_of_a_twos_complement_sensor():
 def test_isolated_short_stance_is_kept_but_fragments_are_dropped():
     """A 40 ms quiet run between two long swings is a running foot-flat (kept); the same run 0.1 s from a
     longer stance is a fragment (dropped)."""
-    from postproc.detectors import postprocess
+    from bootnav.postproc.detectors import postprocess
 
     t = np.arange(400) / 200.0
     mask = np.zeros(400, bool)

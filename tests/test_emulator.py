@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import serial
 
-from logger import mpu6050
-from logger.emulator import load_source, synthetic_signal
-from logger.protocol import FrameParser, HeaderFrame
-from logger.recording import si_channel, write_recording
+from bootnav.logger import mpu6050
+from bootnav.logger.emulator import load_source, synthetic_signal
+from bootnav.logger.protocol import FrameParser, HeaderFrame
+from bootnav.logger.recording import si_channel, write_recording
 from tests.test_serial_record import bootnav, finish, wait_for
 
 pytestmark = pytest.mark.timeout(60)

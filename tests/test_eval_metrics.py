@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from postproc.evaluate import metrics as m
+from bootnav.postproc.evaluate import metrics as m
 
 
 def _rot(xy, angle):

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from postproc.evaluate import runner
+from bootnav.postproc.evaluate import runner
 
 
 def _manifest_subset(datasets, ids):

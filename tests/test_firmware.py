@@ -209,7 +209,7 @@ def test_recorded_counts_equal_served_samples_bit_for_bit(built, tmp_path):
 
     import h5py
 
-    from logger.recording import load
+    from bootnav.logger.recording import load
 
     r = load(out)
     assert r.n == n, f"recorded {r.n} of {n} served samples"
@@ -249,7 +249,7 @@ def test_recorded_counts_equal_served_samples_bit_for_bit(built, tmp_path):
 
 def test_frames_header_schedule_request_and_status(built, tmp_path):
     """Raw frames from the pty: start-up status and header, header every 1000 samples and on 'H'."""
-    from logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
+    from bootnav.logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
 
     n = 1010
     served = _served_sequence(n, seed=11)
@@ -292,7 +292,7 @@ def test_frames_header_schedule_request_and_status(built, tmp_path):
 @pytest.mark.parametrize("fault, detail", [(("--absent",), 0xFF), (("--whoami", "0x72"), 0x72)])
 def test_sensor_missing_is_reported_and_retried(built, tmp_path, fault, detail):
     """No MPU6050 on the bus (or a chip answering another WHO_AM_I): status 1 every second, no samples."""
-    from logger.protocol import SampleFrame, StatusFrame, parse_stream
+    from bootnav.logger.protocol import SampleFrame, StatusFrame, parse_stream
 
     served = _served_sequence(50, seed=3)
 
@@ -313,7 +313,7 @@ def test_sensor_missing_is_reported_and_retried(built, tmp_path, fault, detail):
 def test_sd_enabled_build_without_card_reports_absent_and_keeps_streaming(built, tmp_path):
     """The BOOTNAV_SD_LOG=1 firmware (SD library API from sim/sd_stub: an empty card slot) must say
     "SD absent, card did not initialise" (status 2, detail 1) and stream as usual."""
-    from logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
+    from bootnav.logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
 
     _make("firmware", "BUILD=build/sdstub", "SD_LIB=sim/sd_stub")
     n = 40
@@ -345,7 +345,7 @@ def test_burst_and_stall_fifo_loses_nothing_registers_report_overrun(stall_build
     100 ms main-loop stall (20 periods). From the FIFO every sample arrives with its own data-ready
     time. From the data registers only the newest survives: the firmware must report the others as
     overrun (status 4, detail 0, value = lost), keep seq contiguous and stamp the newest pulse."""
-    from logger.protocol import SampleFrame, StatusFrame, parse_stream
+    from bootnav.logger.protocol import SampleFrame, StatusFrame, parse_stream
 
     mode, elf = stall_build
     n, k = 100, 20
@@ -379,7 +379,7 @@ def test_sensor_reset_mid_run_is_detected_and_recovered(built, tmp_path):
     """The MPU6050 browns out after sample K (back to sleep, no data-ready). The firmware must report the
     silence (status 4, detail 1) 0.5 s after the last sample, re-initialise the sensor and carry on with
     seq K+1 = the next served sample."""
-    from logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
+    from bootnav.logger.protocol import HeaderFrame, SampleFrame, StatusFrame, parse_stream
 
     n, k = 40, 14
     served = _served_sequence(n, seed=13)
@@ -408,7 +408,7 @@ def test_sensor_reset_mid_run_is_detected_and_recovered(built, tmp_path):
 def test_simulated_walk_passes_through_the_firmware_unchanged(built, tmp_path):
     """`bootnav simulate` (running, ±16 g / ±2000 °/s) -> its int16 counts served by the MPU6050 model ->
     firmware -> `bootnav record`: the recording holds the simulated counts, and the same SI values."""
-    from logger.recording import load
+    from bootnav.logger.recording import load
 
     sim = tmp_path / "walk.h5"
     proc = subprocess.run([sys.executable, "-m", "bootnav", "simulate", "--scenario", "running", "--duration", "4",

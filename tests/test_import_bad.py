@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from logger.importers import import_file, read_any
-from logger.recording import load
+from bootnav.logger.importers import import_file, read_any
+from bootnav.logger.recording import load
 from tests.conftest import reopen_in_fresh_process
 
 G = 9.80665

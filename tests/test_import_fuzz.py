@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from bootnav.errors import InputError
-from logger.importers import read_any
+from bootnav.logger.importers import read_any
 
 N = 60
 G = 9.80665

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from logger.importers import builtin_names, import_file, load_aux, read_any, write_result
-from logger.importers.text import parse_table, read_text
-from logger.recording import load
+from bootnav.logger.importers import builtin_names, import_file, load_aux, read_any, write_result
+from bootnav.logger.importers.text import parse_table, read_text
+from bootnav.logger.recording import load
 from tests.conftest import REPO, reopen_in_fresh_process
 
 DATA = Path(__file__).parent / "data"
@@ -138,7 +138,7 @@ def test_every_profile_is_valid_toml_with_description():
                      "koroglu_sensorconnect_csv", "xio_ngimu_csv", "openshoe_820_txt", "physics_toolbox_csv",
                      "phyphox_csv", "waist20_seed000", "canonical_imu_csv", "canonical_acc_csv"):
         assert required in names
-    from logger.importers import load_profile
+    from bootnav.logger.importers import load_profile
 
     assert all(load_profile(n).get("description") for n in names)
 

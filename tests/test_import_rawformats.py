@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from logger.importers import import_file, load_aux, read_any
-from logger.recording import load
+from bootnav.logger.importers import import_file, load_aux, read_any
+from bootnav.logger.recording import load
 from tests.conftest import reopen_in_fresh_process, sha
 
 G = 9.80665
@@ -135,7 +135,7 @@ def test_purestreams_linear_acceleration_is_flagged(raw, tmp_path, folder, rows,
     assert rec.meta["acc_quantity"] == "linear_acceleration"
     assert rec.meta["gyro_present"] == 0 and np.all(np.isnan(rec.gyro_radps))
     assert any(b"NOT specific force" in e["detail"] for e in rec.events_of("note"))
-    from logger.importers.checks import quietest_second
+    from bootnav.logger.importers.checks import quietest_second
 
     assert quietest_second(rec.acc_mps2, 100)[0] < 1.0  # gravity removed: ~0 at rest, not 9.81
     # as specific force (the generic phyphox profile) it is refused, saying why

@@ -1,6 +1,6 @@
 """SD-card text log (PROTOCOL.md §2) round trip: known counts in, the same counts out, every defect an event.
 
-The log is written here with the protocol's CRC (``logger.crc``), with a bad-CRC line, a dropped line,
+The log is written here with the protocol's CRC (``bootnav.logger.crc``), with a bad-CRC line, a dropped line,
 a sample at full scale, a uint32 µs clock wrap, a seq wrap and a truncated last line (power loss).
 """
 
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from logger.crc import crc16_ccitt_false
-from logger.importers import format_sd_header, format_sd_line, import_file, read_any
-from logger.recording import load
+from bootnav.logger.crc import crc16_ccitt_false
+from bootnav.logger.importers import format_sd_header, format_sd_line, import_file, read_any
+from bootnav.logger.recording import load
 from tests.conftest import REPO, reopen_in_fresh_process, sha
 
 N = 600
@@ -167,7 +167,7 @@ def test_firmware_protocol_sd_vectors(tmp_path):
 
 def test_simulated_walk_sd_log_imports_bit_exact(tmp_path):
     """The simulator's SD-card writer (an independent implementation of §2) -> importer: counts identical."""
-    sim = pytest.importorskip("simulator")
+    sim = pytest.importorskip("bootnav.simulator")
     res = sim.simulate("paper-straight", seed=2)
     path = sim.write_sd_txt(res, tmp_path / "walk.txt")
     rec = load(import_file(path, tmp_path / "walk.h5"))

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from logger.recording import make_events, si_channel, write_recording
+from bootnav.logger.recording import make_events, si_channel, write_recording
 from tests.conftest import REPO, run_python
 from tests.test_serial_record import emulate_and_record
 
@@ -57,7 +57,7 @@ def test_info_on_a_file_whose_writer_died(tmp_path):
     path = tmp_path / "crashed.h5"
     code = (
         "import os, sys, numpy as np\n"
-        "from logger.recording import RecordingWriter, counts_channel\n"
+        "from bootnav.logger.recording import RecordingWriter, counts_channel\n"
         "w = RecordingWriter(sys.argv[1], counts_channel('acc', 1e-3), counts_channel('gyro', 1e-3), seq=True)\n"
         "w.append(np.arange(300) / 200.0, np.zeros((300, 3), np.int16), np.zeros((300, 3), np.int16),"
         " seq=np.arange(300, dtype=np.uint16))\n"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from postproc.ins import FilterSettings, run_filter
+from bootnav.postproc.ins import FilterSettings, run_filter
 from tests.test_ins_synthetic import TruthInit, synthetic_walk
 
 
@@ -87,7 +87,7 @@ def test_fast_equals_reference_with_saturated_samples(messy_walk):
 def test_saturation_variance_acts_on_the_clipped_axis_only():
     """Bitmask -> per-axis variance; a clipped x-gyro on a level, still sensor grows the roll (nav x) variance,
     not the yaw variance."""
-    from postproc.ins.filter import saturation_variance
+    from bootnav.postproc.ins.filter import saturation_variance
 
     fs = FilterSettings(sat_acc_sigma_mps2=4.0, sat_gyro_sigma_radps=0.5)
     sat = np.array([0, 0b000001, 0b001000, 0b100100], np.uint8)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from postproc.ins import FilterSettings, run_filter
-from postproc.ins.mechanization import mechanize
+from bootnav.postproc.ins import FilterSettings, run_filter
+from bootnav.postproc.ins.mechanization import mechanize
 from tests.test_ins_synthetic import TruthInit, synthetic_walk
 
 # MPU6050-class white noise at 200 Hz with its DLPF: ~0.05 m/s² and ~0.3 °/s per sample
@@ -178,7 +178,7 @@ def test_default_quiet_core_zaru_removes_yaw_bias_drift():
 
 def test_delay_zupt_onsets_trims_each_phase_start_with_a_cap():
     """First min(delay, fraction × duration) of each stance phase is not a ZUPT; the initial phase is whole."""
-    from postproc.ins.filter import delay_zupt_onsets
+    from bootnav.postproc.ins.filter import delay_zupt_onsets
 
     t = np.arange(200) * 0.01
     st = np.zeros(200, bool)

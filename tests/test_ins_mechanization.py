@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from postproc.ins.mechanization import mechanize, time_base, validate_imu
-from postproc.ins.quaternion import (
+from bootnav.postproc.ins.mechanization import mechanize, time_base, validate_imu
+from bootnav.postproc.ins.quaternion import (
     correct_attitude,
     euler_to_quat,
     quat_multiply,

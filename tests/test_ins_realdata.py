@@ -1,4 +1,4 @@
-"""postproc.ins on real recordings with truth (developer datasets; skipped when absent).
+"""bootnav.postproc.ins on real recordings with truth (developer datasets; skipped when absent).
 
 Stance comes from the dataset itself or from OpenShoe's own published detector settings, so these tests
 check the filter, not the (separately tested) adaptive detector.
@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from postproc.ins import FilterSettings, run_filter
+from bootnav.postproc.ins import FilterSettings, run_filter
 from tests.conftest import REPO
 
 sys.path.insert(0, str(REPO / "benchmarks"))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from postproc.ins import FilterSettings, run_filter, steady_state_gain
-from postproc.ins.filter import delay_zupt_onsets
-from postproc.ins.riccati import full_pv_model, paper_zupt_gain, zupt_observable_model
+from bootnav.postproc.ins import FilterSettings, run_filter, steady_state_gain
+from bootnav.postproc.ins.filter import delay_zupt_onsets
+from bootnav.postproc.ins.riccati import full_pv_model, paper_zupt_gain, zupt_observable_model
 from tests.test_ins_synthetic import TruthInit, synthetic_walk
 
 

@@ -1,4 +1,4 @@
-"""A tiny synthetic foot-mounted walk with exact truth (for the postproc.ins tests and benchmarks/bench_filter.py).
+"""A tiny synthetic foot-mounted walk with exact truth (for the bootnav.postproc.ins tests and benchmarks/bench_filter.py).
 
 The foot alternates stance (still on the floor) and swing. In each swing of duration T_sw (s = τ/T_sw ∈ [0,1])
 it moves a stride L along the current heading with smooth profiles whose velocity and acceleration vanish
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from postproc.ins.quaternion import euler_to_quat
+from bootnav.postproc.ins.quaternion import euler_to_quat
 
 
 @dataclass
@@ -143,7 +143,7 @@ def test_truth_is_self_consistent():
     # specific force at rest reads +g up along body z (level foot)
     assert np.allclose(w.acc_b[0], [0, 0, 9.81])
     # rotating f_b back with the truth attitude gives a_n + g_up, whose integral is the velocity
-    from postproc.ins.quaternion import quat_to_rotmat
+    from bootnav.postproc.ins.quaternion import quat_to_rotmat
 
     fn = np.array([quat_to_rotmat(q) @ f for q, f in zip(w.q_nb, w.acc_b)])
     a_num = np.gradient(w.vel_n, dt, axis=0)
@@ -154,7 +154,7 @@ def test_gyro_matches_attitude_derivative():
     """ω_b equals 2 q⁻¹ ⊗ q̇ of the truth quaternion (numerical)."""
     w = synthetic_walk(n_strides=2, rate_hz=1000.0, turn_rad=0.5)
     dt = w.t_s[1] - w.t_s[0]
-    from postproc.ins.quaternion import quat_multiply
+    from bootnav.postproc.ins.quaternion import quat_multiply
 
     qd = np.gradient(w.q_nb, dt, axis=0)
     om = np.array([2 * quat_multiply(q * [1, -1, -1, -1], d)[1:] for q, d in zip(w.q_nb, qd)])

@@ -4,16 +4,16 @@ seed-003 T1, T7–T8, T9). Expected numbers are the digests' own (computed from 
 import numpy as np
 import pytest
 
-from postproc.pdr.detectors.pan_tompkins import DERIVATIVE_TAPS, pt_derivative
-from postproc.pdr.evaluate import count_err_pct
-from postproc.pdr.heading.declination import apply_declination, dms_to_deg
-from postproc.pdr.heading.magnetometer import seed003_theta_deg, tilt_compensated_heading
-from postproc.pdr.heading.mag_calibration import percentile_calibration
-from postproc.pdr.kalman1d import fuse_two
-from postproc.pdr.length import LENGTH_MODELS
-from postproc.pdr.length.features import StepFeatures
-from postproc.pdr.length.weinberg import weinberg
-from postproc.pdr.path import (checkpoint_errors, geodetic_path, local_path, polyline_length,
+from bootnav.postproc.pdr.detectors.pan_tompkins import DERIVATIVE_TAPS, pt_derivative
+from bootnav.postproc.pdr.evaluate import count_err_pct
+from bootnav.postproc.pdr.heading.declination import apply_declination, dms_to_deg
+from bootnav.postproc.pdr.heading.magnetometer import seed003_theta_deg, tilt_compensated_heading
+from bootnav.postproc.pdr.heading.mag_calibration import percentile_calibration
+from bootnav.postproc.pdr.kalman1d import fuse_two
+from bootnav.postproc.pdr.length import LENGTH_MODELS
+from bootnav.postproc.pdr.length.features import StepFeatures
+from bootnav.postproc.pdr.length.weinberg import weinberg
+from bootnav.postproc.pdr.path import (checkpoint_errors, geodetic_path, local_path, polyline_length,
                                seed003_geodetic_path, seed003_local_path)
 
 # seed-000 Tables 6.3.1 (true) and 6.3.2 (DR) checkpoint coordinates, m

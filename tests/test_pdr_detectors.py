@@ -5,9 +5,9 @@ before/after, fixed-seed noise. One period = one step, so the expected count is 
 import numpy as np
 import pytest
 
-from postproc.pdr.detectors import DETECTORS
-from postproc.pdr.detectors.peak_group import candidate_peaks, clamp, group_main_peaks, min_distance_tallest_first
-from postproc.pdr.detectors.peak_valley import PeakValleyDetector, literal_moving_average, wrap_heading_average
+from bootnav.postproc.pdr.detectors import DETECTORS
+from bootnav.postproc.pdr.detectors.peak_group import candidate_peaks, clamp, group_main_peaks, min_distance_tallest_first
+from bootnav.postproc.pdr.detectors.peak_valley import PeakValleyDetector, literal_moving_average, wrap_heading_average
 
 G = 9.80665
 
@@ -51,7 +51,7 @@ def test_pan_tompkins_two_humps_per_step():
     # the squared derivative has one hump on the rising and one on the falling slope of each step:
     # taking the second (1,-1) pair of each [(1,-1),(1,-1)] cycle gives one detection per step
     t, acc = walk(harm=0.0)
-    from postproc.pdr.detectors.pan_tompkins import humps, mwi, pt_derivative
+    from bootnav.postproc.pdr.detectors.pan_tompkins import humps, mwi, pt_derivative
 
     t0, acc0 = walk(harm=0.0, noise=0.0, rest=0.0)
     ev = DETECTORS["pan_tompkins"]().detect(t0, acc0)
@@ -269,7 +269,7 @@ def test_two_axis_push_off_quirk_and_engineered_fix():
 
 
 def test_gravity_turn_angle_of_a_rotating_device():
-    from postproc.pdr.detectors.robust import gravity_turn_deg
+    from bootnav.postproc.pdr.detectors.robust import gravity_turn_deg
 
     fs = 50.0
     t = np.arange(0, 10, 1 / fs)

@@ -9,8 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from postproc.pdr import PdrSettings, run_pdr
-from postproc.pdr.evaluate import event_metrics, list_trials, match_events, step_length_metrics
+from bootnav.postproc.pdr import PdrSettings, run_pdr
+from bootnav.postproc.pdr.evaluate import event_metrics, list_trials, match_events, step_length_metrics
 from tests.conftest import REPO
 from tests.test_pdr_detectors import walk
 
@@ -99,7 +99,7 @@ def test_cli_bad_start_is_a_clear_error(tmp_path):
 def test_one_oxford_trial(datasets):
     tr = [t for t in list_trials(datasets, sets=("oxford_steps",)) if t.id.endswith("Samsung_Dario_Hard_InHand_1")]
     assert tr, "trial missing from the manifest"
-    from postproc.pdr.evaluate import evaluate_trial
+    from bootnav.postproc.pdr.evaluate import evaluate_trial
 
     row = evaluate_trial(tr[0])
     assert row["error"] is None
@@ -109,7 +109,7 @@ def test_one_oxford_trial(datasets):
 
 
 def test_cli_reads_an_hdf5_recording(tmp_path):
-    from logger.recording import write_recording
+    from bootnav.logger.recording import write_recording
 
     t, acc = walk(n_steps=40)
     path = write_recording(tmp_path / "walk.h5", t, acc, np.zeros_like(acc))
@@ -132,8 +132,8 @@ def test_linear_acceleration_input_gets_gravity_back():
 def test_phyphox_export_step_counts(datasets):
     # raw phyphox "Linear Acceleration" exports; truth = the step counts in the folder names (84, 100).
     # Bound: the Oxford reference app's windowed peak detector errs by 6.6 % on average (issue 6 anchors)
-    pytest.importorskip("logger.importers")
-    from postproc.pdr.io import load_input
+    pytest.importorskip("bootnav.logger.importers")
+    from bootnav.postproc.pdr.io import load_input
 
     for folder, n_true in (("test1-84step", 84), ("test2-100steps", 100)):
         inp = load_input(datasets / "raw-formats" / "purestreams_phyphox" / folder / "Raw Data.csv")
@@ -143,7 +143,7 @@ def test_phyphox_export_step_counts(datasets):
 
 def test_bad_rows_are_reported_with_line_numbers(tmp_path):
     from bootnav.errors import InputError
-    from postproc.pdr.evaluate import load_imu_csv
+    from bootnav.postproc.pdr.evaluate import load_imu_csv
 
     t, acc = walk(n_steps=10)
     lines = ["t_s,ax_mps2,ay_mps2,az_mps2"] + [f"{a},{b},{c},{d}" for a, b, c, d in np.c_[t, acc]]
@@ -157,7 +157,7 @@ def test_bad_rows_are_reported_with_line_numbers(tmp_path):
 
 
 def test_alternation_corrected_count():
-    from postproc.pdr.evaluate import alternation_corrected_count
+    from bootnav.postproc.pdr.evaluate import alternation_corrected_count
 
     t = np.array([0.0, 0.5, 0.6, 1.0, 1.5, 3.0, 3.5])
     f = np.array(["L", "R", "R", "L", "R", "R", "L"])  # a 0.1-s R bounce, and a missed L (R..R 1.5 s)
@@ -170,7 +170,7 @@ def test_cli_on_importer_formats(tmp_path, name, n_steps):
     src = REPO / "tests" / "data" / name
     if not src.exists():
         pytest.skip(f"{src} not present")
-    pytest.importorskip("logger.importers")
+    pytest.importorskip("bootnav.logger.importers")
     out = tmp_path / "o"
     proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "pdr", str(src), "--no-plots", "--out", str(out)],
                           capture_output=True, text=True, cwd=REPO, timeout=120)

@@ -4,11 +4,11 @@ foot-mounted INS -> steps table conversion."""
 import numpy as np
 import pytest
 
-from postproc.pdr.foot_ins import steps_from_foot_ins
-from postproc.pdr.heading.complementary import complementary_heading
-from postproc.pdr.heading.gyro import gyro_heading
-from postproc.pdr.heading.mag_calibration import ellipse_fit_2d, ellipsoid_fit
-from postproc.pdr.heading.magnetometer import tilt_compensated_heading
+from bootnav.postproc.pdr.foot_ins import steps_from_foot_ins
+from bootnav.postproc.pdr.heading.complementary import complementary_heading
+from bootnav.postproc.pdr.heading.gyro import gyro_heading
+from bootnav.postproc.pdr.heading.mag_calibration import ellipse_fit_2d, ellipsoid_fit
+from bootnav.postproc.pdr.heading.magnetometer import tilt_compensated_heading
 
 # Earth field in ENU (x east, y north, z up), uT: 20 north, 40 down (mid-latitude)
 B_N = np.array([0.0, 20.0, -40.0])
@@ -130,7 +130,7 @@ def test_steps_from_foot_ins_merges_split_stance():
 
 def test_seed000_T14_synthetic_checkpoint_walk():
     # legs N, E, S, W of 25.37, 22.76, 28.53, 22.76 m from (49.09, 21.14) in 0.7-m steps (seed-000 T14)
-    from postproc.pdr.path import checkpoint_errors, local_path
+    from bootnav.postproc.pdr.path import checkpoint_errors, local_path
 
     legs = [(0, 25.37), (90, 22.76), (180, 28.53), (270, 22.76)]
     true = np.array([[49.09, 21.14], [49.09, 46.51], [71.85, 46.51], [71.85, 17.98], [49.09, 17.98]])
@@ -154,7 +154,7 @@ def test_seed000_T14_synthetic_checkpoint_walk():
 
 
 def test_run_pdr_with_magnetometer_heading():
-    from postproc.pdr import PdrSettings, run_pdr
+    from bootnav.postproc.pdr import PdrSettings, run_pdr
     from tests.test_pdr_detectors import walk
 
     t, acc = walk()

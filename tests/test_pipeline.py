@@ -1,4 +1,4 @@
-"""``postproc.pipeline.process`` on real data, HDF5 results written and reopened, settings round trip, and
+"""``bootnav.postproc.pipeline.process`` on real data, HDF5 results written and reopened, settings round trip, and
 every bad-input case with its message."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from logger.recording import load, write_recording
-from postproc.outputs import write_outputs
-from postproc.pipeline import process
-from postproc.settings import ProcessSettings
+from bootnav.logger.recording import load, write_recording
+from bootnav.postproc.outputs import write_outputs
+from bootnav.postproc.pipeline import process
+from bootnav.postproc.settings import ProcessSettings
 from tests.conftest import run_python
 
 SHORT = "xio_ngimu_loops/short_walk/imu.csv.gz"
@@ -75,7 +75,7 @@ def test_outputs_and_hdf5_results_reopened_in_fresh_process(short_walk_rec, shor
     assert files["hdf5"] == f"{rec_path}:/results/default"
     code = (
         "import sys, json, h5py, numpy as np\n"
-        "from logger.recording import load\n"
+        "from bootnav.logger.recording import load\n"
         "rec = load(sys.argv[1])\n"
         "with h5py.File(sys.argv[1], 'r') as f:\n"
         "    g = f['results/default']\n"
@@ -243,8 +243,8 @@ def test_results_of_csv_input_go_to_results_h5(tmp_path, datasets):
 
 # ------------------------------------------------------------------------- simulated truth (simulator/)
 def _simulate(tmp_path, scenario, profile="mpu6050-16g-2000dps", seed=0):
-    sim = pytest.importorskip("simulator.simulate")
-    writers = pytest.importorskip("simulator.writers")
+    sim = pytest.importorskip("bootnav.simulator.simulate")
+    writers = pytest.importorskip("bootnav.simulator.writers")
     res = sim.simulate(scenario, seed=seed, profile=profile)
     return res, writers.write_h5(res, tmp_path / f"{scenario}-{seed}.h5")
 
@@ -299,7 +299,7 @@ def error_budget(res) -> tuple[float, float]:
 
 
 def _truth_errors(res, r):
-    from postproc.reference import Reference, compute_metrics
+    from bootnav.postproc.reference import Reference, compute_metrics
 
     ref = Reference("trajectory", res.truth["pos_n_m"], t_s=r.t_s, has_z=True)
     return compute_metrics(ref, r.t_s, r.pos_n, r.stance)

@@ -133,7 +133,7 @@ def test_bad_input_exits_1_with_a_clear_message(tmp_path):
 
 def test_parser_stays_light():
     """`bootnav --help` builds every subcommand's parser: ours must not import numpy/numba/matplotlib."""
-    code = ("import sys, argparse\nimport postproc.cli_process as c\nc.add_arguments(argparse.ArgumentParser())\n"
+    code = ("import sys, argparse\nimport bootnav.postproc.cli_process as c\nc.add_arguments(argparse.ArgumentParser())\n"
             "print(','.join(m for m in ('numpy', 'numba', 'matplotlib', 'scipy', 'h5py') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert out.returncode == 0, out.stderr
@@ -151,7 +151,7 @@ def test_several_inputs_in_parallel_one_bad(tmp_path, datasets):
 
 
 def test_output_names_are_distinct():
-    from postproc.cli_process import output_names
+    from bootnav.postproc.cli_process import output_names
 
     assert output_names(["/a/x/imu.csv.gz", "/a/y/imu.csv.gz"]) == ["x_imu", "y_imu"]
     assert output_names(["/d/walk1.h5", "/d/walk2.h5"]) == ["walk1", "walk2"]

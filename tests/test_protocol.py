@@ -12,8 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
-from logger.protocol import (
+from bootnav.logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
+from bootnav.logger.protocol import (
     FRAME_SIZE,
     FrameParser,
     HeaderFrame,
@@ -26,7 +26,7 @@ from logger.protocol import (
     parse_stream,
     unpack_frame,
 )
-from logger.timebase import Timebase
+from bootnav.logger.timebase import Timebase
 
 REPO = Path(__file__).resolve().parents[1]
 VECTORS = REPO / "firmware-protocol" / "test-vectors"

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from logger import mpu6050
-from logger.recording import (
+from bootnav.logger import mpu6050
+from bootnav.logger.recording import (
     EVENT_DTYPE,
     RecordingWriter,
     counts_channel,

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from postproc.reference import Reference, align_to_reference, compute_metrics, load_reference
-from postproc.strides import FloorSettings, count_floors, path_summary, segment_strides
+from bootnav.postproc.reference import Reference, align_to_reference, compute_metrics, load_reference
+from bootnav.postproc.strides import FloorSettings, count_floors, path_summary, segment_strides
 
 
 def walk(footprints_xyz, stance_n=20, swing_n=20, dt=0.01, lift=0.0):

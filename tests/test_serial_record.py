@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from logger import mpu6050
-from logger.recording import counts_channel, load, write_recording
+from bootnav.logger import mpu6050
+from bootnav.logger.recording import counts_channel, load, write_recording
 from tests.conftest import REPO, reopen_in_fresh_process, sha
 
 pytestmark = pytest.mark.timeout(60)
@@ -214,7 +214,7 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
     """A device that never (or only late) sends a header: frames written straight onto a pty here."""
     import tty
 
-    from logger.protocol import HeaderFrame, pack_samples
+    from bootnav.logger.protocol import HeaderFrame, pack_samples
 
     master, slave = os.openpty()
     tty.setraw(slave)
@@ -255,7 +255,7 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
 
 def test_saturation_runs_are_counted_whole_across_read_blocks():
     """Runs of full-scale samples split over arbitrary read blocks give one event each, exact length."""
-    from logger.serial_recorder import RecorderSettings, SerialRecorder
+    from bootnav.logger.serial_recorder import RecorderSettings, SerialRecorder
 
     rng = np.random.default_rng(0)
     for _ in range(200):
@@ -283,7 +283,7 @@ def test_any_pyserial_url_works_socket_transport(tmp_path):
     import socket
     import threading
 
-    from logger.protocol import HeaderFrame, pack_samples
+    from bootnav.logger.protocol import HeaderFrame, pack_samples
 
     n = 500
     payload = HeaderFrame(0, 0, accel_fs=1, gyro_fs=2).pack() + pack_samples(

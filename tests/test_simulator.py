@@ -12,13 +12,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from logger.crc import crc16_ccitt_false
-from logger.mpu6050 import INT16_MAX, INT16_MIN, STANDARD_GRAVITY
-from logger.recording import load
-from simulator import PROFILES, custom, simulate, write_h5, write_sd_txt
-from simulator.imu_model import quantize
-from simulator.imu_synth import quat_mul
-from simulator.scenarios import PAPER_STAIRS, SCENARIOS, THREE_FLOORS
+from bootnav.logger.crc import crc16_ccitt_false
+from bootnav.logger.mpu6050 import INT16_MAX, INT16_MIN, STANDARD_GRAVITY
+from bootnav.logger.recording import load
+from bootnav.simulator import PROFILES, custom, simulate, write_h5, write_sd_txt
+from bootnav.simulator.imu_model import quantize
+from bootnav.simulator.imu_synth import quat_mul
+from bootnav.simulator.scenarios import PAPER_STAIRS, SCENARIOS, THREE_FLOORS
 from tests.conftest import REPO, reopen_in_fresh_process, sha
 
 G = STANDARD_GRAVITY
@@ -219,7 +219,7 @@ def test_h5_recording_reopens_in_fresh_process(tmp_path):
     gaps = rec.events_of("gap")
     assert int(np.sum(gaps["count"])) == rec.truth["attrs"]["n_dropped"]
     # bootnav emulate streams exactly these counts at the nominal rate
-    from logger.emulator import load_source
+    from bootnav.logger.emulator import load_source
 
     src = load_source(path)
     assert np.array_equal(src.acc, res.acc) and np.array_equal(src.gyro, res.gyro) and src.rate_hz == 200.0
@@ -243,7 +243,7 @@ def test_sd_text_parses_with_correct_crc(tmp_path):
     assert np.array_equal(rows[:, 0], res.t_device) and np.array_equal(rows[:, 1], res.seq)
     assert np.array_equal(rows[:, 2:5], res.acc) and np.array_equal(rows[:, 5:8], res.gyro)
     # the project's own SD-card importer reads it back bit-exact, without a single CRC error
-    from logger.importers.core import read_any
+    from bootnav.logger.importers.core import read_any
 
     imp = read_any(path)
     assert imp.count("crc_error") == 0 and imp.count("skipped_line") == 0
@@ -295,7 +295,7 @@ def test_cli_lists_scenarios_and_writes_files(tmp_path):
 
 def _sole_heights(res, points=np.linspace(-0.07, 0.15, 12)):
     """(s along +x, z) of sole points between the heel and toe pivots, for every truth sample."""
-    from simulator.imu_synth import _rot_zyx
+    from bootnav.simulator.imu_synth import _rot_zyx
 
     val = res.trajectory.evaluate(res.truth["t_s"])[0]
     R = _rot_zyx(val[:, 3], val[:, 4], val[:, 5])
@@ -321,7 +321,7 @@ def test_swing_clears_the_stair_edges(up):
 
 
 def test_level_gaits_never_go_below_the_floor_and_lift_the_foot():
-    from simulator.gait import RUN, SHUFFLE, WALK
+    from bootnav.simulator.gait import RUN, SHUFFLE, WALK
 
     for gait in (WALK, RUN, SHUFFLE):
         res = simulate(custom("level", lambda pb: pb.stand(1.0).walk(8.0, gait).stand(1.0)), profile="ideal",
@@ -338,7 +338,7 @@ def test_level_gaits_never_go_below_the_floor_and_lift_the_foot():
 def test_any_stride_sequence_has_c1_signals_and_lands_on_its_pose(strides):
     """Random strides: the foot ends exactly on the commanded pose, stance is exactly still, and the
     specific force and angular rate have no jumps at the knots (C3 trajectory)."""
-    from simulator.gait import GAITS
+    from bootnav.simulator.gait import GAITS
 
     def build(pb):
         pb.stand(0.5)
@@ -360,7 +360,7 @@ def test_any_stride_sequence_has_c1_signals_and_lands_on_its_pose(strides):
     assert end[3] == pytest.approx(yaw, abs=1e-12)
     st_ = res.truth["stance"] == 1
     assert np.all(res.truth["vel_n_mps"][st_] == 0) and np.all(res.truth["omega_b_radps"][st_] == 0)
-    from simulator.imu_synth import synthesize
+    from bootnav.simulator.imu_synth import synthesize
 
     tk = traj.t_knots[1:-1]
     e = 1e-7
@@ -377,7 +377,7 @@ def test_any_stride_sequence_has_c1_signals_and_lands_on_its_pose(strides):
 
 
 def test_mixed_scenario_covers_every_activity_and_stays_on_the_floors():
-    from simulator.gait import GAIT_CODES
+    from bootnav.simulator.gait import GAIT_CODES
 
     kinds = set()
     for seed in (0, 1):

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from simulator.imu_model import PROFILES, ErrorModel, SensorProfile, drop_mask, timestamps
+from bootnav.simulator.imu_model import PROFILES, ErrorModel, SensorProfile, drop_mask, timestamps
 
 FS = 1000.0
 N = 1 << 18  # 262 s at 1 kHz
@@ -142,7 +142,7 @@ def test_dropped_sample_bursts_match_rate():
 def test_delivered_noise_at_rest_end_to_end():
     """Through simulate(): DLPF at 1 kHz, decimation to 200 Hz, int16 rounding. Std of the accel z counts
     during the 10 s still start equals the filtered white noise plus rounding noise (LSB^2 / 12)."""
-    from simulator import simulate
+    from bootnav.simulator import simulate
 
     prof = replace(PROFILES["mpu6050-noise-only"], accel_range_g=2, accel_bias_rw_mps2_rts=0.0,
                    gyro_bias_rw_dps_rts=0.0)  # +-2 g: 0.06 mg LSB, noise >> LSB

@@ -5,7 +5,7 @@
 
 Writes ``vectors.json`` and ``vectors.txt`` (same content, line-based for C). The expected results are
 written down by hand here (frame offsets, event kinds/offsets/counts), NOT taken from the parser;
-the script then checks that ``logger.protocol`` agrees with every one of them and fails otherwise.
+the script then checks that ``bootnav.logger.protocol`` agrees with every one of them and fails otherwise.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
-from logger.crc import crc16_ccitt_false  # noqa: E402
-from logger.protocol import (  # noqa: E402
+from bootnav.logger.crc import crc16_ccitt_false  # noqa: E402
+from bootnav.logger.protocol import (  # noqa: E402
     HeaderFrame,
     ProtocolError,
     SampleFrame,
@@ -171,7 +171,7 @@ def build() -> list[dict]:
 
 
 def self_check(vectors: list[dict]) -> None:
-    """Fail loudly if logger.protocol disagrees with a hand-written expectation."""
+    """Fail loudly if bootnav.logger.protocol disagrees with a hand-written expectation."""
     for v in vectors:
         exp = v["expect"]
         if v["kind"] == "crc":

@@ -1,6 +1,6 @@
 /* Host unit tests of the firmware's frame, CRC and SD-log code (firmware/bootnav_imu/{frame,crc16,sdlog}.c)
  * against the shared protocol vectors in test-vectors/vectors.txt, the same vectors the Python side
- * (logger.protocol) is tested with. Built and run by `make -C firmware-protocol test`.
+ * (bootnav.logger.protocol) is tested with. Built and run by `make -C firmware-protocol test`.
  *
  * Vector kinds (format: the header of vectors.txt):
  *   crc     bn_crc16 of the bytes equals crc=

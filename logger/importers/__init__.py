@@ -2,7 +2,7 @@
 
 Public API::
 
-    from logger.importers import import_file, read_any, load_aux, builtin_names
+    from bootnav.logger.importers import import_file, read_any, load_aux, builtin_names
     import_file("walk.csv", "walk.h5", profile=None, acc_unit=None, ...) -> Path
     read_any("walk.csv", profile=None, **overrides) -> ImportResult   # in memory, nothing written
 

@@ -15,7 +15,7 @@ only a warning (``note`` event): rad/s declared as deg/s, or a genuinely quiet r
 
 **Saturation.** A sample is saturated on an axis when its raw value is at full scale: for int16 counts
 ≥ 32767 or ≤ -32768; for values in physical units |v| ≥ (1 - 0.5 %) · range (the margin absorbs the
-rounding of printed values, e.g. 19.62 for 2 g). Bits as in ``logger.recording.SATURATION_BITS``;
+rounding of printed values, e.g. 19.62 for 2 g). Bits as in ``bootnav.logger.recording.SATURATION_BITS``;
 one ``saturation`` event per run of consecutive saturated samples per axis.
 """
 
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from logger.mpu6050 import STANDARD_GRAVITY
+from bootnav.logger.mpu6050 import STANDARD_GRAVITY
 
 ACC_TOLERANCE = 0.25
 GYRO_ABSURD_RADPS = 35.0

@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 
 from bootnav.errors import InputError
-from logger import mpu6050
-from logger.recording import Channel, counts_channel, make_events, si_channel, timing_summary, write_group, write_recording
+from bootnav.logger import mpu6050
+from bootnav.logger.recording import Channel, counts_channel, make_events, si_channel, timing_summary, write_group, write_recording
 
 from . import checks, columns as colmod, timebase
 from .profiles import Profile, all_profiles, load_profile, matches

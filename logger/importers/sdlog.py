@@ -3,7 +3,7 @@
     # bootnav-sd v1 accel_fs=3 gyro_fs=3 dlpf=3 smplrt_div=4 fw=0.1.0 device_id=0x0000BEEF
     t_us,seq,ax,ay,az,gx,gy,gz,temp*CRC
 
-CRC-16/CCITT-FALSE (``logger.crc``) over the ASCII characters before ``*``, four upper-case hex digits.
+CRC-16/CCITT-FALSE (``bootnav.logger.crc``) over the ASCII characters before ``*``, four upper-case hex digits.
 Raw counts are stored bit-exact as int16 with the scale factors of the header's full-scale codes.
 
 Per line, in this order: a line without ``*HHHH`` or with a CRC mismatch -> ``crc_error`` event
@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from bootnav.errors import InputError
-from logger import mpu6050
-from logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
-from logger.recording import counts_channel, timing_summary
+from bootnav.logger import mpu6050
+from bootnav.logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
+from bootnav.logger.recording import counts_channel, timing_summary
 
 from . import checks, timebase
 

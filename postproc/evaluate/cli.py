@@ -30,8 +30,8 @@ def select_trials(manifest: dict, sets=None, trial_ids=None) -> list[dict]:
 def run(args) -> int:
     import time
 
-    from postproc.evaluate.report import plot_trial, write_metrics_json, write_report
-    from postproc.evaluate.runner import evaluate_all
+    from bootnav.postproc.evaluate.report import plot_trial, write_metrics_json, write_report
+    from bootnav.postproc.evaluate.runner import evaluate_all
 
     manifest_path = args.root / "manifest.json"
     if not manifest_path.exists():

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postproc.evaluate.runner import TrialResult, dataset_summary
+from bootnav.postproc.evaluate.runner import TrialResult, dataset_summary
 
 # Metrics shown first in each dataset's table (the rest follow alphabetically in metrics.json only).
 HEADLINE = [

@@ -4,8 +4,8 @@ One fixed configuration for all trials: the estimate of a trial is computed from
 its truth files are read only after the estimate is final (``_estimate`` never sees the trial folder's
 truth files, ``_score`` never runs the processor).
 
-Foot-mounted IMU files go through the ZUPT post-processor (``postproc.pipeline.process``); lower-back and
-phone files through the PDR pipeline (``postproc.pdr.run_pdr``). A trial's unprefixed metrics come from its
+Foot-mounted IMU files go through the ZUPT post-processor (``bootnav.postproc.pipeline.process``); lower-back and
+phone files through the PDR pipeline (``bootnav.postproc.pdr.run_pdr``). A trial's unprefixed metrics come from its
 main mount (manifest ``mount``); the other pipeline's metrics are kept with a ``foot_`` or ``pdr_`` prefix.
 """
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postproc.evaluate import metrics as M
+from bootnav.postproc.evaluate import metrics as M
 
 FOOT_LETTER = {"imu_left.csv.gz": "L", "imu_right.csv.gz": "R"}
 
@@ -85,7 +85,7 @@ def read_imu(path: Path):
 
 # ----------------------------------------------------------------------------------------- estimate
 def _estimate_foot(path: Path, settings) -> FootEstimate:
-    from postproc.pipeline import process
+    from bootnav.postproc.pipeline import process
 
     t0 = time.perf_counter()
     result = process(path, settings)
@@ -93,7 +93,7 @@ def _estimate_foot(path: Path, settings) -> FootEstimate:
 
 
 def _estimate_pdr(path: Path, settings) -> PdrEstimate:
-    from postproc.pdr import run_pdr
+    from bootnav.postproc.pdr import run_pdr
 
     t0 = time.perf_counter()
     t, acc, gyro = read_imu(path)

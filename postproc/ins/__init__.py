@@ -5,8 +5,8 @@ Public API (the postproc API contract):
     FilterSettings, NavSolution, steady_state_gain(...) -> RiccatiReport
 """
 
-from postproc.ins.filter import NavSolution, run_filter
-from postproc.ins.riccati import RiccatiReport, steady_state_gain
-from postproc.ins.settings import FilterSettings
+from bootnav.postproc.ins.filter import NavSolution, run_filter
+from bootnav.postproc.ins.riccati import RiccatiReport, steady_state_gain
+from bootnav.postproc.ins.settings import FilterSettings
 
 __all__ = ["FilterSettings", "NavSolution", "RiccatiReport", "run_filter", "steady_state_gain"]

@@ -10,7 +10,7 @@ The algebra is exactly ``reference.py``'s, written for speed:
 * the ZUPT update only in stance, H = [0 I 0] as an index offset (no H matrix), 3×3 innovation inverse
   in closed form, Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ by blocks.
 
-Error-state conventions (shared with reference.py, see ``postproc.ins.filter``): δx = x_true − x̂, so the ZUPT
+Error-state conventions (shared with reference.py, see ``bootnav.postproc.ins.filter``): δx = x_true − x̂, so the ZUPT
 pseudo-measurement is z = 0 − v̂ = δv + noise, δx = K z, then p̂ += δp, v̂ += δv, q̂ ← exp(δθ/2) ⊗ q̂,
 b̂ += δb, δx ← 0. The paper's "+ k_n v_n" (eq. 3) is this with the minus sign of z absorbed in k_n.
 """
@@ -23,8 +23,8 @@ import time
 import numpy as np
 from numba import njit
 
-from postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
-from postproc.ins.smoother import rts_backward
+from bootnav.postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
+from bootnav.postproc.ins.smoother import rts_backward
 
 # parameter vector layout (kept in one float64 array so the kernel signature stays short)
 (P_DT_NOM, P_QA, P_QG, P_QBA, P_QBG, P_RZ, P_RW, P_ZARU, P_G, P_RIC, P_SMOOTH, P_MAXSEG,
@@ -374,8 +374,8 @@ def warm_up() -> float:
     global _WARM
     t0 = time.perf_counter()
     if not _WARM:
-        from postproc.ins.filter import run_filter
-        from postproc.ins.settings import FilterSettings
+        from bootnav.postproc.ins.filter import run_filter
+        from bootnav.postproc.ins.settings import FilterSettings
 
         class _Init:
             q_nb = np.array([1.0, 0.0, 0.0, 0.0])

@@ -44,8 +44,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bootnav.errors import InputError
-from postproc.ins.mechanization import time_base, validate_imu
-from postproc.ins.settings import FilterSettings
+from bootnav.postproc.ins.mechanization import time_base, validate_imu
+from bootnav.postproc.ins.settings import FilterSettings
 
 
 @dataclass
@@ -116,7 +116,7 @@ def saturation_variance(saturated, n: int, settings: FilterSettings) -> np.ndarr
     to that sample's per-sample variance (process noise) ALONG THE CLIPPED BODY AXIS (the other axes are
     fine), i.e. the velocity / attitude uncertainty grows in that direction through the clipped burst and
     the next ZUPTs correct the error it caused. ``saturated``: (N,) bitmask (bits ax, ay, az, gx, gy, gz as
-    ``logger.recording.SATURATION_BITS``), or (N, 6) bool, or (N,) bool (every axis).
+    ``bootnav.logger.recording.SATURATION_BITS``), or (N, 6) bool, or (N,) bool (every axis).
     """
     if saturated is None:
         return None
@@ -143,7 +143,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
 
     t_s (N,) s, increasing (duplicates allowed); acc_b (N,3) m/s² specific force; gyro_b (N,3) rad/s;
     stance (N,) bool (True = foot still: ZUPT applied); init: any object with ``q_nb`` (4,) wxyz and
-    ``gyro_bias_b`` (3,) (optional ``acc_bias_b``), e.g. ``postproc.calibration.InitialState``;
+    ``gyro_bias_b`` (3,) (optional ``acc_bias_b``), e.g. ``bootnav.postproc.calibration.InitialState``;
     gravity: m/s² (positive); progress: optional ``progress(fraction)`` called a few times;
     saturated: optional per-sample saturation mask (see ``saturation_variance``).
     Position starts at 0, velocity at 0. Raises ``InputError`` for bad data, ``ValueError`` for bad settings.
@@ -173,7 +173,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     ric_report = None
     smooth = settings.smoother == "rts"
     if settings.mode == "riccati":
-        from postproc.ins.riccati import paper_zupt_gain
+        from bootnav.postproc.ins.riccati import paper_zupt_gain
 
         zupt_gain = paper_zupt_gain(settings, gravity, tb.nominal_dt_s)
         ric_report = zupt_gain.report.to_dict()
@@ -188,12 +188,12 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
 
     t0 = time.perf_counter()
     if settings.engine == "fast":
-        from postproc.ins.fast import run_fast
+        from bootnav.postproc.ins.fast import run_fast
 
         out, einfo = run_fast(t_s, acc_b, gyro_b, zupt_mask, q0, bg0, ba0, gravity, settings, tb, P0, zupt_gain,
                               smooth, progress, extra_var)
     else:
-        from postproc.ins.reference import run_reference
+        from bootnav.postproc.ins.reference import run_reference
 
         out, einfo = run_reference(t_s, acc_b, gyro_b, zupt_mask, q0, bg0, ba0, gravity, settings, tb, P0,
                                    zupt_gain, smooth, progress, extra_var)

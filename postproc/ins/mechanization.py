@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bootnav.errors import InputError
-from postproc.ins.quaternion import attitude_step, quat_to_rotmat
+from bootnav.postproc.ins.quaternion import attitude_step, quat_to_rotmat
 
 
 @dataclass

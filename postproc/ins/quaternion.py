@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from postproc.ins.kernels import rotmat_into
+from bootnav.postproc.ins.kernels import rotmat_into
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:

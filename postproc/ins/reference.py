@@ -13,10 +13,10 @@ import time
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from postproc.ins.fast import hde_error
-from postproc.ins.mechanization import strapdown_step
-from postproc.ins.quaternion import correct_attitude, quat_to_rotmat
-from postproc.ins.smoother import apply_smoothed_correction, rts_backward_numpy
+from bootnav.postproc.ins.fast import hde_error
+from bootnav.postproc.ins.mechanization import strapdown_step
+from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
+from bootnav.postproc.ins.smoother import apply_smoothed_correction, rts_backward_numpy
 
 
 def skew(v: np.ndarray) -> np.ndarray:

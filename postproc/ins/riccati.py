@@ -65,7 +65,7 @@ def steady_state_gain(A, C, W, V, *, state_names=None, cond_limit: float = 1e12)
     hint = (
         " The model is probably not detectable: a state that never reaches the measurement (position or yaw "
         "under ZUPT) has no steady-state covariance. Solve on the observable subsystem instead "
-        "(postproc.ins.riccati.zupt_observable_model)."
+        "(bootnav.postproc.ins.riccati.zupt_observable_model)."
     )
     try:
         P = scipy.linalg.solve_continuous_are(A.T, C.T, W, V)

@@ -19,7 +19,7 @@ DEG = math.pi / 180.0
 
 @dataclass
 class FilterSettings:
-    """Tunables of ``postproc.ins.run_filter`` (defaults: OpenShoe-like, then tuned on the developer data).
+    """Tunables of ``bootnav.postproc.ins.run_filter`` (defaults: OpenShoe-like, then tuned on the developer data).
 
     n_states: 9 = (δp, δv, δθ) [Skog 2010, OpenShoe]; 15 = + accelerometer bias δb_a, gyro bias δb_g (body).
         Default 15: on the developer data it beat 9 states (pyshoe_vicon mean armse_2d 0.070 vs 0.071 m;

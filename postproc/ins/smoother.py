@@ -33,8 +33,8 @@ import math
 import numpy as np
 from numba import njit
 
-from postproc.ins.kernels import exp_times_quat
-from postproc.ins.quaternion import correct_attitude
+from bootnav.postproc.ins.kernels import exp_times_quat
+from bootnav.postproc.ins.quaternion import correct_attitude
 
 
 def build_transition(fpar: np.ndarray, n: int) -> np.ndarray:

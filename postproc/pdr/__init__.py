@@ -11,6 +11,6 @@ seed-003.md (NAU Kyiv 2021 phone system). Each module says which parameters are 
 engineered.
 """
 
-from postproc.pdr.pipeline import PdrResult, PdrSettings, run_pdr
+from bootnav.postproc.pdr.pipeline import PdrResult, PdrSettings, run_pdr
 
 __all__ = ["PdrResult", "PdrSettings", "run_pdr"]

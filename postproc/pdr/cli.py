@@ -2,7 +2,7 @@
 [--start LAT,LON] --out DIR``: step-and-heading dead reckoning.
 
 Writes steps.csv (t_s,length_m,heading_rad,x_m,y_m), path_local.csv, path_latlon.csv (with --start),
-summary.json (counts, distance, settings) and plots (postproc.pdr.plots)."""
+summary.json (counts, distance, settings) and plots (bootnav.postproc.pdr.plots)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ HEADING_NAMES = ["auto", "none", "gyro", "mag", "complementary", "compass"]
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("input", help="acc.csv.gz / imu.csv.gz, an HDF5 recording, or a file logger.importers reads")
+    parser.add_argument("input", help="acc.csv.gz / imu.csv.gz, an HDF5 recording, or a file bootnav.logger.importers reads")
     parser.add_argument("--detector", default="robust", choices=DETECTOR_NAMES)
     parser.add_argument("--length", default="frequency_variance", choices=LENGTH_NAMES, help="step-length model")
     parser.add_argument("--heading", default="auto", choices=HEADING_NAMES)
@@ -47,9 +47,9 @@ def run(args) -> int:
 
     import numpy as np
 
-    from postproc.pdr.detectors import DETECTORS
-    from postproc.pdr.io import load_input
-    from postproc.pdr.pipeline import PdrSettings, run_pdr
+    from bootnav.postproc.pdr.detectors import DETECTORS
+    from bootnav.postproc.pdr.io import load_input
+    from bootnav.postproc.pdr.pipeline import PdrSettings, run_pdr
 
     t0 = time.perf_counter()
     inp = load_input(args.input)
@@ -79,7 +79,7 @@ def run(args) -> int:
                     "detector_params": DETECTORS[args.detector](**params).to_dict(),
                     "runtime_s": time.perf_counter() - t0})
     if not args.no_plots:
-        from postproc.pdr.plots import write_plots
+        from bootnav.postproc.pdr.plots import write_plots
 
         summary["plots"] = [p.name for p in write_plots(res, out)]
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float))

@@ -228,7 +228,7 @@ def restrict_to_bouts(t: np.ndarray, bouts: np.ndarray | None, margin_s: float =
 
 def evaluate_trial(trial: Trial, settings=None) -> dict:
     """Run the PDR pipeline on one trial and compute every metric its truth allows."""
-    from postproc.pdr.pipeline import PdrSettings, run_pdr
+    from bootnav.postproc.pdr.pipeline import PdrSettings, run_pdr
 
     settings = settings or PdrSettings()
     row = {"id": trial.id, "set": trial.set, "mount": trial.mount, "detector": settings.detector,

@@ -1,5 +1,5 @@
 """Step-and-heading table from a foot-mounted INS (ZUPT) trajectory, so foot and waist/phone PDR compare on
-one recording. Plain arrays in, no dependency on postproc.pipeline.
+one recording. Plain arrays in, no dependency on bootnav.postproc.pipeline.
 
 For a foot sensor one "step" is a stride (one stance phase to the next, METRICS.md). With stance phases
 k = 0..K (contiguous runs of stance = True) and p_k = mean horizontal position over stance phase k:

@@ -1,5 +1,5 @@
 """Input for ``bootnav pdr``: canonical ``acc.csv.gz`` / ``imu.csv.gz``, an HDF5 recording
-(logger.recording.load) or anything logger.importers understands (Physics Toolbox, phyphox, the 20 Hz
+(bootnav.logger.recording.load) or anything bootnav.logger.importers understands (Physics Toolbox, phyphox, the 20 Hz
 waist log, other IMU CSVs)."""
 
 from __future__ import annotations
@@ -50,12 +50,12 @@ def load_input(path) -> PdrInput:
         raise InputError(f"{path}: no such file")
     name = path.name.lower()
     if name.endswith((".h5", ".hdf5")):
-        from logger.recording import load
+        from bootnav.logger.recording import load
 
         rec = load(path)
         aux = {}
         try:
-            from logger.importers import load_aux
+            from bootnav.logger.importers import load_aux
 
             aux = load_aux(path)
         except ImportError:
@@ -66,12 +66,12 @@ def load_input(path) -> PdrInput:
         with (__import__("gzip").open(path, "rt") if name.endswith(".gz") else open(path)) as f:
             header = f.readline()
         if header.strip().startswith("t_s,ax_mps2"):
-            from postproc.pdr.evaluate import load_imu_csv
+            from bootnav.postproc.pdr.evaluate import load_imu_csv
 
             t, acc, gyro = load_imu_csv(path)
             return PdrInput(t, acc, _gyro_or_none(gyro), None, str(path), "canonical_csv")
     try:
-        from logger.importers import read_any
+        from bootnav.logger.importers import read_any
     except ImportError as exc:
         raise InputError(f"{path}: not a canonical acc/imu csv(.gz) or .h5 and no importer available ({exc})")
     res = read_any(path)

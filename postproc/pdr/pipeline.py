@@ -117,7 +117,7 @@ def irregularity(t_steps: np.ndarray, gap_s: float = 1.6) -> float:
 
 
 def _length_model(settings: PdrSettings):
-    from postproc.pdr.length import LENGTH_MODELS
+    from bootnav.postproc.pdr.length import LENGTH_MODELS
 
     if settings.length not in LENGTH_MODELS:
         raise InputError(f"unknown step-length model {settings.length!r}; choose one of {sorted(LENGTH_MODELS)}")
@@ -140,11 +140,11 @@ def compass_at_steps(t, compass_deg, t_steps, window_s: float = 0.4) -> np.ndarr
 
 
 def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
-    from postproc.pdr.heading.complementary import complementary_heading
-    from postproc.pdr.heading.declination import apply_declination
-    from postproc.pdr.heading.gyro import gyro_heading
-    from postproc.pdr.heading.magnetometer import tilt_compensated_heading
-    from postproc.pdr.signals import gravity_direction, nominal_rate_hz
+    from bootnav.postproc.pdr.heading.complementary import complementary_heading
+    from bootnav.postproc.pdr.heading.declination import apply_declination
+    from bootnav.postproc.pdr.heading.gyro import gyro_heading
+    from bootnav.postproc.pdr.heading.magnetometer import tilt_compensated_heading
+    from bootnav.postproc.pdr.signals import gravity_direction, nominal_rate_hz
 
     method = settings.heading
     if method not in ("auto", "none", "gyro", "mag", "complementary", "compass"):
@@ -186,9 +186,9 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     """Step-and-heading dead reckoning on one recording (SI units, sensor frame, gravity included).
 
     mag_b: (N, 3) magnetometer (any unit); compass_deg: (N,) device heading, deg clockwise from north."""
-    from postproc.pdr.detectors import make_detector
-    from postproc.pdr.length.features import step_features
-    from postproc.pdr.path import geodetic_path, local_path
+    from bootnav.postproc.pdr.detectors import make_detector
+    from bootnav.postproc.pdr.length.features import step_features
+    from bootnav.postproc.pdr.path import geodetic_path, local_path
 
     settings = settings or PdrSettings()
     t, acc, keep = _check_inputs(t_s, acc_b)

@@ -7,16 +7,16 @@ Registry ``DETECTORS`` maps the CLI names to the classes.
 
 from __future__ import annotations
 
-from postproc.pdr.detectors.footpath import FootPathDetector
-from postproc.pdr.detectors.leppakoski import LeppakoskiDetector
-from postproc.pdr.detectors.li import LiDetector
-from postproc.pdr.detectors.pan_tompkins import PanTompkinsDetector
-from postproc.pdr.detectors.peak_group import PeakGroupDetector
-from postproc.pdr.detectors.peak_valley import PeakValleyDetector
-from postproc.pdr.detectors.robust import RobustDetector
-from postproc.pdr.detectors.template import TemplateDetector
-from postproc.pdr.detectors.two_axis import TwoAxisFootDetector
-from postproc.pdr.detectors.zero_crossing import ZeroCrossingDetector
+from bootnav.postproc.pdr.detectors.footpath import FootPathDetector
+from bootnav.postproc.pdr.detectors.leppakoski import LeppakoskiDetector
+from bootnav.postproc.pdr.detectors.li import LiDetector
+from bootnav.postproc.pdr.detectors.pan_tompkins import PanTompkinsDetector
+from bootnav.postproc.pdr.detectors.peak_group import PeakGroupDetector
+from bootnav.postproc.pdr.detectors.peak_valley import PeakValleyDetector
+from bootnav.postproc.pdr.detectors.robust import RobustDetector
+from bootnav.postproc.pdr.detectors.template import TemplateDetector
+from bootnav.postproc.pdr.detectors.two_axis import TwoAxisFootDetector
+from bootnav.postproc.pdr.detectors.zero_crossing import ZeroCrossingDetector
 
 DETECTORS = {
     "robust": RobustDetector,

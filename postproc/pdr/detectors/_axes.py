@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from postproc.pdr.signals import G0, gravity_direction
+from bootnav.postproc.pdr.signals import G0, gravity_direction
 
 
 def vertical_and_horizontal(acc: np.ndarray, fs_hz: float, mode: str):

@@ -17,9 +17,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.detectors._axes import vertical_and_horizontal
-from postproc.pdr.signals import clean_time, ema, nominal_rate_hz, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.detectors._axes import vertical_and_horizontal
+from bootnav.postproc.pdr.signals import clean_time, ema, nominal_rate_hz, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 @dataclass

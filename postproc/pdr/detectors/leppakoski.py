@@ -21,8 +21,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import G0, butter_filter, magnitude, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.signals import G0, butter_filter, magnitude, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 @dataclass

@@ -22,8 +22,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import magnitude, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.signals import magnitude, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 def dtw_distance(a: np.ndarray, b: np.ndarray) -> float:

@@ -20,8 +20,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import G0, butter_filter, clean_time, magnitude, nominal_rate_hz, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.signals import G0, butter_filter, clean_time, magnitude, nominal_rate_hz, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 def clamp(a_g: np.ndarray, a_filter: float = 1.2) -> np.ndarray:

@@ -26,9 +26,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.detectors._axes import to_unit, vertical_and_horizontal
-from postproc.pdr.signals import resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.detectors._axes import to_unit, vertical_and_horizontal
+from bootnav.postproc.pdr.signals import resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 def literal_moving_average(raw: list, storage: list, n: int = 8) -> float:

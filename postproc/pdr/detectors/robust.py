@@ -69,8 +69,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import butter_filter, magnitude, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.signals import butter_filter, magnitude, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 def _window_quantile(t_ref: np.ndarray, v: np.ndarray, t_at: np.ndarray, half_s: float, q: float,

@@ -19,8 +19,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import butter_filter, magnitude, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.signals import butter_filter, magnitude, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 def ncc(signal_x: np.ndarray, template: np.ndarray) -> np.ndarray:

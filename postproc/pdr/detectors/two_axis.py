@@ -23,8 +23,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import butter_filter, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.signals import butter_filter, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 @dataclass

@@ -16,9 +16,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.detectors._axes import to_unit, vertical_and_horizontal
-from postproc.pdr.signals import causal_moving_average, centered_moving_average, resample_uniform
-from postproc.pdr.steps import StepEvents
+from bootnav.postproc.pdr.detectors._axes import to_unit, vertical_and_horizontal
+from bootnav.postproc.pdr.signals import causal_moving_average, centered_moving_average, resample_uniform
+from bootnav.postproc.pdr.steps import StepEvents
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Heading for PDR. Convention everywhere in postproc.pdr: ``heading_rad`` = bearing, clockwise from
+"""Heading for PDR. Convention everywhere in bootnav.postproc.pdr: ``heading_rad`` = bearing, clockwise from
 (magnetic or true) north, so a step of length L moves east by L sin(h) and north by L cos(h)
 (seed-000 §5.1 R3).
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from postproc.pdr.signals import clean_time, gravity_direction, nominal_rate_hz
+from bootnav.postproc.pdr.signals import clean_time, gravity_direction, nominal_rate_hz
 
 
 def gyro_heading(t_s, gyro_b, acc_b, psi0_rad: float = 0.0, signed_magnitude: bool = False,

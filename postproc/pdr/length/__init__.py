@@ -6,13 +6,13 @@ acceleration range, magnitude standard deviation/variance, in SI units.
 
 from __future__ import annotations
 
-from postproc.pdr.length.constant import ConstantLength, FootPathLength
-from postproc.pdr.length.features import StepFeatures, step_features
-from postproc.pdr.length.frequency import FrequencyLength
-from postproc.pdr.length.frequency_variance import FrequencyVarianceLength
-from postproc.pdr.length.ladetto import LadettoLength
-from postproc.pdr.length.renaudin import RenaudinLength
-from postproc.pdr.length.weinberg import WeinbergLength
+from bootnav.postproc.pdr.length.constant import ConstantLength, FootPathLength
+from bootnav.postproc.pdr.length.features import StepFeatures, step_features
+from bootnav.postproc.pdr.length.frequency import FrequencyLength
+from bootnav.postproc.pdr.length.frequency_variance import FrequencyVarianceLength
+from bootnav.postproc.pdr.length.ladetto import LadettoLength
+from bootnav.postproc.pdr.length.renaudin import RenaudinLength
+from bootnav.postproc.pdr.length.weinberg import WeinbergLength
 
 LENGTH_MODELS = {
     "weinberg": WeinbergLength,

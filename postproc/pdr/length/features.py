@@ -1,6 +1,6 @@
 """Per-step features for the step-length models (computed once, shared by every model).
 
-Step i runs from t_start_i = t_{i-1} to t_end_i = t_i (postproc.pdr.steps.step_intervals).
+Step i runs from t_start_i = t_{i-1} to t_end_i = t_i (bootnav.postproc.pdr.steps.step_intervals).
     freq_hz      f_i = 1 / (t_end_i - t_start_i)            (seed-002 §2 "[inferred] f = 1 / step duration")
     vert_range   A_max - A_min of the vertical specific force within the step, m/s^2 (seed-000 §5.2;
                  vertical = projection on the low-passed gravity direction, so any mounting works)
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import butter_filter, magnitude, resample_uniform, vertical_acc
-from postproc.pdr.steps import step_intervals
+from bootnav.postproc.pdr.signals import butter_filter, magnitude, resample_uniform, vertical_acc
+from bootnav.postproc.pdr.steps import step_intervals
 
 
 @dataclass

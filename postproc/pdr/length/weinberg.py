@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from postproc.pdr.signals import G0
+from bootnav.postproc.pdr.signals import G0
 
 K_CODE = 0.95
 K_TEXT = 0.55
