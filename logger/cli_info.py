@@ -24,14 +24,15 @@ def summarize(path) -> dict:
     """The summary ``bootnav info`` prints (also used by tests and other tools)."""
     import numpy as np
 
+    from bootnav.core.timebase import gap_mask, missing_samples, nominal_period, timing_summary
     from bootnav.logger.recording import load
 
     rec = load(path, with_truth=False)
     t = rec.t_s
     dt = np.diff(t)
     good = dt[np.isfinite(dt) & (dt > 0)]
-    med = float(np.median(good)) if good.size else float("nan")
-    regular = good[good < 1.5 * med] if good.size else good
+    med = nominal_period(dt)
+    timing = timing_summary(t)
     kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in rec.events["kind"]]
     count_of = {k: kinds.count(k) for k in sorted(set(kinds))}
     gap_events = rec.events_of("gap")
@@ -39,10 +40,10 @@ def summarize(path) -> dict:
         gaps = [{"t_s": float(e["t_s"]), "sample_index": int(e["sample_index"]), "missing": int(e["count"])}
                 for e in gap_events]
         gap_source = "sequence numbers" if rec.seq is not None else "events"
-    else:  # no seq numbers (imported data): gaps from the time stamps
-        idx = np.flatnonzero(dt > 1.5 * med) if good.size else np.zeros(0, int)
-        gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(round(dt[i] / med)) - 1}
-                for i in idx]
+    else:  # no seq numbers (imported data): gaps from the time stamps, by the one gap rule
+        idx = np.flatnonzero(gap_mask(dt, med))
+        gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(m)}
+                for i, m in zip(idx, missing_samples(dt[idx], med))]
         gap_source = "timestamps"
     sat = rec.saturated.astype(np.uint8)
     sat_counts = {a: int(((sat >> i) & 1).sum()) for i, a in enumerate(AXES)}
@@ -62,9 +63,9 @@ def summarize(path) -> dict:
         "file": str(path),
         "frames": rec.n,
         "duration_s": duration,
-        "rate_hz": 1.0 / med if med == med else float("nan"),
+        "rate_hz": timing["rate_measured_hz"],
         "rate_nominal_hz": _num(meta.get("rate_nominal_hz")),
-        "jitter_s": float(np.std(regular)) if regular.size else float("nan"),
+        "jitter_s": timing["jitter_s"],
         "dt_min_s": float(good.min()) if good.size else float("nan"),
         "dt_max_s": float(good.max()) if good.size else float("nan"),
         "gaps": len(gaps),
@@ -107,20 +108,12 @@ def _text(value):
     return value.decode() if isinstance(value, bytes) else ("" if value is None else str(value))
 
 
-def _json_safe(obj):
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, list):
-        return [_json_safe(v) for v in obj]
-    return obj
-
-
 def run(args) -> int:
     s = summarize(args.file)
     if args.json:
-        print(json.dumps(_json_safe(s), indent=1))
+        from bootnav.core.jsonio import to_jsonable
+
+        print(json.dumps(to_jsonable(s), indent=1, allow_nan=False))
         return 0
     out = sys.stdout
     sat = ", ".join(f"{a} {c}" for a, c in s["saturated_samples"].items() if c) or "none"

@@ -6,12 +6,16 @@ ASCII ``123456789``. Table-driven, one table lookup per byte:
 
     crc = (crc << 8) ^ T[(crc >> 8) ^ byte]        (all values mod 2**16)
 
-The same table is used by the firmware (firmware-protocol/firmware/), so both sides agree bit for bit.
-``crc16_ccitt_false_rows`` computes the CRC of many equal-length rows at once with numpy (one
-vectorised table lookup per byte column), which is what makes batch frame validation cheap.
+The firmware (firmware-protocol/firmware/) uses the same table, so both sides agree bit for bit. One frame:
+the standard library's ``binascii.crc_hqx`` (C; the same CRC with init 0xFFFF). Many equal-length rows:
+``crc16_ccitt_false_rows``, one numpy table lookup per byte column, kept because it is faster on arrays —
+1 M frames on a 2-core box: 22-byte protocol frames 0.19 s (rows) vs 0.38 s (``crc_hqx`` per frame),
+45-byte SD lines 0.40 s vs 0.60 s.
 """
 
 from __future__ import annotations
+
+import binascii
 
 import numpy as np
 
@@ -20,27 +24,22 @@ INIT = 0xFFFF
 CHECK_VALUE = 0x29B1  # crc16_ccitt_false(b"123456789")
 
 
-def _make_table() -> tuple[int, ...]:
+def _make_table() -> np.ndarray:
     table = []
     for byte in range(256):
         crc = byte << 8
         for _ in range(8):
             crc = ((crc << 1) ^ POLY) if crc & 0x8000 else (crc << 1)
         table.append(crc & 0xFFFF)
-    return tuple(table)
+    return np.array(table, dtype=np.uint16)
 
 
-CRC16_TABLE: tuple[int, ...] = _make_table()
-_TABLE_NP = np.array(CRC16_TABLE, dtype=np.uint16)
+_TABLE_NP = _make_table()
 
 
 def crc16_ccitt_false(data: bytes, init: int = INIT) -> int:
     """CRC-16/CCITT-FALSE of ``data`` (bytes-like). Pass a previous result as ``init`` to continue."""
-    crc = init & 0xFFFF
-    table = CRC16_TABLE
-    for byte in bytes(data):
-        crc = ((crc << 8) & 0xFFFF) ^ table[(crc >> 8) ^ byte]
-    return crc
+    return binascii.crc_hqx(bytes(data), init & 0xFFFF)
 
 
 def crc16_ccitt_false_rows(rows: np.ndarray, init: int = INIT) -> np.ndarray:

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.jsonio import to_jsonable
+from bootnav.core.timebase import T_US_MODULUS, unwrap_counter
 from bootnav.logger import mpu6050
 from bootnav.logger.protocol import (
     CMD_RESEND_HEADER,
@@ -40,7 +42,6 @@ from bootnav.logger.protocol import (
     StatusFrame,
     pack_samples,
 )
-from bootnav.logger.timebase import T_US_MODULUS, signed_delta
 
 FAULT_KINDS = ("bitflip", "garbage", "drop")
 
@@ -258,7 +259,8 @@ class Emulator:
             if s.restart_on_reconnect:
                 raise ValueError("--replay-timing and --restart-on-reconnect exclude each other")
             t = signal.t_device.astype(np.int64)
-            self._t_rel_s = np.concatenate(([0], np.cumsum(signed_delta(t[1:], int(t[0]), T_US_MODULUS)))) / 1e6
+            t_us = unwrap_counter(t, T_US_MODULUS)[0]
+            self._t_rel_s = (t_us - t_us[0]) / 1e6
             self.n_frames = n_src if s.duration_s is None else int(np.searchsorted(self._t_rel_s, s.duration_s, "left"))
         # The fault plan is drawn once per frame index, so what gets corrupted does not depend on
         # how the real-time loop happens to batch frames (runs are reproducible from the seed).
@@ -267,7 +269,7 @@ class Emulator:
         hit = rng.random(self.n_frames) < s.corrupt_rate
         self._fault = np.where(hit, kinds[rng.integers(0, kinds.size, self.n_frames)], -1).astype(np.int8)
         self._fault_bit = rng.integers(0, SAMPLE_DTYPE.itemsize * 8, self.n_frames).astype(np.uint8)
-        self.report = EmulatorReport(rate_hz=self.rate_hz, settings=_jsonable(asdict(s)))
+        self.report = EmulatorReport(rate_hz=self.rate_hz, settings=to_jsonable(s))
         self.progress = progress
         self._stop = False
         self._restart_k = 0  # frame index of the last device (re)start: seq and t_us count from there
@@ -431,7 +433,3 @@ class Emulator:
             out += frame.tobytes()
             rep.frames_sent += 1
         rep.bytes_sent += port.write_all(bytes(out), lambda: self._stop)
-
-
-def _jsonable(d: dict) -> dict:
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}

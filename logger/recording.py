@@ -22,6 +22,7 @@ import h5py
 import numpy as np
 
 from bootnav import CONVENTIONS, __version__
+from bootnav.core.timebase import timing_summary
 from bootnav.errors import InputError
 
 FORMAT_VERSION = 1
@@ -326,16 +327,6 @@ def write_recording(
         final = timing_summary(np.asarray(t_s, dtype=float))
     writer.close(final_meta=final)
     return Path(path)
-
-
-def timing_summary(t_s: np.ndarray) -> dict:
-    """Measured rate and jitter from sample times (robust: median interval)."""
-    dt = np.diff(t_s)
-    dt = dt[np.isfinite(dt) & (dt > 0)]
-    if dt.size == 0:
-        return {"rate_measured_hz": float("nan"), "jitter_s": float("nan")}
-    med = float(np.median(dt))
-    return {"rate_measured_hz": 1.0 / med, "jitter_s": float(np.std(dt[dt < 1.5 * med]))}
 
 
 @dataclass

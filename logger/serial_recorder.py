@@ -2,8 +2,8 @@
 
 One loop, no threads: read what the port has (pyserial ``serial_for_url``, so ``/dev/ttyUSB0``,
 a pty path or ``loop://`` work), parse it with the vectorised ``FrameParser``, unwrap ``seq``/``t_us``
-(``Timebase``), and every ``flush_interval_s`` append the block to a ``RecordingWriter`` (SWMR) and
-flush, so a ``kill -9`` loses at most that interval and the file still opens.
+(``bootnav.core.timebase.StreamClock``), and every ``flush_interval_s`` append the block to a
+``RecordingWriter`` (SWMR) and flush, so a ``kill -9`` loses at most that interval and the file still opens.
 
 The sensor configuration comes from the header frame: the recorder asks for it (``H``) when it
 connects and waits up to ``header_wait_s`` before creating the file with its scale factors; with no
@@ -23,11 +23,12 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from bootnav.core.runs import runs
+from bootnav.core.timebase import StreamClock, timing_summary
 from bootnav.errors import BootnavError
 from bootnav.logger import mpu6050
 from bootnav.logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
-from bootnav.logger.recording import RecordingWriter, counts_channel, make_events, timing_summary
-from bootnav.logger.timebase import Timebase
+from bootnav.logger.recording import RecordingWriter, counts_channel, make_events
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS = 3, 3  # ±16 g, ±2000 °/s: what a boot needs (see PROTOCOL.md)
@@ -80,7 +81,7 @@ class SerialRecorder:
         self._header: HeaderFrame | None = None
         self._config_source = ""
         self._parser = FrameParser()
-        self._timebase: Timebase | None = None
+        self._clock: StreamClock | None = None
         self._t0_us: int | None = None
         self._pending: list[dict] = []  # blocks of per-sample arrays not yet written
         self._pending_events: list[dict] = []
@@ -264,17 +265,17 @@ class SerialRecorder:
     def _on_samples(self, samples: np.ndarray, host_time: float) -> None:
         if self._first_sample_mono is None:
             self._first_sample_mono = time.monotonic()
-        if self._timebase is None:
+        if self._clock is None:
             rate = self._header.rate_hz if self._header else 1000.0
-            self._timebase = Timebase(period_us=1e6 / rate)
-        n_ev = len(self._timebase.events)
-        t_cont = self._timebase.update(samples["seq"], samples["t_us"], host_s=host_time)
+            self._clock = StreamClock(period_us=1e6 / rate)
+        n_ev = len(self._clock.events)
+        t_cont = self._clock.update(samples["seq"], samples["t_us"], host_s=host_time)
         if self._t0_us is None:
             self._t0_us = int(t_cont[0])
-        for ev in self._timebase.events[n_ev:]:
+        for ev in self._clock.events[n_ev:]:
             self._event(ev.kind, sample_index=ev.index, count=ev.count, detail=ev.detail,
                         t_s=float(t_cont[ev.index - self._n] - self._t0_us) / 1e6)
-        self.stats.dropped = self._timebase.dropped
+        self.stats.dropped = self._clock.dropped
         t_s = (t_cont - self._t0_us) / 1e6
         acc, gyro = samples["acc"], samples["gyro"]
         raw = np.concatenate([acc, gyro], axis=1)
@@ -297,8 +298,7 @@ class SerialRecorder:
             self.stats.saturated_samples[axis] += int(m.sum())
             if not m.any() and self._open_runs[axis] is None:
                 continue
-            d = np.diff(np.concatenate(([0], m.astype(np.int8), [0])))
-            starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+            starts, ends = runs(m)
             if self._open_runs[axis] is not None and (starts.size == 0 or starts[0] != 0):
                 self._close_run(axis, self._n)  # the open run ended just before this block
             for a, b in zip(starts.tolist(), ends.tolist()):
@@ -323,8 +323,8 @@ class SerialRecorder:
             self.stats.skipped_bytes += ev.count
             self._event("resync", sample_index=self._n, byte_offset=ev.byte_offset, count=ev.count,
                         detail=f"{ev.count} bytes lost at disconnect ({ev.detail})")
-        if self._timebase is not None:
-            self._timebase.mark_discontinuity()
+        if self._clock is not None:
+            self._clock.mark_discontinuity()
 
     def _event(self, kind: str, *, index_in_block: int | None = None, sample_index: int | None = None,
                t_s: float | None = None, **fields) -> None:

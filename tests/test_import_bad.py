@@ -214,3 +214,22 @@ def test_time_of_day_text_column(tmp_path):
     r = read_any(tmp_path / "tod.csv")
     assert r.meta["time_source"] == "time_of_day"
     np.testing.assert_allclose(r.t_s, t, atol=1e-6)
+
+
+@pytest.mark.parametrize("header", [HEADER, "time,ax,ay,az,gx,gy,gz"])  # canonical reader / generic parser
+def test_cut_off_gzip_keeps_every_complete_line_and_reports_the_cut(tmp_path, header):
+    import gzip
+
+    t, a, g = walk_rows(3000)
+    lines = write_csv(tmp_path / "x.csv", t, a, g, header=header)
+    z = gzip.compress((tmp_path / "x.csv").read_bytes())
+    src = tmp_path / "x.csv.gz"
+    src.write_bytes(z[: int(len(z) * 0.6)])  # an interrupted copy
+    kw = {} if header == HEADER else dict(acc_unit="mps2", gyro_unit="radps", time_unit="s")
+    r = read_any(src, **kw)
+    n = r.n
+    assert 1000 < n < 3000
+    assert np.array_equal(r.t_s, np.array([float(ln.split(",")[0]) for ln in lines[1 : n + 1]]))
+    skipped = [e for e in r.events if e["kind"] == "skipped_line"]
+    assert [e["line"] for e in skipped] == [n + 2] and "cut off" in skipped[0]["detail"]  # header = line 1
+    assert any(e["kind"] == "note" and "cut off" in e["detail"] for e in r.events)

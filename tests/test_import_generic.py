@@ -188,7 +188,7 @@ def test_one_hour_at_200_hz_takes_seconds(tmp_path):
     rows[100_000] = "E: SD write error"  # line 100 002
     rows[500_000] = rows[500_000][:12]  # line 500 002, a torn line
     src.write_text("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n" + "\n".join(rows) + "\n")
-    text, _ = read_text(src)
+    text, _, _ = read_text(src)
     assert parse_table(src, text).matrix is not None  # numpy path (per chunk), no per-line Python over the file
     t0 = time.perf_counter()
     r = read_any(src)

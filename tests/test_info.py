@@ -80,3 +80,27 @@ def test_info_on_a_non_recording_is_a_clear_error(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "bootnav", "info", str(bad)], capture_output=True, text=True,
                           cwd=REPO, timeout=60)
     assert proc.returncode == 1 and "not.h5" in proc.stderr and "cannot open" in proc.stderr
+
+
+def test_one_gap_rule_for_importer_info_and_filter(tmp_path):
+    """A step of 1.4 periods is jitter, 1.6 periods one lost sample, 3.2 periods two: the importer's events,
+    ``bootnav info`` on timestamps alone and the filter's time base all say so."""
+    from bootnav.core.timebase import time_base
+    from bootnav.logger.cli_info import summarize
+    from bootnav.logger.importers import read_any
+
+    dt = np.full(400, 0.01)
+    dt[[100, 200, 300]] = [0.014, 0.016, 0.032]
+    t = np.round(np.r_[0.0, np.cumsum(dt)], 4)
+    src = tmp_path / "g.csv"
+    src.write_text("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n"
+                   + "\n".join(f"{x:.4f},0,0,9.80665,0,0,0" for x in t) + "\n")
+    gaps = [(e["sample_index"], e["count"]) for e in read_any(src).events if e["kind"] == "gap"]
+    assert gaps == [(201, 1), (301, 2)]
+    path = tmp_path / "no_events.h5"  # no gap events stored: info falls back to the timestamps
+    write_recording(path, t, np.zeros((t.size, 3)), np.zeros((t.size, 3)), acc_channel=si_channel("acc", np.nan),
+                    gyro_channel=si_channel("gyro", np.nan))
+    s = summarize(path)
+    assert s["gap_source"] == "timestamps"
+    assert [(g["sample_index"], g["missing"]) for g in s["gap_list"]] == gaps
+    assert [i for i, _ in time_base(t).gaps] == [201, 301]

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from bootnav.core.timebase import StreamClock
 from bootnav.logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
 from bootnav.logger.protocol import (
     FRAME_SIZE,
@@ -26,7 +27,6 @@ from bootnav.logger.protocol import (
     parse_stream,
     unpack_frame,
 )
-from bootnav.logger.timebase import Timebase
 
 REPO = Path(__file__).resolve().parents[1]
 VECTORS = REPO / "firmware-protocol" / "test-vectors"
@@ -186,8 +186,8 @@ def test_sd_line_round_trip_and_errors():
         parse_sd_line(line[:-7])
 
 
-def test_timebase_unwraps_t_us_and_seq_and_counts_gaps():
-    tb = Timebase(period_us=1000)
+def test_stream_clock_unwraps_t_us_and_seq_and_counts_gaps():
+    tb = StreamClock(period_us=1000)
     seq = np.array([65533, 65534, 65535, 0, 3, 4])  # 1, 2 missing across the u16 wrap
     t = (np.array([-3, -2, -1, 0, 3, 4]) * 1000 + 2**32) % 2**32
     t_cont = tb.update(seq[:2], t[:2]).tolist() + tb.update(seq[2:], t[2:]).tolist()
@@ -197,8 +197,8 @@ def test_timebase_unwraps_t_us_and_seq_and_counts_gaps():
     assert tb.dropped == 2
 
 
-def test_timebase_resolves_gaps_longer_than_a_seq_wrap_with_the_device_clock():
-    tb = Timebase(period_us=1000)
+def test_stream_clock_resolves_gaps_longer_than_a_seq_wrap_with_the_device_clock():
+    tb = StreamClock(period_us=1000)
     # 70_000 frames missing at 1 kHz: seq alone would say 70_000 - 65_536 = 4_464.
     tb.update([10, 11], [0, 1000])
     tb.update([(12 + 70_000) % 65536], [(12 + 70_000) * 1000])

@@ -7,12 +7,14 @@ Public API::
     read_any("walk.csv", profile=None, **overrides) -> ImportResult   # in memory, nothing written
 
 Shipped profiles (``builtin_names()``) live in ``logger/importers/profiles/*.toml``; a user profile is any
-TOML file with the same keys (``--profile my.toml``). See ``core`` for the recovery rules, ``checks`` for
-the unit and saturation checks, ``timebase`` for time handling, ``sdlog`` for our SD-card format.
+TOML file with the same keys (``--profile my.toml``). See ``core`` for the stages and the recovery rules,
+``checks`` for the unit and saturation checks, ``bootnav.core.timebase`` for time handling and the gap rule,
+``bootnav.core.csvio`` for the canonical CSV, ``sdlog`` for our SD-card format.
 """
 
-from .core import ImportResult, detect_profile, import_file, load_aux, read_any, write_result
+from .core import detect_profile, import_file, load_aux, read_any, write_result
 from .profiles import Profile, builtin_names, load_profile
+from .result import ImportResult
 from .sdlog import format_sd_header, format_sd_line
 
 __all__ = ["ImportResult", "Profile", "builtin_names", "detect_profile", "format_sd_header", "format_sd_line",

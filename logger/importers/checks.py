@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bootnav.core.runs import runs
 from bootnav.logger.mpu6050 import STANDARD_GRAVITY
 
 ACC_TOLERANCE = 0.25
@@ -105,8 +106,7 @@ def saturation(raw: np.ndarray, full_scale: float, counts: bool, first_bit: int)
         if not hit.any():
             continue
         mask |= (hit.astype(np.uint8) << (first_bit + axis))
-        edges = np.diff(np.r_[0, hit.astype(np.int8), 0])
-        for s, e in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        for s, e in zip(*runs(hit)):
             events.append(dict(kind="saturation", sample_index=int(s), axis=first_bit + axis, count=int(e - s),
                                detail=f"{'acc' if first_bit == 0 else 'gyro'} {'xyz'[axis]} at full scale "
                                       f"for {e - s} sample(s)"))

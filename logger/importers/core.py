@@ -15,8 +15,10 @@ Recovery rules (documented, nothing silent):
 * NaN/inf in the time or in a used sensor column: that line is skipped the same way (a NaN sample
   cannot be integrated); if more than half of the lines are bad the import fails;
 * a truncated last line (no final newline and malformed): ``skipped_line`` with detail "truncated";
-* duplicate / backward times, gaps, counter wraps: kept as they are and recorded as events
-  (see ``timebase``); never resampled or reordered;
+* a cut-off or damaged gzip file: every complete line before the damage is read, the incomplete one is a
+  ``skipped_line`` and a ``note`` event says what was lost;
+* duplicate / backward times, gaps (the one gap rule of ``bootnav.core.timebase``: > 1.5 nominal periods),
+  counter wraps: kept as they are and recorded as events; never resampled or reordered;
 * accelerometer-only files (phones): the gyro is stored as NaN (rad/s) and meta ``gyro_present`` = 0;
 * units that contradict gravity or physics: an error naming the right flag (see ``checks``);
   ``check_units=False`` turns it into a ``note`` event.
@@ -34,12 +36,16 @@ from typing import Any
 
 import numpy as np
 
+from bootnav.core import csvio
+from bootnav.core.timebase import (TIME_SCALE, is_u32_counter, spread_coarse_seconds, time_events, timing_summary,
+                                   unwrap_counter)
 from bootnav.errors import InputError
 from bootnav.logger import mpu6050
-from bootnav.logger.recording import Channel, counts_channel, make_events, si_channel, timing_summary, write_group, write_recording
+from bootnav.logger.recording import Channel, counts_channel, make_events, si_channel, write_group, write_recording
 
-from . import checks, columns as colmod, timebase
+from . import checks, columns as colmod, sdlog
 from .profiles import Profile, all_profiles, load_profile, matches
+from .result import ImportResult
 from .text import TextTable, parse_table, read_text
 
 G = mpu6050.STANDARD_GRAVITY
@@ -48,41 +54,6 @@ GYRO_SCALE = {"dps": math.pi / 180.0, "radps": 1.0}
 OVERRIDE_KEYS = {"columns", "acc_unit", "gyro_unit", "time_unit", "acc_range_g", "gyro_range_dps", "rate_hz",
                  "mount", "sensor", "delimiter", "check_units"}
 MAX_BAD_FRACTION = 0.5
-
-
-@dataclass
-class ImportResult:
-    """A parsed, checked import, before (or after) writing it as a recording."""
-
-    source: Path
-    profile: str
-    t_s: np.ndarray
-    acc: np.ndarray  # as delivered: int16 counts, or floats in the file's unit
-    gyro: np.ndarray  # as delivered, NaN when the file has no gyro
-    acc_channel: Channel
-    gyro_channel: Channel
-    saturated: np.ndarray
-    events: list[dict]
-    meta: dict[str, Any]
-    aux: dict[str, np.ndarray] = field(default_factory=dict)
-    aux_units: dict[str, str] = field(default_factory=dict)
-    optional: dict[str, Any] = field(default_factory=dict)  # temp, temp_channel, t_device, seq (SD logs)
-    messages: list[str] = field(default_factory=list)  # what was detected / skipped, for the user
-
-    @property
-    def n(self) -> int:
-        return int(self.t_s.shape[0])
-
-    @property
-    def acc_mps2(self) -> np.ndarray:
-        return self.acc.astype(np.float64) * self.acc_channel.scale_to_si
-
-    @property
-    def gyro_radps(self) -> np.ndarray:
-        return self.gyro.astype(np.float64) * self.gyro_channel.scale_to_si
-
-    def count(self, kind: str) -> int:
-        return sum(1 for e in self.events if e["kind"] == kind)
 
 
 def _sha256(raw: bytes) -> str:
@@ -97,11 +68,25 @@ def detect_profile(path: Path, table: TextTable) -> Profile | None:
             first = float(table.cell(0, 0).replace(",", "."))
         except ValueError:
             first = None
+    integers = _whole_numbers(table)
     hits = [p for p in all_profiles()
-            if matches(p, path.name, table.header, table.n_fields, table.delimiter, table.trailing_delimiter, first)]
+            if matches(p, path.name, table.header, table.n_fields, table.delimiter, table.trailing_delimiter, first,
+                       integers)]
     if len(hits) > 1:
         raise InputError(f"{path}: several profiles match ({', '.join(p.name for p in hits)}); choose one with --profile")
     return hits[0] if hits else None
+
+
+def _whole_numbers(table: TextTable, n_rows: int = 50) -> bool:
+    """True when every value of the first ``n_rows`` data rows is a whole number (a log of raw counts)."""
+    if not table.n_rows:
+        return False
+    try:
+        values = [float(table.cell(r, c).replace(",", ".")) for r in range(min(n_rows, table.n_rows))
+                  for c in range(table.n_fields)]
+    except (ValueError, IndexError):
+        return False
+    return all(v.is_integer() for v in values)
 
 
 def _default_roles(n_fields: int, has_rate: bool) -> list[str] | None:
@@ -141,8 +126,82 @@ def _parse_time_strings(col: list[str]) -> tuple[np.ndarray, str] | None:
     return None
 
 
+@dataclass
+class _Source:
+    """What the stages of ``read_any`` learn about one non-SD text file, in the order they learn it."""
+
+    path: Path
+    table: TextTable
+    prof: Profile | None
+    detected: bool
+    overrides: dict
+    messages: list[str] = field(default_factory=list)
+    events: list[dict] = field(default_factory=list)
+    meta: dict[str, Any] = field(default_factory=dict)
+    # columns (_map_columns)
+    idx: dict[str, int] = field(default_factory=dict)  # role (t, ax, ..., aux:NAME) -> column index
+    header_units: dict[str, str] = field(default_factory=dict)
+    quantities: dict[str, str] = field(default_factory=dict)
+    rate_hz: float | None = None
+    time_mode: str = "column"
+    has_gyro: bool = False
+    # numbers (_parse_numbers)
+    values: dict[str, np.ndarray] = field(default_factory=dict)
+    line_numbers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    time_text_kind: str | None = None
+    skipped: list[tuple[int, str]] = field(default_factory=list)
+
+    @property
+    def pname(self) -> str:
+        return self.prof.name if self.prof else "generic"
+
+    def pget(self, key: str, default=None):
+        return self.prof.get(key, default) if self.prof else default
+
+    @property
+    def n(self) -> int:
+        return int(self.line_numbers.shape[0])
+
+
+@dataclass
+class _Units:
+    """Output of ``_check_units``: the arrays as stored and their channels."""
+
+    acc: np.ndarray
+    gyro: np.ndarray
+    acc_channel: Channel
+    gyro_channel: Channel
+    acc_unit: str
+    gyro_unit: str
+    acc_range: float | None
+    gyro_range: float | None
+    acc_quantity: str
+
+
 def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> ImportResult:
-    """Parse and check any supported text log (SD-card log, CSV/TXT of another IMU, canonical csv.gz)."""
+    """Parse and check any supported text log (SD-card log, CSV/TXT of another IMU, canonical csv.gz).
+
+    The stages, in order: read the text (gzip undone, a damaged stream cut at its last complete line); our
+    SD-card log goes to ``sdlog``; otherwise detect the format and profile (``_detect``), map the columns
+    (``_map_columns``), parse the numbers (``_parse_numbers``), build the time axis and its events
+    (``_build_time``), check the units against gravity (``_check_units``), flag saturation and repeated rows
+    (``_sample_events``) and assemble the result with its metadata (``_build_result``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    profile : str, Path, Profile or None
+        A shipped profile name, a user's TOML file, or None to auto-detect.
+    **overrides
+        ``columns``, ``acc_unit``, ``gyro_unit``, ``time_unit``, ``acc_range_g``, ``gyro_range_dps``,
+        ``rate_hz``, ``mount``, ``sensor``, ``delimiter``, ``check_units`` (see the module docstring).
+
+    Returns
+    -------
+    ImportResult
+        Samples as delivered with their channels, events, metadata and messages; nothing written.
+    """
     unknown = set(overrides) - OVERRIDE_KEYS
     if unknown:
         raise TypeError(f"unknown override(s) {sorted(unknown)}; known: {sorted(OVERRIDE_KEYS)}")
@@ -150,12 +209,25 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
-    text, raw = read_text(path)
-    from . import sdlog
-
+    text, raw, damage = read_text(path)
     if sdlog.looks_like_sd_log(text) and profile in (None, "bootnav_sd"):
-        return sdlog.read_sd_log(path, text, raw, **overrides)
+        result = sdlog.read_sd_log(path, text, raw, **overrides)  # a line cut by the damage fails its CRC
+    else:
+        src = _detect(path, text, profile, overrides, damage)
+        _map_columns(src)
+        _parse_numbers(src)
+        t, time_unit = _build_time(src)
+        units = _check_units(src, t)
+        saturated = _sample_events(src, t, units)
+        result = _build_result(src, t, time_unit, units, saturated, raw)
+    if damage:
+        result.events.append(dict(kind="note", detail=f"{damage}: the lines after it are lost"[:200]))
+        result.messages.append(f"WARNING: {path.name}: {damage}; every complete line before it was read")
+    return result
 
+
+def _detect(path: Path, text: str, profile, overrides: dict, damage: str | None) -> _Source:
+    """Stage 1: the profile (given or detected) and the table of lines, with the format messages."""
     prof: Profile | None
     if isinstance(profile, Profile):
         prof = profile
@@ -163,40 +235,66 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         prof = load_profile(profile)
     else:
         prof = None
-    skip = int(prof.get("skip_lines", 0)) if prof else 0
-    header_opt = prof.get("header") if prof else None
-    table = parse_table(path, text, delimiter=overrides.get("delimiter") or (prof.get("delimiter") if prof else None),
-                        header=header_opt, skip_lines=skip)
-    messages: list[str] = []
-    detected = False
-    if prof is None:
-        prof = detect_profile(path, table)
-        detected = prof is not None
+    canonical = csvio.canonical_header(text.partition("\n")[0])
+    if canonical and (prof is None or prof.get("canonical")) and "delimiter" not in overrides:
+        table = _canonical_table(path, text, damage)
+        prof = prof or load_profile("canonical_imu_csv" if canonical == csvio.IMU_HEADER else "canonical_acc_csv")
+        detected = profile is None
+    else:
+        text, lost = csvio.drop_incomplete_tail(text, damage)
+        skip = int(prof.get("skip_lines", 0)) if prof else 0
+        delimiter = overrides.get("delimiter") or (prof.get("delimiter") if prof else None)
+        table = parse_table(path, text, delimiter=delimiter, header=prof.get("header") if prof else None,
+                            skip_lines=skip)
+        if lost:
+            table.bad_lines.append(lost)
+        detected = False
+        if prof is None:
+            prof = detect_profile(path, table)
+            detected = prof is not None
     if prof is not None:
         prof = prof.for_sensor(overrides.get("sensor"))
     elif overrides.get("sensor") not in (None, 1):
         raise InputError(f"{path}: --sensor needs a profile with several sensors")
-    pget = (lambda k, d=None: prof.get(k, d)) if prof else (lambda k, d=None: d)
-    pname = prof.name if prof else "generic"
-    messages.append(f"profile: {pname}" + (" (auto-detected)" if detected else " (given)" if prof else
-                    " (no profile matched; columns and units from the header and flags)"))
-    delim_name = {"\t": "tab", "whitespace": "whitespace"}.get(table.delimiter, repr(table.delimiter))
-    messages.append(f"format: delimiter {delim_name}, header {'line ' + str(table.header_line) if table.header else 'none'}"
-                    + (", decimal comma" if table.decimal_comma else "") + (", trailing delimiter" if table.trailing_delimiter else "")
-                    + f", {table.n_fields} fields, {table.n_rows} data lines")
+    src = _Source(path, table, prof, detected, overrides)
+    src.messages.append(f"profile: {src.pname}" + (" (auto-detected)" if detected else " (given)" if prof else
+                        " (no profile matched; columns and units from the header and flags)"))
+    src.messages.append(f"format: delimiter {_delimiter_name(table)}, header "
+                        f"{'line ' + str(table.header_line) if table.header else 'none'}"
+                        + (", decimal comma" if table.decimal_comma else "")
+                        + (", trailing delimiter" if table.trailing_delimiter else "")
+                        + f", {table.n_fields} fields, {table.n_rows} data lines")
+    return src
 
-    # ---- column roles -------------------------------------------------------------------------
+
+def _canonical_table(path: Path, text: str, damage: str | None) -> TextTable:
+    """A canonical ``imu*.csv`` / ``acc.csv`` through the one canonical reader, ``bootnav.core.csvio``."""
+    imu = csvio.parse_imu_csv(text, path, max_bad_fraction=1.0, damage=damage)  # _parse_numbers judges the share
+    cols = [imu.t_s[:, None], imu.acc_mps2] + ([imu.gyro_radps] if imu.gyro_radps is not None else [])
+    return TextTable(path=path, delimiter=",", decimal_comma=False, header=list(imu.header), header_line=1,
+                     preamble=[], rows=None, line_numbers=imu.line_numbers, n_fields=len(imu.header),
+                     bad_lines=list(imu.bad_lines), ends_without_newline=damage is None and not text.endswith("\n"),
+                     n_lines=imu.n_lines, matrix=np.hstack(cols))
+
+
+def _delimiter_name(table: TextTable) -> str:
+    return {"\t": "tab", "whitespace": "whitespace"}.get(table.delimiter, repr(table.delimiter))
+
+
+def _map_columns(src: _Source) -> None:
+    """Stage 2: the role of each column (``--columns``, the profile, the header names or the default order)."""
+    table, path, pget = src.table, src.path, src.pget
     header_units: dict[str, str] = {}
     quantities: dict[str, str] = {}
-    rate_hz = overrides.get("rate_hz", pget("rate_hz"))
+    rate_hz = src.overrides.get("rate_hz", pget("rate_hz"))
     try:
-        if "columns" in overrides:
-            roles = colmod.parse_columns_option(overrides["columns"], table.header, table.n_fields)
+        if "columns" in src.overrides:
+            roles = colmod.parse_columns_option(src.overrides["columns"], table.header, table.n_fields)
         elif pget("columns"):
             roles = list(pget("columns"))
             if len(roles) != table.n_fields:
-                raise InputError(f"{path}: profile {pname} expects {len(roles)} columns, the file has {table.n_fields} "
-                                 f"(line {table.line_numbers[0] if len(table.line_numbers) else '?'})")
+                raise InputError(f"{path}: profile {src.pname} expects {len(roles)} columns, the file has "
+                                 f"{table.n_fields} (line {table.line_numbers[0] if len(table.line_numbers) else '?'})")
             if table.header:
                 _, header_units, quantities = colmod.map_header(table.header)
                 header_units = {roles[i]: header_units.get(r) for i, r in enumerate(colmod.map_header(table.header)[0])
@@ -216,30 +314,35 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
                 raise InputError(f"{path}: {table.n_fields} columns without a header and no profile matches; "
                                  f"give --columns (e.g. t,ax,ay,az,gx,gy,gz) or --profile"
                                  + (" and --rate (no time column)" if table.n_fields == 6 else ""))
-            messages.append("columns: no header; assumed the default order " + ",".join(roles))
+            src.messages.append("columns: no header; assumed the default order " + ",".join(roles))
     except ValueError as exc:
         raise InputError(f"{path}: {exc}") from exc
     idx = {r: i for i, r in enumerate(roles) if r != "-"}
     if not all(r in idx for r in ("ax", "ay", "az")):
         lin = [r for r, q in quantities.items() if q == "linear"]
-        if lin and pname != "purestreams_phyphox":
+        if lin and src.pname != "purestreams_phyphox":
             raise InputError(f"{path}: the file holds LINEAR acceleration ({', '.join(table.header[roles.index(r)] for r in lin)}),"
                              f" i.e. gravity removed, not specific force; use --profile purestreams_phyphox or "
                              f"--columns to import it explicitly as linear acceleration")
         raise InputError(f"{path}: no accelerometer x/y/z columns found (columns: {table.header or roles}); use --columns")
-    has_gyro = all(r in idx for r in ("gx", "gy", "gz"))
     time_mode = pget("time", "column")
     if "t" not in idx and time_mode == "column":
         time_mode = "rate"
     if time_mode == "rate" and not rate_hz:
         raise InputError(f"{path}: no time column; give the sample rate with --rate HZ")
-    messages.append("columns: " + ", ".join(f"{r}={table.header[i] if table.header else i}" for r, i in idx.items()))
+    src.messages.append("columns: " + ", ".join(f"{r}={table.header[i] if table.header else i}"
+                                            for r, i in idx.items()))
+    src.idx, src.header_units, src.quantities = idx, header_units, quantities
+    src.rate_hz, src.time_mode = rate_hz, time_mode
+    src.has_gyro = all(r in idx for r in ("gx", "gy", "gz"))
 
-    # ---- numbers ------------------------------------------------------------------------------
+
+def _parse_numbers(src: _Source) -> None:
+    """Stage 3: the numbers of every used column; malformed and NaN/inf lines are skipped and reported."""
+    table, path = src.table, src.path
     bad: dict[int, str] = {}  # row index -> reason
     values: dict[str, np.ndarray] = {}
-    time_text_kind = None
-    for role, i in idx.items():
+    for role, i in src.idx.items():
         if role == "t":
             arr, bad_rows = table.numeric(i)
             if len(bad_rows) > 0.5 * len(arr):
@@ -247,7 +350,7 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
                 if parsed is None:
                     raise InputError(f"{path}: time column {i} ({table.header[i] if table.header else ''}) is not "
                                      f"numeric (line {table.line_numbers[bad_rows[0]]}: {table.cell(bad_rows[0], i)!r})")
-                arr, time_text_kind = parsed
+                arr, src.time_text_kind = parsed
                 bad_rows = []
         else:
             arr, bad_rows = table.numeric(i)
@@ -255,7 +358,8 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
             bad.setdefault(r, f"column {i + 1} ({role}) is not a number: {table.cell(r, i)[:30]!r}")
         if role in ("t", "ax", "ay", "az", "gx", "gy", "gz"):
             for r in np.flatnonzero(~np.isfinite(arr)):
-                bad.setdefault(int(r), f"column {i + 1} ({role}) is {table.cell(r, i).strip()[:20]!r} (NaN/inf: line skipped)")
+                bad.setdefault(int(r), f"column {i + 1} ({role}) is {table.cell(r, i).strip()[:20]!r} "
+                                       "(NaN/inf: line skipped)")
         values[role] = arr
     n_lines_data = table.n_rows + len(table.bad_lines)
     skipped = [(ln, reason) for ln, reason in table.bad_lines]
@@ -267,86 +371,92 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
                          f"wrong profile, columns or delimiter?")
     keep = np.ones(table.n_rows, dtype=bool)
     keep[list(bad)] = False
-    line_numbers = table.line_numbers[keep]
-    values = {k: v[keep] for k, v in values.items()}
-    n = int(keep.sum())
-    events: list[dict] = []
-    last_line = table.n_lines
+    src.line_numbers = table.line_numbers[keep]
+    src.values = {k: v[keep] for k, v in values.items()}
+    src.skipped = skipped
     for ln, reason in skipped:
-        truncated = table.ends_without_newline and ln == last_line
-        events.append(dict(kind="skipped_line", line=ln, count=1,
-                           detail=("truncated last line (no newline): " if truncated else "") + reason))
+        truncated = table.ends_without_newline and ln == table.n_lines
+        src.events.append(dict(kind="skipped_line", line=ln, count=1,
+                               detail=("truncated last line (no newline): " if truncated else "") + reason))
     if skipped:
-        messages.append(f"skipped {len(skipped)} malformed line(s) of {path.name}: "
-                        + ", ".join(str(ln) for ln, _ in skipped[:10]) + (" ..." if len(skipped) > 10 else "")
-                        )
-        messages += [f"  {path.name}:{ln}: {why}" for ln, why in skipped[:10]]
+        src.messages.append(f"skipped {len(skipped)} malformed line(s) of {path.name}: "
+                            + ", ".join(str(ln) for ln, _ in skipped[:10]) + (" ..." if len(skipped) > 10 else ""))
+        src.messages += [f"  {path.name}:{ln}: {why}" for ln, why in skipped[:10]]
 
-    # ---- time ---------------------------------------------------------------------------------
-    meta: dict[str, Any] = {}
-    time_unit = overrides.get("time_unit") or header_units.get("t") or pget("time_unit")
-    if time_mode == "rate":
-        t = np.arange(n, dtype=np.float64) / float(rate_hz)
+
+def _build_time(src: _Source) -> tuple[np.ndarray, str]:
+    """Stage 4: sample times in s from the first sample (unit, counter wraps, coarse clocks) and time events.
+    Returns (t_s, the file's time unit)."""
+    n, meta, events, path = src.n, src.meta, src.events, src.path
+    time_unit = src.overrides.get("time_unit") or src.header_units.get("t") or src.pget("time_unit")
+    if src.time_mode == "rate":
+        t = np.arange(n, dtype=np.float64) / float(src.rate_hz)
         time_unit = "s"
-        messages.append(f"time: no time column, t = i / {rate_hz} Hz")
-        meta["time_source"] = f"sample index / {rate_hz} Hz"
+        src.messages.append(f"time: no time column, t = i / {src.rate_hz} Hz")
+        meta["time_source"] = f"sample index / {src.rate_hz} Hz"
     else:
-        t_raw = values["t"]
-        if time_text_kind:
+        t_raw = src.values["t"]
+        if src.time_text_kind:
             time_unit = "s"
-            meta["time_source"] = time_text_kind
-            if time_text_kind == "utc_datetime" and n:
+            meta["time_source"] = src.time_text_kind
+            if src.time_text_kind == "utc_datetime" and n:
                 meta["start_utc"] = _dt.datetime.fromtimestamp(t_raw[0], _dt.timezone.utc).isoformat()
         if time_unit is None:
             d = np.diff(t_raw)
             med = float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
             integral = bool(np.all(t_raw == np.round(t_raw)))
             time_unit = "s" if med < 0.5 or not integral else ("ms" if med < 100 else "us")
-            messages.append(f"time unit: not declared, guessed {time_unit!r} from the median step {med:g} "
-                            f"(override with --time-unit)")
+            src.messages.append(f"time unit: not declared, guessed {time_unit!r} from the median step {med:g} "
+                                f"(override with --time-unit)")
             meta["time_unit_source"] = "guessed from the median time step"
-        if time_unit not in timebase.TIME_SCALE:
+        if time_unit not in TIME_SCALE:
             raise InputError(f"{path}: time unit {time_unit!r} unknown (use s, ms or us)")
-        if time_unit in ("ms", "us") and timebase.is_u32_counter(t_raw):
-            t_raw, wraps = timebase.unwrap_u32(t_raw)
+        if time_unit in ("ms", "us") and is_u32_counter(t_raw):
+            t_raw, wraps = unwrap_counter(t_raw)
             for i in wraps:
-                events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
+                events.append(dict(kind="time_wrap", sample_index=int(i), line=int(src.line_numbers[i]), count=1,
                                    detail=f"32-bit {time_unit} counter wrapped (2**32 added)"))
-        if time_mode == "rtc_seconds":
-            t_abs, per_s = timebase.spread_coarse_seconds(t_raw * timebase.TIME_SCALE[time_unit])
+        if src.time_mode == "rtc_seconds":
+            t_abs, per_s = spread_coarse_seconds(t_raw * TIME_SCALE[time_unit])
             events.append(dict(kind="note", count=n, detail=f"1-s clock: rows spread evenly inside each second "
                                f"(median {per_s:g} rows/s)"))
-            messages.append(f"time: 1-s RTC clock, {per_s:g} rows/s spread evenly inside each second")
+            src.messages.append(f"time: 1-s RTC clock, {per_s:g} rows/s spread evenly inside each second")
             meta["time_source"] = "1-s RTC, rows spread within each second"
             meta["rows_per_second_median"] = per_s
         else:
-            t_abs = t_raw * timebase.TIME_SCALE[time_unit]
+            t_abs = t_raw * TIME_SCALE[time_unit]
         t0 = float(t_abs[0]) if n else 0.0
         meta["t0_source_s"] = t0
-        if t0 > 1e9 and "start_utc" not in meta and time_text_kind is None:  # a UNIX epoch clock
+        if t0 > 1e9 and "start_utc" not in meta and src.time_text_kind is None:  # a UNIX epoch clock
             meta["start_utc"] = _dt.datetime.fromtimestamp(t0, _dt.timezone.utc).isoformat()
         t = t_abs - t0
-    nominal_dt = 1.0 / float(rate_hz) if rate_hz else None
-    if time_mode == "column":
-        events += timebase.time_events(t, line_numbers, nominal_dt=nominal_dt)
+    if src.time_mode == "column":
+        events += time_events(t, src.line_numbers, nominal_dt=1.0 / float(src.rate_hz) if src.rate_hz else None)
     for e in events:
         if e.get("sample_index", -1) >= 0 and "t_s" not in e:
             e["t_s"] = float(t[e["sample_index"]])
+    return t, time_unit
 
-    # ---- units --------------------------------------------------------------------------------
-    acc_raw = np.column_stack([values[r] for r in ("ax", "ay", "az")])
-    gyro_raw = np.column_stack([values[r] for r in ("gx", "gy", "gz")]) if has_gyro else np.full((n, 3), np.nan)
-    acc_unit = overrides.get("acc_unit") or header_units.get("ax") or pget("acc_unit")
-    gyro_unit = overrides.get("gyro_unit") or header_units.get("gx") or pget("gyro_unit")
+
+def _check_units(src: _Source, t: np.ndarray) -> _Units:
+    """Stage 5: accelerometer/gyro units and ranges (declared, from the header, or from gravity), checked
+    against gravity and physics; a contradiction is an error naming the flag (or a note with
+    ``check_units=False``)."""
+    n, path, overrides, pget = src.n, src.path, src.overrides, src.pget
+    acc_raw = np.column_stack([src.values[r] for r in ("ax", "ay", "az")])
+    gyro_raw = (np.column_stack([src.values[r] for r in ("gx", "gy", "gz")]) if src.has_gyro
+                else np.full((n, 3), np.nan))
+    acc_unit = overrides.get("acc_unit") or src.header_units.get("ax") or pget("acc_unit")
+    gyro_unit = overrides.get("gyro_unit") or src.header_units.get("gx") or pget("gyro_unit")
     acc_quantity = pget("acc_quantity", "specific_force")
-    if quantities.get("ax") == "acc_g" and not overrides.get("acc_unit"):
+    if src.quantities.get("ax") == "acc_g" and not overrides.get("acc_unit"):
         acc_unit = "g"
-    fr_acc, fr_gyro = _ranges_from_filename(prof, path.name) if prof else (None, None)
+    fr_acc, fr_gyro = _ranges_from_filename(src.prof, path.name) if src.prof else (None, None)
     acc_range = overrides.get("acc_range_g") or fr_acc or pget("acc_range_g")
     gyro_range = overrides.get("gyro_range_dps") or fr_gyro or pget("gyro_range_dps")
-    rate_for_checks = float(rate_hz) if rate_hz else (timing_summary(t)["rate_measured_hz"] if n > 1 else 1.0)
+    rate = float(src.rate_hz) if src.rate_hz else (timing_summary(t)["rate_measured_hz"] if n > 1 else 1.0)
     if acc_unit is None:
-        raw_mag, _ = checks.quietest_second(acc_raw, rate_for_checks)
+        raw_mag, _ = checks.quietest_second(acc_raw, rate)
         for unit, ref in (("g", 1.0), ("mps2", G)):
             if abs(raw_mag / ref - 1) <= checks.ACC_TOLERANCE:
                 acc_unit = unit
@@ -355,93 +465,102 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
                     if raw_mag < 0.3 else "")
             raise InputError(f"{path}: accelerometer unit not declared and not recognisable (median |acc| at rest "
                              f"{raw_mag:.4g}{hint}); give --acc-unit g|mps2|counts")
-        messages.append(f"acc unit: not declared, {acc_unit!r} from the gravity magnitude at rest ({raw_mag:.4g})")
-        meta["acc_unit_source"] = "gravity magnitude at rest"
+        src.messages.append(f"acc unit: not declared, {acc_unit!r} from the gravity magnitude at rest ({raw_mag:.4g})")
+        src.meta["acc_unit_source"] = "gravity magnitude at rest"
     if acc_unit not in ("g", "mps2", "counts"):
         raise InputError(f"acc unit {acc_unit!r} unknown (use g, mps2 or counts)")
-    if has_gyro and gyro_unit is None:
+    if src.has_gyro and gyro_unit is None:
         if acc_unit == "counts":
             gyro_unit = "counts"
         else:
             raise InputError(f"{path}: gyro unit not declared in the header or profile; give --gyro-unit dps|radps")
-    if not has_gyro:
+    if not src.has_gyro:
         gyro_unit = "radps"
     if gyro_unit not in ("dps", "radps", "counts"):
         raise InputError(f"gyro unit {gyro_unit!r} unknown (use dps, radps or counts)")
 
     acc_arr, acc_ch = _channel("acc", acc_raw, acc_unit, acc_range, path)
     gyro_arr, gyro_ch = _channel("gyro", gyro_raw, gyro_unit, gyro_range, path)
-    check_units = overrides.get("check_units", True)
     problems = []
     if acc_quantity == "specific_force":
-        p = checks.acc_unit_problem(acc_arr, acc_ch.scale_to_si, acc_unit, rate_for_checks)
+        p = checks.acc_unit_problem(acc_arr, acc_ch.scale_to_si, acc_unit, rate)
         if p:
             problems.append(p)
-    if has_gyro:
+    if src.has_gyro:
         p = checks.gyro_unit_problem(gyro_arr.astype(np.float64) * gyro_ch.scale_to_si, gyro_unit)
         if p:
             problems.append(p)
-    if has_gyro and not problems:
+    if src.has_gyro and not problems:
         w = checks.gyro_too_small(acc_arr.astype(np.float64) * acc_ch.scale_to_si,
                                   gyro_arr.astype(np.float64) * gyro_ch.scale_to_si)
         if w:
-            events.append(dict(kind="note", detail=w[:200]))
-            messages.append("WARNING: " + w)
+            src.events.append(dict(kind="note", detail=w[:200]))
+            src.messages.append("WARNING: " + w)
     for p in problems:
-        if check_units:
+        if overrides.get("check_units", True):
             raise InputError(f"{path}: {p}")
-        events.append(dict(kind="note", detail=("unit check overridden: " + p)[:200]))
-        messages.append("WARNING (unit check overridden): " + p)
+        src.events.append(dict(kind="note", detail=("unit check overridden: " + p)[:200]))
+        src.messages.append("WARNING (unit check overridden): " + p)
     if acc_quantity != "specific_force":
-        events.append(dict(kind="note", detail=f"acc is {acc_quantity} (gravity removed), NOT specific force"))
-        messages.append(f"WARNING: acc is {acc_quantity.upper()} (gravity removed), NOT specific force: fine for "
-                        f"step counting, wrong for strapdown/ZUPT (meta acc_quantity)")
+        src.events.append(dict(kind="note", detail=f"acc is {acc_quantity} (gravity removed), NOT specific force"))
+        src.messages.append(f"WARNING: acc is {acc_quantity.upper()} (gravity removed), NOT specific force: fine for "
+                            f"step counting, wrong for strapdown/ZUPT (meta acc_quantity)")
+    return _Units(acc_arr, gyro_arr, acc_ch, gyro_ch, acc_unit, gyro_unit, acc_range, gyro_range, acc_quantity)
 
-    sat_a, ev_a = checks.saturation(acc_arr, acc_ch.full_scale, acc_unit == "counts", 0)
-    sat_g, ev_g = checks.saturation(gyro_arr, gyro_ch.full_scale, gyro_unit == "counts", 3) if has_gyro else (
-        np.zeros(n, np.uint8), [])
+
+def _sample_events(src: _Source, t: np.ndarray, u: _Units) -> np.ndarray:
+    """Stage 6: saturation bits and events, repeated rows, the profile's notes. Returns the saturation mask."""
+    n = src.n
+    sat_a, ev_a = checks.saturation(u.acc, u.acc_channel.full_scale, u.acc_unit == "counts", 0)
+    if src.has_gyro:
+        sat_g, ev_g = checks.saturation(u.gyro, u.gyro_channel.full_scale, u.gyro_unit == "counts", 3)
+    else:
+        sat_g, ev_g = np.zeros(n, np.uint8), []
     for e in ev_a + ev_g:
         e["t_s"] = float(t[e["sample_index"]])
-        e["line"] = int(line_numbers[e["sample_index"]])
-    events += ev_a + ev_g
-
+        e["line"] = int(src.line_numbers[e["sample_index"]])
+    src.events += ev_a + ev_g
     # Physics Toolbox and similar apps repeat rows when no sensor updated: keep, but say how many.
     if n > 1:
-        same = np.all(acc_raw[1:] == acc_raw[:-1], axis=1)
-        if has_gyro:
-            same &= np.all(gyro_raw[1:] == gyro_raw[:-1], axis=1)
+        same = np.all(u.acc[1:] == u.acc[:-1], axis=1)
+        if src.has_gyro:
+            same &= np.all(u.gyro[1:] == u.gyro[:-1], axis=1)
         n_rep = int(same.sum())
         if n_rep > 0.01 * n:
-            events.append(dict(kind="note", count=n_rep, detail=f"{n_rep} rows repeat the previous row's sensor "
-                               "values exactly (app/logger re-sent a stale sample); kept"))
-            messages.append(f"note: {n_rep} rows repeat the previous row's values (kept)")
+            src.events.append(dict(kind="note", count=n_rep, detail=f"{n_rep} rows repeat the previous row's sensor "
+                                   "values exactly (app/logger re-sent a stale sample); kept"))
+            src.messages.append(f"note: {n_rep} rows repeat the previous row's values (kept)")
+    for note in src.pget("notes", []) or []:
+        src.events.append(dict(kind="note", detail=note))
+    return (sat_a | sat_g).astype(np.uint8)
 
-    for note in pget("notes", []) or []:
-        events.append(dict(kind="note", detail=note))
 
-    # ---- aux and meta -------------------------------------------------------------------------
+def _build_result(src: _Source, t: np.ndarray, time_unit: str, u: _Units, saturated: np.ndarray,
+                  raw: bytes) -> ImportResult:
+    """Stage 7: extra columns, metadata and the summary messages, as an ``ImportResult``."""
+    path, table, prof, n, meta = src.path, src.table, src.prof, src.n, src.meta
     aux, aux_units = {}, {}
-    for role, i in idx.items():
+    for role, i in src.idx.items():
         if role.startswith("aux:") or role == "temp":
             name = role[4:] if role.startswith("aux:") else "temp"
-            aux[name] = values[role]
-            aux_units[name] = header_units.get(role) or "as in file"
+            aux[name] = src.values[role]
+            aux_units[name] = src.header_units.get(role) or "as in file"
     summary = timing_summary(t)
     meta.update(
-        source_file=str(path.resolve()), source_sha256=_sha256(raw), importer_profile=pname,
+        source_file=str(path.resolve()), source_sha256=_sha256(raw), importer_profile=src.pname,
         importer_profile_file=str(prof.path) if prof and prof.path else "",
-        detected=dict(delimiter=delim_name, header=table.header or [], decimal_comma=table.decimal_comma,
-                      columns={r: (table.header[i] if table.header else i) for r, i in idx.items()},
-                      profile_auto_detected=detected),
-        acc_unit_source_file=acc_unit, gyro_unit_source_file=gyro_unit if has_gyro else "absent",
-        time_unit_source_file=time_unit, acc_quantity=acc_quantity, gyro_present=int(has_gyro),
-        accel_range_g=float(acc_range) if acc_range else float("nan"),
-        gyro_range_dps=float(gyro_range) if gyro_range else float("nan"),
-        rate_nominal_hz=float(rate_hz) if rate_hz else float("nan"),
-        mount=overrides.get("mount") or pget("mount", "unknown"), device=pget("device", "unknown"),
-        lines_total=table.n_lines, lines_skipped=len(skipped), **summary,
+        detected=dict(delimiter=_delimiter_name(table), header=table.header or [], decimal_comma=table.decimal_comma,
+                      columns={r: (table.header[i] if table.header else i) for r, i in src.idx.items()},
+                      profile_auto_detected=src.detected),
+        acc_unit_source_file=u.acc_unit, gyro_unit_source_file=u.gyro_unit if src.has_gyro else "absent",
+        time_unit_source_file=time_unit, acc_quantity=u.acc_quantity, gyro_present=int(src.has_gyro),
+        accel_range_g=float(u.acc_range) if u.acc_range else float("nan"),
+        gyro_range_dps=float(u.gyro_range) if u.gyro_range else float("nan"),
+        rate_nominal_hz=float(src.rate_hz) if src.rate_hz else float("nan"),
+        mount=src.overrides.get("mount") or src.pget("mount", "unknown"), device=src.pget("device", "unknown"),
+        lines_total=table.n_lines, lines_skipped=len(src.skipped), **summary,
     )
-    if pname in ("purestreams_phyphox", "phyphox_csv"):
+    if src.pname in ("purestreams_phyphox", "phyphox_csv"):
         meta.update(_phyphox_meta(path))
         if "phyphox_start_unix_s" in meta and n:
             meta["start_utc"] = _dt.datetime.fromtimestamp(meta["phyphox_start_unix_s"] + meta.get("t0_source_s", 0.0),
@@ -449,14 +568,15 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
     meta.setdefault("start_utc", "")  # unknown: the source has no absolute clock (never the import time)
     if table.preamble:
         meta["source_preamble"] = "\n".join(ln for _, ln in table.preamble)[:2000]
-    if not has_gyro:
+    messages = src.messages
+    if not src.has_gyro:
         messages.append("gyro: absent in this file -> stored as NaN (meta gyro_present = 0)")
-    messages.append(f"units: acc {acc_unit}, gyro {gyro_unit if has_gyro else 'absent'}, time {time_unit}; ranges "
-                    f"acc {acc_range or '?'} g, gyro {gyro_range or '?'} deg/s")
+    messages.append(f"units: acc {u.acc_unit}, gyro {u.gyro_unit if src.has_gyro else 'absent'}, time {time_unit}; "
+                    f"ranges acc {u.acc_range or '?'} g, gyro {u.gyro_range or '?'} deg/s")
     messages.append(f"samples: {n}, {summary['rate_measured_hz']:.4g} Hz measured"
-                    + (f" ({rate_hz} nominal)" if rate_hz else "") + f", {t[-1] if n else 0:.3f} s")
-    return ImportResult(source=path, profile=pname, t_s=t, acc=acc_arr, gyro=gyro_arr, acc_channel=acc_ch,
-                        gyro_channel=gyro_ch, saturated=(sat_a | sat_g).astype(np.uint8), events=events, meta=meta,
+                    + (f" ({src.rate_hz} nominal)" if src.rate_hz else "") + f", {t[-1] if n else 0:.3f} s")
+    return ImportResult(source=path, profile=src.pname, t_s=t, acc=u.acc, gyro=u.gyro, acc_channel=u.acc_channel,
+                        gyro_channel=u.gyro_channel, saturated=saturated, events=src.events, meta=meta,
                         aux=aux, aux_units=aux_units, messages=messages)
 
 

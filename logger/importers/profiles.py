@@ -16,9 +16,12 @@ A profile is a TOML table (see ``profiles/*.toml`` shipped in this package, or a
 ``ranges_from_filename``                            regex with groups ``a`` and ``g`` = MPU6050 AFS_SEL / FS_SEL codes
 ``acc_quantity``                                    ``"specific_force"`` (default) or ``"linear_acceleration"``
 ``mount``, ``device``                               metadata
+``canonical``                                       true: the canonical IMU CSV, read by ``bootnav.core.csvio``
 ``notes``                                           list of text, stored as ``note`` events
 ``[detect]``                                        ``header_contains`` (all of), ``n_fields``, ``filename_regex``,
-                                                    ``delimiter``, ``trailing_delimiter``, ``first_value_min``, ``no_header``
+                                                    ``delimiter``, ``trailing_delimiter``, ``first_value_min``,
+                                                    ``no_header``, ``integer_fields`` (the first rows hold whole
+                                                    numbers only)
 ``[sensor.N]``                                      overrides chosen by ``--sensor N`` (e.g. second IMU in the file)
 """
 
@@ -101,8 +104,9 @@ def all_profiles() -> list[Profile]:
 
 
 def matches(profile: Profile, filename: str, header: list[str] | None, n_fields: int, delimiter: str,
-            trailing: bool, first_value: float | None) -> bool:
-    """True when every rule in the profile's ``[detect]`` table holds (a profile without rules never matches)."""
+            trailing: bool, first_value: float | None, integers: bool = False) -> bool:
+    """True when every rule in the profile's ``[detect]`` table holds (a profile without rules never matches);
+    ``integers``: every value of the file's first rows is a whole number."""
     rules = profile.detect
     if not rules:
         return False
@@ -126,5 +130,7 @@ def matches(profile: Profile, filename: str, header: list[str] | None, n_fields:
     if "trailing_delimiter" in rules and bool(rules["trailing_delimiter"]) != trailing:
         return False
     if "first_value_min" in rules and (first_value is None or first_value < rules["first_value_min"]):
+        return False
+    if "integer_fields" in rules and bool(rules["integer_fields"]) != integers:
         return False
     return True

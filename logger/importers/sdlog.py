@@ -26,12 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.timebase import SEQ_MODULUS, time_events, timing_summary, unwrap_counter
 from bootnav.errors import InputError
 from bootnav.logger import mpu6050
 from bootnav.logger.crc import crc16_ccitt_false, crc16_ccitt_false_rows
-from bootnav.logger.recording import counts_channel, timing_summary
+from bootnav.logger.recording import counts_channel
 
-from . import checks, timebase
+from . import checks
+from .result import ImportResult
 
 HEADER_PREFIX = "# bootnav-sd"
 _HEADER_RE = re.compile(r"^#\s*bootnav-sd\s+v(\d+)\s*(.*)$")
@@ -104,9 +106,8 @@ def _parse_fields(bodies: list[str], line_idx: list[int], skip) -> tuple[np.ndar
     return np.array(rows, dtype=np.int64).reshape(-1, 9), keep
 
 
-def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
-    from .core import ImportResult
-
+def read_sd_log(path: Path, text: str, raw: bytes, **overrides) -> ImportResult:
+    """Parse and check our SD-card log (module docstring); ``raw`` is the file's bytes (for its hash)."""
     lines = text.split("\n")
     ends_without_newline = not text.endswith("\n")
     if not ends_without_newline:
@@ -192,7 +193,7 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
         raise InputError(f"{path}: no valid data line (of {len(lines)} lines)")
 
     t_dev = arr[:, 0].astype(np.uint32)
-    t_unwrapped, wraps = timebase.unwrap_u32(arr[:, 0])
+    t_unwrapped, wraps = unwrap_counter(arr[:, 0])
     for i in wraps:
         events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
                            detail="uint32 microsecond clock wrapped (71.6 min); 2**32 us added"))
@@ -205,10 +206,10 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides):
     dlpf = int(header.get("dlpf", -1))
     div = int(header.get("smplrt_div", -1))
     rate_nominal = (1000.0 if 1 <= dlpf <= 6 else 8000.0) / (1 + div) if div >= 0 and dlpf >= 0 else float("nan")
-    events += timebase.time_events(t, line_numbers, nominal_dt=1 / rate_nominal if np.isfinite(rate_nominal) else None,
-                                   with_gaps=False)
+    events += time_events(t, line_numbers, nominal_dt=1 / rate_nominal if np.isfinite(rate_nominal) else None,
+                          with_gaps=False)  # the frame counter reports the gaps (the one gap rule)
     seq = arr[:, 1].astype(np.uint16)
-    dseq = (np.diff(arr[:, 1]) % 65536)
+    dseq = np.diff(arr[:, 1]) % SEQ_MODULUS
     for j in np.flatnonzero(dseq != 1):
         i = j + 1
         if dseq[j] == 0:

@@ -2,31 +2,32 @@
 
 The parser never guesses silently and never drops data silently:
 
-* encoding: UTF-8 (BOM removed), gzip transparently; files with NUL bytes or mostly control bytes are
-  rejected as binary;
+* encoding: UTF-8 (BOM removed), gzip transparently (a cut-off stream keeps its complete lines); files with
+  NUL bytes or mostly control bytes are rejected as binary;
 * lines: split on LF, a trailing CR removed (CRLF files), blank lines ignored, comment lines
   (``#``, ``%``, ``//``) collected as the preamble;
 * delimiter: ``;``, tab, ``,`` or runs of whitespace, chosen as the one that splits the first data lines
   into the same number (> 1) of fields; a trailing delimiter on every line (``1;2;3;``) is dropped;
 * decimal comma: accepted when the delimiter is not a comma (``0,5;1,25``);
 * header: the last non-numeric line before the first numeric one, quotes stripped;
-* numbers: each needed column is converted by numpy in one call (C speed); a column that fails is
-  re-converted value by value only to find the bad lines, which are returned with 1-based line numbers
-  so the caller can record them as ``skipped_line`` events while keeping every good line.
+* numbers: plain numeric files go through ``bootnav.core.csvio.parse_numeric_lines`` (numpy per chunk of
+  lines, line by line only inside a chunk that fails); other files (quotes, date-time text) are split into
+  strings and each needed column is converted by numpy in one call; either way the bad lines are returned
+  with 1-based line numbers so the caller can record them as ``skipped_line`` events while keeping every
+  good line.
 """
 
 from __future__ import annotations
 
 import csv
 import gc
-import gzip
 import re
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.csvio import decompress, parse_numeric_lines
 from bootnav.errors import InputError
 
 COMMENT_PREFIXES = ("#", "%", "//")
@@ -34,15 +35,14 @@ _NUM_RE = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$|^\s*[
 WHITESPACE = "whitespace"
 
 
-def read_text(path: Path) -> tuple[str, bytes]:
-    """Return (text, raw bytes) of a text file; gzip is undone; binary files are refused."""
+def read_text(path: Path) -> tuple[str, bytes, str | None]:
+    """Return (text, raw bytes, damage) of a text file; binary files are refused.
+
+    gzip is undone; a cut-off or damaged gzip stream keeps what precedes the damage and says what went wrong
+    in ``damage`` (None when intact), so the caller can drop the incomplete last line and report it.
+    """
     raw = Path(path).read_bytes()
-    data = raw
-    if data[:2] == b"\x1f\x8b":
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError) as exc:
-            raise InputError(f"{path}: damaged gzip file ({exc})") from exc
+    data, damage = decompress(raw)
     if not data.strip():
         raise InputError(f"{path}: file is empty (no data lines)")
     head = data[:65536]
@@ -53,11 +53,11 @@ def read_text(path: Path) -> tuple[str, bytes]:
         raise InputError(f"{path}: looks like a binary file, not a text log ({where})")
     try:
         text = data.decode("utf-8")
-    except UnicodeDecodeError:  # Windows loggers: "°/s" in cp1252/latin-1 headers
-        text = data.decode("cp1252", errors="replace")
+    except UnicodeDecodeError:  # Windows loggers: "°/s" in cp1252/latin-1 headers; a damaged tail: cut anyway
+        text = data.decode("utf-8", errors="replace") if damage else data.decode("cp1252", errors="replace")
     if text.startswith("\ufeff"):
         text = text[1:]
-    return text, raw
+    return text, raw, damage
 
 
 def is_number(token: str) -> bool:
@@ -150,82 +150,6 @@ def _sniff_delimiter(lines: list[str]) -> str:
 HEAD_LINES = 200
 
 
-def _fast_matrix(region: str, delim: str, n_fields: int, trailing: bool, decimal_comma: bool) -> np.ndarray | None:
-    """The whole data block parsed by numpy in C, or None when any line is irregular (then the careful path runs).
-
-    Accepted only when there are no blank/comment/quoted lines and every line has exactly the expected
-    number of delimiters, so each value is known to sit in its own row and column.
-    """
-    if "\r" in region:
-        region = region.replace("\r\n", "\n")  # CRLF files
-    if delim == WHITESPACE or any(c in region for c in ('"', "#", "%", "/", "\r", "\n\n")) or not region:
-        return None
-    if region.startswith("\n"):
-        return None
-    body = region[:-1] if region.endswith("\n") else region
-    n_lines = body.count("\n") + 1
-    per_line = n_fields if trailing else n_fields - 1
-    if body.count(delim) != n_lines * per_line:
-        return None
-    if trailing:
-        body = body.replace(delim + "\n", "\n")
-        if body.endswith(delim):
-            body = body[:-1]
-    if decimal_comma:
-        body = body.replace(",", ".")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            flat = np.fromstring(body.replace("\n", delim), sep=delim)
-        except ValueError:
-            return None
-    if flat.size != n_lines * n_fields:
-        return None
-    return flat.reshape(n_lines, n_fields)
-
-
-CHUNK_LINES = 20_000
-
-
-def _chunked_matrix(lines: list[str], first_line_no: int, delim: str, n_fields: int, trailing: bool,
-                    decimal_comma: bool) -> tuple[np.ndarray, np.ndarray, list[tuple[int, str]]] | None:
-    """A few bad lines in a big file: numpy fast path per chunk of lines, line-by-line only inside the
-    chunks that fail. Returns None when most lines are not plain numbers (e.g. a date-time column), so the
-    string-based careful path handles the file."""
-    blocks, numbers, bad = [], [], []
-    for a in range(0, len(lines), CHUNK_LINES):
-        chunk = lines[a : a + CHUNK_LINES]
-        m = _fast_matrix("\n".join(chunk) + "\n", delim, n_fields, trailing, decimal_comma)
-        if m is not None:
-            blocks.append(m)
-            numbers.append(np.arange(first_line_no + a, first_line_no + a + m.shape[0], dtype=np.int64))
-            continue
-        rows, nums = [], []
-        for k, raw_line in enumerate(chunk):
-            ln = raw_line.rstrip("\r")
-            s = ln.strip()
-            if not s or s.startswith(COMMENT_PREFIXES):
-                continue
-            f = (s if trailing else ln).split(delim)
-            if trailing and f and f[-1] == "":
-                f.pop()
-            if len(f) != n_fields:
-                bad.append((first_line_no + a + k, f"{len(f)} fields, expected {n_fields}: {ln[:60]!r}"))
-                continue
-            try:
-                rows.append([float(x.replace(",", ".") if decimal_comma else x) for x in f])
-            except ValueError:
-                j = next((j for j, x in enumerate(f) if not is_number(x)), 0)
-                bad.append((first_line_no + a + k, f"column {j + 1} is not a number: {f[j][:30]!r}"))
-                continue
-            nums.append(first_line_no + a + k)
-        blocks.append(np.array(rows, dtype=np.float64).reshape(-1, n_fields))
-        numbers.append(np.asarray(nums, dtype=np.int64))
-        if len(bad) > 0.5 * (a + len(chunk)):
-            return None
-    return np.concatenate(blocks), np.concatenate(numbers), bad
-
-
 def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: bool | None = None,
                 skip_lines: int = 0) -> TextTable:
     """Split ``text`` into a table. ``delimiter``/``header`` None = auto-detect."""
@@ -297,19 +221,15 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
                   header_line=header_line, preamble=preamble, n_fields=n_fields,
                   ends_without_newline=ends_without_newline, n_lines=n_total_lines, trailing_delimiter=trailing)
 
-    region = text.split("\n", first_line_no - 1)[-1]
-    matrix = _fast_matrix(region, delim, n_fields, trailing, decimal_comma)
-    if matrix is not None:
-        lines_no = np.arange(first_line_no, first_line_no + matrix.shape[0], dtype=np.int64)
-        return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, **common)
-
-    lines = region.split("\n")
+    lines = text.split("\n", first_line_no - 1)[-1].split("\n")
     if not ends_without_newline:
         lines.pop()
     if not quoted and delim != WHITESPACE:
-        chunked = _chunked_matrix(lines, first_line_no, delim, n_fields, trailing, decimal_comma)
-        if chunked is not None:
-            matrix, lines_no, bad = chunked
+        parsed = parse_numeric_lines(lines, first_line_no, n_fields, delim, trailing=trailing,
+                                     decimal_comma=decimal_comma, comment_prefixes=COMMENT_PREFIXES,
+                                     give_up_fraction=0.5)
+        if parsed is not None:
+            matrix, lines_no, bad = parsed
             return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, bad_lines=bad, **common)
 
     # Careful path: line by line, every malformed line reported with its number.
