@@ -23,6 +23,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from bootnav.core.csvio import read_imu_csv  # noqa: E402
+from bootnav.core.rotations import quat_from_euler_zyx  # noqa: E402
+from bootnav.core.runs import runs  # noqa: E402
 from bootnav.postproc.ins import FilterSettings, run_filter  # noqa: E402
 from bootnav.postproc.ins.quaternion import quat_multiply, quat_to_rotmat, rotvec_to_quat  # noqa: E402
 
@@ -35,19 +38,13 @@ class Init:
         self.q_nb, self.gyro_bias_b = np.asarray(q_nb, float), np.asarray(gyro_bias_b, float)
 
 
-def load_imu(path: Path):
-    with gzip.open(path, "rt") as fh:
-        a = np.loadtxt(fh, delimiter=",", skiprows=1)
-    return a[:, 0].copy(), a[:, 1:4].copy(), a[:, 4:7].copy()
-
-
 def load_csv(path: Path):
     with gzip.open(path, "rt") if str(path).endswith(".gz") else open(path) as fh:
         return np.loadtxt(fh, delimiter=",", skiprows=1)
 
 
 def simple_shoe(acc_b, gyro_b, gravity, window=5, sigma_a=0.01, sigma_w=math.radians(0.1), gamma=3e5):
-    """SHOE/GLRT (Skog 2010; seed-004 eq. 2, squared form), centred window; stance where T < γ.
+    """SHOE/GLRT ([Skog2010; Heidari2019, eq. 2], squared form), centred window; stance where T < γ.
 
     Fallback only (the project's detector is bootnav.postproc.detectors). γ = 3e5 agreed best with the VICON stance
     labels of two pyshoe_vicon trials (94 % of samples); OpenShoe at 820 Hz: window 3, γ = 3e4."""
@@ -80,10 +77,8 @@ def level_init(acc, gyr, stance, n_max=400):
     i1 = max(i1, i0 + 1)
     f = acc[i0:i1].mean(axis=0)
     roll, pitch = math.atan2(f[1], f[2]), math.atan2(-f[0], math.hypot(f[1], f[2]))
-    from bootnav.postproc.ins.quaternion import euler_to_quat
-
     bias = gyr[i0:i1].mean(axis=0) if i1 - i0 >= 20 else np.zeros(3)
-    return Init(euler_to_quat(roll, pitch, 0.0), bias)
+    return Init(quat_from_euler_zyx(roll, pitch, 0.0), bias)
 
 
 def align_2d(t_est, p_est, t_tru, p_tru):
@@ -109,7 +104,8 @@ def armse_2d(t_est, p_est, t_tru, p_tru):
 def closure(pos, stance):
     idx = np.flatnonzero(stance)
     a, b = pos[idx[0]], pos[idx[-1]]
-    starts = np.flatnonzero(np.diff(stance.astype(int)) == 1) + 1
+    starts = runs(stance)[0]
+    starts = starts[starts > 0]  # footfalls after the first
     pts = pos[np.concatenate([[idx[0]], starts, [idx[-1]]])]
     dist = float(np.sum(np.hypot(*np.diff(pts[:, :2], axis=0).T)))
     c3 = float(np.linalg.norm(b - a))
@@ -184,7 +180,7 @@ def timed(fn, repeat=3):
 
 
 def bench_speed(quick: bool):
-    from bootnav.postproc.ins.fast import warm_up
+    from bootnav.postproc.ins.filter import warm_up
 
     t0 = time.perf_counter()
     warm = warm_up()
@@ -265,12 +261,14 @@ def bench_real():
     det_name = ""
     for d in sorted((DATASETS / "pyshoe_vicon").iterdir()):
         if (d / "imu.csv.gz").exists():
-            t, acc, gyr = load_imu(d / "imu.csv.gz")
+            imu = read_imu_csv(d / "imu.csv.gz")
+            t, acc, gyr = imu.t_s, imu.acc_mps2, imu.gyro_radps
             stance, det_name = detect(t, acc, gyr, g)
             inputs.append(("py", d.name, t, acc, gyr, stance, load_csv(d / "truth_trajectory.csv.gz")))
     loops = ("xio_ngimu_loops/short_walk", "xio_ngimu_loops/long_walk", "openshoe_820/data_set_1")
     for trial in loops:
-        t, acc, gyr = load_imu(DATASETS / trial / "imu.csv.gz")
+        imu = read_imu_csv(DATASETS / trial / "imu.csv.gz")
+        t, acc, gyr = imu.t_s, imu.acc_mps2, imu.gyro_radps
         stance, det_name = detect(t, acc, gyr, g)
         inputs.append(("loop", trial, t, acc, gyr, stance, None))
     print(f"stance: {det_name}; pyshoe_vicon: {sum(i[0] == 'py' for i in inputs)} trials, mean / median "

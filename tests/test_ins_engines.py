@@ -19,7 +19,7 @@ def messy_walk():
     keep = np.ones(n, bool)
     keep[300:307] = False  # gap inside a swing/stance boundary region
     keep[700:729] = False
-    t = w.t_s + rng.uniform(-0.0015, 0.0015, n)
+    t = w.t_s + rng.uniform(-0.001, 0.001, n)  # step jitter < 0.4 periods: only the two real gaps pass 1.5 periods
     t[0] = w.t_s[0]
     dup = rng.choice(np.arange(10, n - 10), 6, replace=False)
     order = np.sort(np.concatenate([np.arange(n), dup]))

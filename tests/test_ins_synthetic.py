@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bootnav.postproc.ins.quaternion import euler_to_quat
+from bootnav.core.rotations import quat_from_euler_zyx
 
 
 @dataclass
@@ -117,7 +117,7 @@ def synthetic_walk(n_strides=20, rate_hz=200.0, stance_s=0.5, swing_s=0.6, strid
         acc_n[sw, 1] = a_along * np.sin(yw) + v_along * np.cos(yw) * ywd
         acc_n[sw, 2] = (climb_m * ddP[sw] + lift_m * w * w / 2 * (np.sin(w * sk) ** 2
                                                                   + (1 - np.cos(w * sk)) * np.cos(w * sk))) / swing_s**2
-    q = np.array([euler_to_quat(0.0, pt, yw) for pt, yw in zip(pitch, yaw)])
+    q = quat_from_euler_zyx(0.0, pitch, yaw)
     cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
     # C_nb = Rz(yaw) Ry(pitch); f_b = C_nbᵀ (a_n + g_up)
     fn = acc_n + [0.0, 0.0, gravity]

@@ -1,4 +1,4 @@
-"""``run_filter``: ZUPT-aided strapdown navigation (seed-004 eqs. 1–5; Skog et al. 2010; Foxlin 2005; OpenShoe).
+"""``run_filter``: ZUPT-aided strapdown navigation [Heidari2019, eqs. 1–5; Foxlin2005; Skog2010; Nilsson2012].
 
 Error state δx = x_true − x̂ = (δp_n, δv_n, δθ_n[, δb_a,b, δb_g,b]) with the attitude error a nav-frame
 rotation, C_true ≈ (I + [δθ×]) Ĉ. Linearised dynamics (continuous time, A):
@@ -9,42 +9,43 @@ discretised per step as F = I + A Δt and Q_d = diag(σ_a² Δt₀ Δt, σ_g² �
 (σ conventions in settings.py; the rotation Ĉ drops out of isotropic noise).
 
 Time update: mechanization (mechanization.py) + P ← F P Fᵀ + Q_d.
-ZUPT in stance (eq. 3 with the sign made explicit): z = 0 − v̂ = H δx + ν, H = [0 I 0], R = σ_zupt² I,
-K = P Hᵀ (H P Hᵀ + R)⁻¹, δx = K z, Joseph form P ← (I−KH) P (I−KH)ᵀ + K R Kᵀ. The paper prints
-"+ k_n v_n": that is this update with z's minus sign absorbed in k_n.
-Reset: p̂ += δp, v̂ += δv, b̂ += δb, q̂ ← exp(δθ/2) ⊗ q̂ (the quaternion form of ψ ← a(dθ) ψ; exact rotation,
-renormalised, not the first-order R ← (I − [δθ×]) R), then δx ← 0.
-Rolling-foot ZUPT noise: R_k = (σ_zupt² + r² |ω_k − b̂_g|²) I (a foot rolling over heel/toe at ω moves the
-sensor at ≈ ω r). ZUPT onset delay: the first min(0.15 s, 1/3 of the phase) of each stance phase gets no
-update (``delay_zupt_onsets``: the foot still settles after heel strike).
-ZARU (15 states, on by default): z = ω_m − b̂_g = δb_g + ν in stance, sequential after the ZUPT, with the
-"quiet-core" noise R_k = (σ_zaru² + c² |ω_k − b̂_g|²) I so that it only bites where the foot is really still.
+Measurement updates (``measurements.py``, one definition shared by both engines), sequential in this order:
+ZUPT in stance (eq. 3 with the sign made explicit): z = 0 − v̂ = H δx + ν, H = [0 I 0], with the rolling-foot
+noise R_k = (σ_zupt² + r² |ω_k − b̂_g|²) I; K = P Hᵀ (H P Hᵀ + R)⁻¹, δx = K z, Joseph form
+P ← (I−KH) P (I−KH)ᵀ + K R Kᵀ. The paper prints "+ k_n v_n": that is this update with z's minus sign absorbed
+in k_n. ZARU (15 states, on by default): z = ω_m − b̂_g = δb_g + ν in stance with the quiet-core noise
+R_k = (σ_zaru² + c² |ω_k − b̂_g|²) I. Optional heuristic heading aid (off by default): a scalar yaw
+pseudo-measurement at stance onsets. A later update's innovation is z − H δx (δx: this sample's corrections so
+far).
+Reset after any update: p̂ += δp, v̂ += δv, b̂ += δb, q̂ ← exp(δθ/2) ⊗ q̂ (the quaternion form of ψ ← a(dθ) ψ;
+exact rotation, renormalised, not the first-order R ← (I − [δθ×]) R [Sola2017]), then δx ← 0.
+ZUPT onset delay: the first min(0.15 s, 1/3 of the phase) of each stance phase gets no ZUPT/ZARU
+(``delay_zupt_onsets``: the foot still settles after heel strike).
 Saturated samples (``saturated=`` mask): per-sample process noise along the clipped body axis,
 Q_v += C diag(σ_sat,a²) Cᵀ Δt₀Δt, Q_θ += C diag(σ_sat,g²) Cᵀ Δt₀Δt (``saturation_variance``).
-Optional heuristic heading aid (``heading_aid="dominant_directions"``, off by default; settings.py):
-a scalar yaw pseudo-measurement at stance onsets, sequential after the ZUPT (innovation −e − δθ_U).
-"riccati" mode: constant continuous gain from eq. 5 (riccati.py); P is still propagated and Joseph-updated
-with that (suboptimal) gain so ``pos_sigma_n`` stays meaningful.
+"riccati" mode: the paper's constant gain from eq. 5 on the observable subsystem (+ the vertical accelerometer
+bias with 15 states), a position row from the cross-covariance and the open-loop time, and a bias prior from
+the still period (riccati.py); P is still propagated and Joseph-updated with that (suboptimal) gain so
+``pos_sigma_n`` stays meaningful.
 
-Tried on the foot-set eval and NOT kept (no gain or worse; mean over the 10 goal metrics relative to the
-default, < 1 = better): an along-gravity accelerometer-bias prior from the still period ((|f̄| − g) f̄/|f̄|;
-1.000: the ZUPTs of the still period learn it within a second anyway); a two-sample coning term
-(Δt²/12) ω_{k−1} × ω_k in the attitude step (1.007; with trapezoidal rates 1.11: pyshoe_vicon's running
-heading drift, −0.9 °/s, is not coning); no yaw (or gyro-bias) row in the ZUPT gain (1.04 / 1.01);
-an impact term (τ (|f| − g))² in the ZUPT R, τ = 5-40 ms (1.001-1.044; it does not replace the onset delay);
-cutting the last 20-100 ms of each stance too (1.03-1.06); de-jittering timestamps with a linear sample
-clock (1.001).
+Engines (``FilterSettings.engine``): ``fast.py`` (numba, production) and ``reference.py`` (filterpy, readable);
+they agree to 1e-9 m. Variants tried and not kept are in ``docs/tuning-log.md`` (section Filter).
 """
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from bootnav.core.runs import runs
+from bootnav.core.timebase import GAP_FACTOR, time_base
 from bootnav.errors import InputError
-from bootnav.postproc.ins.mechanization import time_base, validate_imu
+from bootnav.postproc.ins.measurements import HEADING_AID, ZUPT, ZaruMeasurement
+from bootnav.postproc.ins.mechanization import validate_imu
+from bootnav.postproc.ins.params import kernel_params
 from bootnav.postproc.ins.settings import FilterSettings
 
 
@@ -85,19 +86,33 @@ def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_f
     """Stance mask with the first min(delay_s, max_fraction × phase duration) of every stance phase removed.
 
     Why: a detector reports stance as soon as the foot's energy falls, but after heel strike the foot is still
-    settling (loading response: heel rocker to foot flat, the first ~10 % of the gait cycle, ≈ 0.1 s;
-    Perry & Burnfield, *Gait Analysis*, 2010). There the sensor still moves at a few cm/s, and a ZUPT
-    would read that real motion as accumulated velocity ERROR and move the position by P_pv P_vv⁻¹ δv —
-    on the developer loops +1.5 cm upwards per stride (x-io long walk: v_z = −0.037 m/s at detected onset,
-    decaying to 0 within ~0.05 s). Letting the mechanization integrate that settling removes the jump.
+    settling (loading response: heel rocker to foot flat, the first ~10 % of the gait cycle, ≈ 0.1 s
+    [Perry2010]). There the sensor still moves at a few cm/s, and a ZUPT would read that real motion as
+    accumulated velocity ERROR and move the position by P_pv P_vv⁻¹ δv (a vertical jump per stride on the
+    developer loops; tuning log). Letting the mechanization integrate that settling removes the jump.
     The cap keeps most of a short (running) stance phase. A phase starting at sample 0 (the initial
     still period) is kept whole.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times, s.
+    stance : (N,) bool array
+        Detected stance.
+    delay_s : float
+        Longest part removed at each onset, s (0: off).
+    max_fraction : float
+        Largest fraction of a phase removed (0: off).
+
+    Returns
+    -------
+    (N,) bool array
+        The ZUPT mask.
     """
     out = np.array(stance, dtype=bool, copy=True)
     if delay_s <= 0 or max_fraction <= 0 or not out.any():
         return out
-    edges = np.diff(np.concatenate(([0], out.astype(np.int8), [0])))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    starts, stops = runs(out)
     keep = starts > 0
     starts, stops = starts[keep], stops[keep]
     cut_t = t_s[starts] + np.minimum(delay_s, max_fraction * (t_s[stops - 1] - t_s[starts]))
@@ -139,28 +154,56 @@ def saturation_variance(saturated, n: int, settings: FilterSettings) -> np.ndarr
 
 def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,
                progress=None, saturated=None) -> NavSolution:
-    """ZUPT-aided INS over a whole record.
+    """ZUPT-aided INS over a whole record: filter (and by default RTS smoother) on the raw timestamps.
 
-    t_s (N,) s, increasing (duplicates allowed); acc_b (N,3) m/s² specific force; gyro_b (N,3) rad/s;
-    stance (N,) bool (True = foot still: ZUPT applied); init: any object with ``q_nb`` (4,) wxyz and
-    ``gyro_bias_b`` (3,) (optional ``acc_bias_b``), e.g. ``bootnav.postproc.calibration.InitialState``;
-    gravity: m/s² (positive); progress: optional ``progress(fraction)`` called a few times;
-    saturated: optional per-sample saturation mask (see ``saturation_variance``).
-    Position starts at 0, velocity at 0. Raises ``InputError`` for bad data, ``ValueError`` for bad settings.
+    Position starts at the origin, velocity at 0 (the record starts still).
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times, s, non-decreasing (duplicates allowed: no propagation, the sample may still be updated).
+    acc_b : (N, 3) array
+        Specific force, body frame, m/s² (+g up at rest).
+    gyro_b : (N, 3) array
+        Angular rate, body frame, rad/s.
+    stance : (N,) bool array
+        True where the foot is still (a stance detector's output): ZUPT/ZARU apply there, after the onset
+        delay (``delay_zupt_onsets``).
+    init : object
+        Initial state with ``q_nb`` (4,) wxyz and ``gyro_bias_b`` (3,) rad/s; optional ``acc_bias_b`` (3,)
+        m/s² and ``acc_mean_b`` (the still period's mean specific force, used by the riccati mode), e.g.
+        ``bootnav.postproc.calibration.InitialState``. A missing ``q_nb`` / bias means level / zero.
+    gravity : float
+        Local gravity magnitude, m/s² (5-15).
+    settings : FilterSettings, optional
+        Every tunable; default ``FilterSettings()``.
+    progress : callable, optional
+        ``progress(fraction)``, called a few times.
+    saturated : array, optional
+        Per-sample saturation mask (``saturation_variance`` lists the accepted forms).
+
+    Returns
+    -------
+    NavSolution
+        Per-sample position, velocity, attitude, biases (15 states) and position sigma; ``info`` has the
+        mode, engine, update counts, timings, warnings and the settings used (JSON-serialisable).
+
+    Raises
+    ------
+    InputError
+        Bad data (shapes, non-finite values, timestamps going back, bad initial state or gravity).
+    ValueError
+        Bad settings.
     """
     settings = settings or FilterSettings()
     settings.validate()
-    requested = settings
     warnings: list[str] = []
-    if settings.mode == "riccati" and settings.n_states != 9:
-        settings = replace(settings, n_states=9)
-        warnings.append("riccati (paper) mode runs the paper's 9-state model: sensor biases are not estimated")
     t_s, acc_b, gyro_b = validate_imu(t_s, acc_b, gyro_b, stance)
     stance = np.ascontiguousarray(stance, dtype=bool)
     zupt_mask = delay_zupt_onsets(t_s, stance, settings.zupt_onset_delay_s, settings.zupt_onset_max_fraction)
     if not (np.isfinite(gravity) and 5.0 < gravity < 15.0):
         raise InputError(f"gravity must be the local magnitude in m/s² (about 9.8), got {gravity!r}")
-    tb = time_base(t_s, settings.gap_factor)
+    tb = time_base(t_s)
     extra_var = saturation_variance(saturated, t_s.shape[0], settings)
     q0 = _init_vector(init, "q_nb", [1.0, 0.0, 0.0, 0.0])
     if q0.shape != (4,) or not 0.5 < np.linalg.norm(q0) < 1.5:
@@ -173,30 +216,35 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     ric_report = None
     smooth = settings.smoother == "rts"
     if settings.mode == "riccati":
-        from bootnav.postproc.ins.riccati import paper_zupt_gain
+        from bootnav.postproc.ins.riccati import paper_zupt_gain, still_period_acc_bias
 
-        zupt_gain = paper_zupt_gain(settings, gravity, tb.nominal_dt_s)
+        zupt_gain = paper_zupt_gain(settings, gravity, tb.nominal_dt_s, t_s, zupt_mask)
+        if getattr(init, "acc_bias_b", None) is None and getattr(init, "acc_mean_b", None) is not None:
+            ba0 = still_period_acc_bias(_init_vector(init, "acc_mean_b", [0.0, 0.0, gravity]), gravity)
         ric_report = zupt_gain.report.to_dict()
+        if extra_var is not None:
+            warnings.append(f"riccati (paper) mode: {int((extra_var > 0).any(axis=1).sum())} saturated samples; "
+                            "the constant gain cannot widen its uncertainty after a clipped swing (the time-varying "
+                            "filter does), so the tilt and height after it are less trustworthy")
         if smooth:
             smooth = False
             warnings.append("smoother disabled in riccati (paper) mode: RTS needs the optimal time-varying P")
     if not stance.any():
         warnings.append("no stance sample: the filter ran open loop (pure strapdown) — the path is not usable")
     if tb.gap_mask.any():
-        warnings.append(f"{int(tb.gap_mask.sum())} timestamp gap(s) > {settings.gap_factor} x nominal period "
+        warnings.append(f"{int(tb.gap_mask.sum())} timestamp gap(s) > {GAP_FACTOR:g} x nominal period "
                         f"(largest {tb.dt_s.max():.4g} s) were propagated as single steps")
+
+    max_segment = max(16, int(math.ceil(settings.smoother_max_segment_s / tb.nominal_dt_s)))
+    prm = kernel_params(settings, gravity, tb.nominal_dt_s, zupt_gain is not None, smooth, max_segment)
 
     t0 = time.perf_counter()
     if settings.engine == "fast":
-        from bootnav.postproc.ins.fast import run_fast
-
-        out, einfo = run_fast(t_s, acc_b, gyro_b, zupt_mask, q0, bg0, ba0, gravity, settings, tb, P0, zupt_gain,
-                              smooth, progress, extra_var)
+        from bootnav.postproc.ins.fast import run_fast as run_engine
     else:
-        from bootnav.postproc.ins.reference import run_reference
-
-        out, einfo = run_reference(t_s, acc_b, gyro_b, zupt_mask, q0, bg0, ba0, gravity, settings, tb, P0,
-                                   zupt_gain, smooth, progress, extra_var)
+        from bootnav.postproc.ins.reference import run_reference as run_engine
+    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, q0, bg0, ba0, settings, tb, P0, zupt_gain, prm,
+                            progress, extra_var)
     elapsed = time.perf_counter() - t0
     biases = settings.n_states == 15
     info = {
@@ -208,19 +256,19 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "nominal_dt_s": tb.nominal_dt_s,
         "n_duplicates": tb.n_duplicates,
         "gaps": tb.gaps,
-        "n_updates": einfo["n_updates"],
+        "n_updates": int(einfo["applied"][ZUPT]),
         "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
         "zupt_onset_samples_skipped": int(stance.sum() - zupt_mask.sum()),
-        "zaru": bool(settings.zaru and settings.n_states == 15 and settings.mode == "time_varying"),
+        "zaru": ZaruMeasurement.active(settings),
         "heading_aid": settings.heading_aid,
-        "heading_aid_updates": einfo.get("heading_aid_updates", 0),
+        "heading_aid_updates": int(einfo["applied"][HEADING_AID]),
         "saturated_samples_inflated": 0 if extra_var is None else int((extra_var > 0).any(axis=1).sum()),
         # 1-σ of every error state at the last sample (δp, δv, δθ[, δb_a, δb_g]), filter (not smoothed)
         "final_state_sigma": np.sqrt(np.maximum(np.diag(einfo["final_P"]), 0.0)).tolist(),
         "warnings": warnings,
-        "settings": requested.to_dict(),
+        "settings": settings.to_dict(),
     }
     return NavSolution(
         t_s=t_s,
@@ -232,3 +280,27 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         pos_sigma_n=out["pos_sigma_n"],
         info=info,
     )
+
+
+_WARM = False
+
+
+def warm_up() -> float:
+    """Compile (or load from the numba cache) every fast-engine kernel variant; returns the seconds spent."""
+    global _WARM
+    t0 = time.perf_counter()
+    if not _WARM:
+        class _Init:
+            q_nb = np.array([1.0, 0.0, 0.0, 0.0])
+            gyro_bias_b = np.zeros(3)
+
+        t = np.arange(40) * 0.01
+        acc = np.tile([0.0, 0.0, 9.81], (40, 1))
+        gyr = np.zeros((40, 3))
+        st = np.ones(40, bool)
+        for n in (9, 15):
+            for sm in ("rts", "none"):
+                run_filter(t, acc, gyr, st, _Init(), 9.81, FilterSettings(n_states=n, smoother=sm))
+        run_filter(t, acc, gyr, st, _Init(), 9.81, FilterSettings(mode="riccati"))
+        _WARM = True
+    return time.perf_counter() - t0

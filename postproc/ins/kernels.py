@@ -32,7 +32,7 @@ def _normalised(nw, nx, ny, nz):
 
 @njit(cache=True, inline="always")
 def quat_times_exp(qw, qx, qy, qz, tx, ty, tz):
-    """q ⊗ exp(θ/2): body-frame rotation increment (strapdown attitude update, seed-004 eq. 1 row 3)."""
+    """q ⊗ exp(θ/2): body-frame rotation increment (strapdown attitude update, [Heidari2019, eq. 1] row 3)."""
     cw, px, py, pz = _exp_half(tx, ty, tz)
     return _normalised(qw * cw - qx * px - qy * py - qz * pz,
                        qw * px + qx * cw + qy * pz - qz * py,

@@ -1,4 +1,4 @@
-"""Strapdown mechanization (seed-004 eq. 1; Skog et al. 2010; OpenShoe ``Navigation_equations``) on real timestamps.
+"""Strapdown mechanization [Heidari2019, eq. 1; Skog2010; Nilsson2012 ``Navigation_equations``] on real timestamps.
 
 Per sample n with Δt = t_n − t_{n−1} (nav frame ENU, g_n = [0, 0, −g], specific force f at rest = +g up):
 
@@ -13,35 +13,18 @@ With this ordering the scheme is exact for constant body rate and constant nav-f
 (the analytic test in tests/test_ins_mechanization.py).
 
 Timestamps: Δt varies sample to sample (jitter is used as recorded, never resampled). Δt = 0 (duplicate
-timestamp): no propagation, the sample may still carry a ZUPT update. Δt > gap_factor × nominal period: a gap,
-propagated as one long step (a stance detector will usually not vouch for it) and flagged. Δt < 0 or
-non-finite input: ``InputError`` naming the first bad sample index.
+timestamp): no propagation, the sample may still carry a ZUPT update. A gap (``bootnav.core.timebase``: Δt >
+1.5 nominal periods, at least one sample lost) is propagated as one long step (a stance detector will usually
+not vouch for it) and flagged. Δt < 0 or non-finite input: ``InputError`` naming the first bad sample index.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from bootnav.core.timebase import time_base
 from bootnav.errors import InputError
 from bootnav.postproc.ins.quaternion import attitude_step, quat_to_rotmat
-
-
-@dataclass
-class TimeBase:
-    """Step lengths of a timestamp vector. ``dt_s[0] = 0`` (sample 0 is the initial state)."""
-
-    dt_s: np.ndarray
-    nominal_dt_s: float
-    gap_mask: np.ndarray  # (N,) bool, True where the step INTO sample n is a gap
-    n_duplicates: int
-
-    @property
-    def gaps(self) -> list[tuple[int, float]]:
-        """(sample index, Δt in s) of every flagged gap."""
-        idx = np.flatnonzero(self.gap_mask)
-        return [(int(i), float(self.dt_s[i])) for i in idx]
 
 
 def validate_imu(t_s, acc_b, gyro_b, stance=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -68,23 +51,6 @@ def validate_imu(t_s, acc_b, gyro_b, stance=None) -> tuple[np.ndarray, np.ndarra
         if stance.shape != (n,):
             raise InputError(f"stance must have shape ({n},) like t_s, got {stance.shape}")
     return t_s, acc_b, gyro_b
-
-
-def time_base(t_s: np.ndarray, gap_factor: float = 5.0) -> TimeBase:
-    """Per-sample Δt from timestamps; nominal period = median of the positive steps."""
-    dt = np.empty_like(t_s)
-    dt[0] = 0.0
-    np.subtract(t_s[1:], t_s[:-1], out=dt[1:])
-    if (dt < 0).any():
-        i = int(np.argmax(dt < 0))
-        raise InputError(
-            f"timestamps go backwards at sample {i}: t_s[{i - 1}]={t_s[i - 1]!r} > t_s[{i}]={t_s[i]!r}"
-        )
-    pos = dt[dt > 0]
-    if pos.size == 0:
-        raise InputError("all timestamps are equal: cannot integrate")
-    nominal = float(np.median(pos))
-    return TimeBase(dt, nominal, dt > gap_factor * nominal, int((dt[1:] == 0).sum()))
 
 
 def strapdown_step(pos_n, vel_n, q_nb, f_b, omega_b, dt, gravity):

@@ -2,7 +2,7 @@
 
 Plain NumPy on small arrays, used by the reference engine, the mechanization check and the tests. The
 fast engine uses the scalar kernels of ``kernels.py``; the DCM has one definition there
-(``kernels.rotmat_into``), which ``quat_to_rotmat`` runs as plain Python.
+(``kernels.rotmat_into``), which ``quat_to_rotmat`` runs as plain Python. Euler angles: ``bootnav.core.rotations``.
 
 Conventions (bootnav.CONVENTIONS): ``q_nb = [w, x, y, z]``; ``v_n = C(q_nb) v_b``;
 body angular rate integrates on the right, ``q_nb(t+dt) = q_nb(t) ⊗ exp(ω_b dt / 2)``; a nav-frame
@@ -42,7 +42,7 @@ def quat_normalize(q: np.ndarray) -> np.ndarray:
 def rotvec_to_quat(theta: np.ndarray) -> np.ndarray:
     """``exp(θ/2)`` for a rotation vector θ (rad): ``[cos(|θ|/2), sin(|θ|/2) θ/|θ|]``.
 
-    This is the closed form behind OpenShoe's Ω(ωΔt) matrix (Skog et al. 2010; seed-004 eq. 1, a(·)):
+    This is the closed form behind OpenShoe's Ω(ωΔt) matrix [Skog2010; Heidari2019, eq. 1, a(·)]:
     ``Ω(θ) = cos(|θ|/2) I₄ + (2/|θ|) sin(|θ|/2) Ω̃(θ/2)`` applied to q equals ``q ⊗ exp(θ/2)``.
     For |θ| < 1e-8 the series ``sin(x/2)/x ≈ 1/2 − x²/48`` avoids 0/0.
     """
@@ -72,33 +72,10 @@ def attitude_step(q_nb: np.ndarray, omega_b: np.ndarray, dt: float) -> np.ndarra
 
 
 def correct_attitude(q_nb: np.ndarray, dtheta_n: np.ndarray) -> np.ndarray:
-    """ZUPT attitude reset (seed-004 eq. 3, ``ψ ← a(dθ) ψ``): ``q ← exp(δθ_n/2) ⊗ q`` (nav frame), renormalised.
+    """ZUPT attitude reset ([Heidari2019, eq. 3], ``ψ ← a(dθ) ψ``): ``q ← exp(δθ_n/2) ⊗ q`` (nav frame), renormalised.
 
     δθ_n is the small nav-frame rotation that takes the estimated attitude to the true one
     (``C_true ≈ (I + [δθ×]) C_est``). The exact rotation is used rather than OpenShoe's first-order
     ``R ← (I − [dθ×]) R`` (whose sign reflects OpenShoe's opposite error definition); both agree to O(δθ²).
     """
     return quat_normalize(quat_multiply(rotvec_to_quat(dtheta_n), q_nb))
-
-
-def euler_to_quat(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """``q_nb`` from ZYX Euler angles (rad): ``C_nb = Rz(yaw) Ry(pitch) Rx(roll)``."""
-    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
-    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
-    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
-    q = np.empty(4)
-    q[0] = cy * cp * cr + sy * sp * sr
-    q[1] = cy * cp * sr - sy * sp * cr
-    q[2] = cy * sp * cr + sy * cp * sr
-    q[3] = sy * cp * cr - cy * sp * sr
-    return quat_normalize(q)
-
-
-def quat_to_euler(q: np.ndarray) -> np.ndarray:
-    """ZYX Euler angles ``[roll, pitch, yaw]`` (rad) of ``q_nb`` (inverse of ``euler_to_quat``)."""
-    c = quat_to_rotmat(q)
-    out = np.empty(3)
-    out[0] = math.atan2(c[2, 1], c[2, 2])
-    out[1] = -math.asin(max(-1.0, min(1.0, c[2, 0])))
-    out[2] = math.atan2(c[1, 0], c[0, 0])
-    return out

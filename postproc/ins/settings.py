@@ -1,9 +1,9 @@
-"""``FilterSettings``: every tunable of the ZUPT navigation filter, saved with the results (OpenShoe style).
+"""``FilterSettings``: every tunable of the ZUPT navigation filter, saved with the results (as OpenShoe does).
 
 Noise convention (documented because the literature mixes two):
 ``sigma_acc_mps2`` / ``sigma_gyro_radps`` are the standard deviations of the accelerometer / gyro error
-of ONE sample at the nominal sample period Δt₀ (OpenShoe's σ_a, σ_g). The process noise of a step of length
-Δt is ``Q_d = σ² Δt₀ Δt`` (white-noise density σ²Δt₀ integrated over Δt), which equals OpenShoe's
+of ONE sample at the nominal sample period Δt₀ (OpenShoe's σ_a, σ_g [Nilsson2012]). The process noise of a step
+of length Δt is ``Q_d = σ² Δt₀ Δt`` (white-noise density σ²Δt₀ integrated over Δt), which equals OpenShoe's
 ``Ts² σ²`` for uniform sampling and grows linearly, as it physically should, over jitter and gaps.
 Bias random walks are densities (unit/√s): ``Q_d = σ_rw² Δt``.
 The continuous-time Riccati ("paper") mode uses the same densities: W = σ² Δt₀, V = σ_zupt² Δt₀.
@@ -19,66 +19,85 @@ DEG = math.pi / 180.0
 
 @dataclass
 class FilterSettings:
-    """Tunables of ``bootnav.postproc.ins.run_filter`` (defaults: OpenShoe-like, then tuned on the developer data).
+    """Tunables of ``bootnav.postproc.ins.run_filter``, saved with every result.
 
-    n_states: 9 = (δp, δv, δθ) [Skog 2010, OpenShoe]; 15 = + accelerometer bias δb_a, gyro bias δb_g (body).
-        Default 15: on the developer data it beat 9 states (pyshoe_vicon mean armse_2d 0.070 vs 0.071 m;
-        mean closure of the three closed loops 1.0 % vs 1.2 %; benchmarks/bench_filter.py).
-    mode: "time_varying" (default; discrete KF, P propagated and updated) or "riccati" (seed-004 eqs. 4–5:
-        constant gain from the continuous algebraic Riccati equation on the observable subsystem
-        (velocity, roll, pitch); position and yaw propagated open loop). It always runs the paper's 9-state
-        model: with n_states=15 the biases stay at their initial values (a warning says so).
-    engine: "fast" (numba, production) or "reference" (filterpy ``KalmanFilter``, per-sample Python loop).
-    sigma_acc_mps2, sigma_gyro_radps: per-sample IMU noise at the nominal rate (see module docstring).
-        σ_g 0.6 °/s (was 0.5) together with the 0.15 s onset delay (below): one joint change measured on the
-        foot-set eval (benchmarks/accuracy_foot.py), before -> after: pyshoe_vicon 0.0662 -> 0.0658 m,
-        xio closure 0.695 -> 0.666 % (closure_v 0.199 -> 0.183 m), openshoe 0.633 -> 0.631 %, koroglu_footprints
-        1.740 -> 1.741 %, koroglu_rectangles 1.216 -> 1.220 %, iez 2.22 -> 2.11 % (closure_v 0.288 -> 0.265 m),
-        voisard 3.609 -> 3.607 %, gaitmap stride MAE 0.0311 -> 0.0306 m; stairs unchanged (gaitmap stair_up
-        dz L/R 4.51/5.22 m, three-floors sim climb 8.92 of 9 m). Grid 0.125-0.175 s × 0.6-0.8 °/s ×
-        max_fraction 1/3-0.5 is smooth: longer delay / larger fraction -> better loops and gaitmap, worse
-        pyshoe_vicon (running); larger σ_g -> better pyshoe_vicon, openshoe, rectangles, worse footprints
-        (0.8 °/s, 0.4: xio 0.66 %, gaitmap 0.029 m but footprints 1.79 %, pyshoe 0.066 m).
-    sigma_acc_bias_rw, sigma_gyro_bias_rw: bias random walks, m/s²/√s and rad/s/√s (15 states only).
-        Gyro 3e-5 rad/s/√s (0.1 mrad/s drift in 10 s, 1.8 mrad/s in an hour; OpenShoe uses far less): with
-        ZARU on, 1e-4 let the bias follow the foot's real slow rotation in stance (koroglu_rectangles closure
-        4.6 % at 1e-4, 2.6 % at 3e-5, 2.4 % at 1e-5; 3e-4: 10.7 %); openshoe_820 prefers a faster walk
-        (0.56 -> 0.63 %).
-    sigma_zupt_mps: std of the zero-velocity pseudo-measurement (how still a foot in stance really is).
-    zaru: zero-angular-rate update in stance (z = ω_m − b̂_g on the gyro-bias states; needs 15 states),
-        "quiet-core" form: R_k = σ_zaru² + |ω_k − b̂_g|², so a rolling foot's own rate counts as
-        measurement noise and the update only bites where the foot is really still (the plain form,
-        R = σ_zaru², made pyshoe_vicon armse_2d 8x worse because detected stance includes heel/toe roll).
-        On by default: it observes the z gyro bias that ZUPT cannot (heading drift). Foot-set eval
-        (benchmarks/accuracy_foot.py): koroglu_rectangles closure 8.2 -> 4.9 %, koroglu_footprints
-        final error 4.9 -> 2.9 %, pyshoe_vicon 0.073 -> 0.066 m; costs iez closure_v 0.52 -> 0.61 m.
-        It needs the gyro-bias states: with n_states=9 or mode="riccati" it is not applied
-        (``NavSolution.info["zaru"]`` says whether it ran). sigma_zaru_radps: its measurement std in a still foot.
-        zaru_rate_factor c: R_k = σ_zaru² + (c |ω_k − b̂_g|)²; c = 1 (default); 3 or 10 weaken the update and
-        undo most of its gain (koroglu_rectangles 2.6 -> 5.1 / 5.7 %) while improving iez a little (3.1 -> 2.9 %).
-    zupt_lever_arm_m: r of the rolling-foot ZUPT noise R_k = σ_zupt² + (r |ω_k − b̂_g|)² per axis: a foot
-        rolling over heel or toe at rate ω moves the sensor at ≈ ω × r (r = distance from the contact
-        point, ~0.05-0.15 m), so zero velocity is only that certain at the edges of a stance phase.
-        0 = the classic constant R. Default 0.05 m (pyshoe_vicon 0.073 -> 0.069 m, worst trial 0.20 -> 0.17 m).
-    zupt_onset_delay_s, zupt_onset_max_fraction: no ZUPT/ZARU in the first min(delay, fraction × duration)
-        of each stance phase (``filter.delay_zupt_onsets``: the foot is still settling after heel strike;
-        a ZUPT there turns real motion into a position correction, +1.5 cm UP per stride on the loops).
-        Foot-set eval, 0 -> 0.1 s / 1/3: xio closure_v 0.34 -> 0.18 m, iez closure_v median 0.50 -> 0.26 m,
-        pyshoe_vicon 0.066 -> 0.067 m (median 0.054 -> 0.051), gaitmap stride MAE 0.039 -> 0.031 m;
-        openshoe 0.50 -> 0.56 %. Larger delays keep improving the loops' height a little (0.2 s: xio 0.14 m)
-        at the cost of pyshoe_vicon's running trials. 0 = off (every detected stance sample is a ZUPT).
-        Default now 0.15 s (loading response 0.1-0.15 s of a 1.0-1.4 s gait cycle; see sigma_gyro_radps).
-    acc_scale_noise, gyro_scale_noise: κ of a signal-proportional (scale-factor) per-sample noise,
-        σ_k² = σ² + κ² |signal_k|². Default 0: measured no gain (0.02-0.05 traded one set against another).
-    sat_acc_sigma_mps2, sat_gyro_sigma_radps: extra per-sample std of a SATURATED (clipped) sample along the
-        clipped body axis (``run_filter(saturated=...)``, ``filter.saturation_variance``): the true value
-        beyond full scale is unknown (a foot swing that clips a ±250 °/s gyro peaks ~1-2 rad/s above it).
-        Defaults 5 m/s², 1 rad/s (the acc part is neutral on the data: iez closure 2.20 % at 0, 2.22 % at 5,
-        2.37 % at 20 m/s²; kept small because a clipped impact does hide velocity change). iez_mpu6050 (the ±2 g / ±250 °/s files clip; with the both-rails clipping
-        mask of detectors._common): closure 3.1 -> 2.2 %, closure_v 0.47 -> 0.29 m (gyro 0.3: 2.6 %, 2: 2.3 %;
-        conf-3030 8.1 -> 4.7 %); no other set clips. An isotropic (all-axes) inflation was worse (the yaw
-        part is unobservable), and so was bridging the clipped plateau with a parabola through its
-        neighbours (conf-3030 12.8 -> 32 %): the clipped excess is not recoverable, only its uncertainty.
+    Starting values as pyshoe's [Wagstaff2017] (after OpenShoe [Nilsson2012]); the tuned ones were chosen on
+    all developer recordings at once (pre-LODO). The figures behind every default are in
+    ``docs/tuning-log.md`` (section Filter).
+
+    Attributes
+    ----------
+    n_states : int
+        Error-state size: 9 = (δp, δv, δθ) [Skog2010]; 15 = + accelerometer bias δb_a and gyro bias δb_g
+        (body frame) [Groves2013]. Default 15: MEMS biases drift within a walk, and ZARU needs δb_g.
+    mode : str
+        "time_varying": discrete Kalman filter, P propagated and updated [Skog2010]. "riccati": the source
+        paper's constant gain from the continuous algebraic Riccati equation [Heidari2019, eqs. 3–5]
+        (``riccati.py`` says which states it corrects), to reproduce the paper.
+    engine : str
+        "fast" (numba kernel, production) or "reference" (filterpy ``KalmanFilter`` [Labbe-filterpy],
+        per-sample Python loop): the same filter to 1e-9 m; the reference is the readable check.
+    sigma_acc_mps2, sigma_gyro_radps : float
+        Accelerometer (m/s²) and gyro (rad/s) error std of one sample at the nominal period (module
+        docstring): white noise plus the unmodelled errors of a foot-mounted MEMS unit (vibration, impacts,
+        scale factor, coning). 0.5 m/s² [Wagstaff2017]; 0.6 °/s, pyshoe's 0.5 °/s tuned together with the
+        ZUPT onset delay.
+    acc_scale_noise, gyro_scale_noise : float
+        κ (dimensionless) of a signal-proportional per-sample noise, σ_k² = σ² + κ² |signal_k|² (a scale-factor
+        error grows with the signal [Groves2013]). Default 0: no gain measured.
+    sigma_acc_bias_rw, sigma_gyro_bias_rw : float
+        Bias random-walk densities, m/s²/√s and rad/s/√s (15 states): how fast a bias may wander
+        [Groves2013]. 1e-3 m/s²/√s (0.06 m/s² in an hour); 3e-5 rad/s/√s (1.8 mrad/s in an hour): slow enough
+        that ZARU does not turn the foot's real slow rotation in stance into bias.
+    sigma_zupt_mps : float
+        Std of the zero-velocity pseudo-measurement, m/s: how still a foot in stance really is. 0.01 m/s
+        [Wagstaff2017; Nilsson2012].
+    zupt_lever_arm_m : float
+        r of the rolling-foot ZUPT noise R_k = σ_zupt² + (r |ω_k − b̂_g|)² per axis, m: a foot rolling over
+        heel or toe at rate ω moves the sensor at ≈ ω r (r = distance from the contact point, 0.05-0.15 m).
+        0.05 m; 0 = the classic constant R.
+    zupt_onset_delay_s, zupt_onset_max_fraction : float
+        No ZUPT/ZARU in the first min(delay, fraction × duration) of each stance phase (s, dimensionless;
+        ``filter.delay_zupt_onsets``): the foot still settles after heel strike (loading response, 0.1-0.15 s
+        of a 1.0-1.4 s gait cycle [Perry2010]). 0.15 s, at most 1/3 of the phase (keeps most of a short
+        running stance); 0 = off.
+    sat_acc_sigma_mps2, sat_gyro_sigma_radps : float
+        Extra per-sample std of a saturated (clipped) sample along the clipped body axis, m/s² and rad/s
+        (``run_filter(saturated=...)``, ``filter.saturation_variance``): the true value beyond full scale is
+        unknown; a foot swing that clips a ±250 °/s gyro peaks ~1-2 rad/s above it, hence 1 rad/s; 5 m/s² for
+        a clipped impact. Only the uncertainty of the clipped excess is modelled: it cannot be recovered.
+    zaru : bool
+        Zero-angular-rate update in stance (z = ω_m − b̂_g on δb_g; 15 states, time-varying mode): it observes
+        the vertical gyro bias that the ZUPT cannot (heading drift) [Groves2013]. Quiet-core noise (below).
+        ``NavSolution.info["zaru"]`` says whether it ran.
+    sigma_zaru_radps : float
+        ZARU measurement std in a still foot, rad/s. 0.1 °/s.
+    zaru_rate_factor : float
+        c of the quiet-core ZARU noise R_k = σ_zaru² + (c |ω_k − b̂_g|)² (dimensionless): a rolling foot's own
+        rate counts as noise, so the update only bites where the foot is really still (detected stance
+        includes heel and toe roll). 1.
+    init_pos_sigma_m, init_vel_sigma_mps, init_att_sigma_rad, init_yaw_sigma_rad : float
+        Initial error std: position (m; the origin is the start, 1 mm), velocity (m/s; still at the start),
+        roll/pitch (rad; levelled from the still period), yaw (rad; the start defines the heading, and ZUPTs
+        cannot observe it). 1 mm, 0.01 m/s, 0.1°, 0.1°.
+    init_acc_bias_sigma_mps2, init_gyro_bias_sigma_radps : float
+        Initial bias std, m/s² and rad/s (15 states): after the still-period calibration (gyro) and without
+        one (accelerometer: turn-on bias of a MEMS unit). 0.1 m/s², 0.1 °/s.
+    smoother : str
+        "rts": Rauch-Tung-Striebel smoothing of each segment between stance phases [RTS1965; Colomar2012]
+        (spreads the velocity error found at heel strike back over the swing); "none".
+    smoother_max_segment_s : float
+        Longest buffered smoother segment, s: bounds memory (longer swings or stances are smoothed in pieces).
+        5 s.
+    heading_aid : str
+        "none" or "dominant_directions": the heuristic heading aid of ``measurements.heading_aid``
+        [Borenstein2009]; assumes a building with rectilinear floor plans, so off by default.
+    hde_threshold_rad : float
+        The aid acts only on strides within this angle of a dominant direction, rad. 10°.
+    sigma_hde_rad : float
+        Its measurement std, rad: how straight a corridor walk is. 5°.
+    hde_min_stride_m : float
+        Shortest stride that counts, m (shuffling and turning on the spot give no heading). 0.3 m.
     """
 
     n_states: int = 15
@@ -107,7 +126,6 @@ class FilterSettings:
     init_gyro_bias_sigma_radps: float = 0.1 * DEG
     smoother: str = "rts"
     smoother_max_segment_s: float = 5.0
-    gap_factor: float = 5.0
     heading_aid: str = "none"
     hde_threshold_rad: float = 10.0 * DEG
     sigma_hde_rad: float = 5.0 * DEG
@@ -136,7 +154,7 @@ class FilterSettings:
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number >= 0, got {v!r}")
                 continue
-            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "gap_factor"):
+            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name == "smoother_max_segment_s":
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number > 0, got {v!r}")

@@ -9,8 +9,8 @@ Memory is bounded by ``FilterSettings.smoother_max_segment_s`` worth of buffered
 (a very long swing or stance) is closed early and smoothed in pieces (each piece ends on the filtered estimate,
 so the path stays continuous).
 
-Backward recursion on the error state (Rauch, Tung & Striebel 1965; error-state form as in e.g.
-Colomar, Nilsson & Händel, "Smoothing for ZUPT-aided INSs", IPIN 2012). For the buffered samples j = 0..m−1:
+Backward recursion on the error state [RTS1965]; error-state form as in [Colomar2012] (Colomar, Nilsson &
+Händel, "Smoothing for ZUPT-aided INSs", IPIN 2012). For the buffered samples j = 0..m−1:
 
     δx_s(m−1) = 0                                               (segment end: the filtered estimate)
     G_j       = P⁺(j) F_{j+1}ᵀ P⁻(j+1)⁻¹
@@ -23,7 +23,7 @@ The smoothed covariance P_s is not computed (it would cost two n×n×n products 
 ``F_{j+1}`` is rebuilt from the stored (Δt, f_n, C_nb) of the step into j+1 (13 numbers, not n² numbers).
 
 ``rts_backward`` is the numba kernel used by ``fast.py``; ``rts_backward_numpy`` is the same algorithm in
-readable NumPy used by ``reference.py``.
+readable NumPy used by ``reference.py``, which also takes its error dynamics A from ``error_dynamics`` here.
 """
 
 from __future__ import annotations
@@ -34,21 +34,32 @@ import numpy as np
 from numba import njit
 
 from bootnav.postproc.ins.kernels import exp_times_quat
+from bootnav.postproc.ins.layout import DBA, DBG, DP, DTH, DV, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V
 from bootnav.postproc.ins.quaternion import correct_attitude
 
 
-def build_transition(fpar: np.ndarray, n: int) -> np.ndarray:
-    """Discrete error-state transition F = I + A Δt (readable form, see ``fast.py`` for A)."""
-    dt = fpar[0]
-    f_n = fpar[1:4]
-    c_nb = fpar[4:13].reshape(3, 3)
+_I3 = np.eye(3)
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """[v×], the cross-product matrix."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def error_dynamics(f_n: np.ndarray, c_nb: np.ndarray, n: int) -> np.ndarray:
+    """Continuous-time A of the error state (``filter.py`` docstring; readable form, ``fast.py`` has the blocks)."""
     a = np.zeros((n, n))
-    a[0:3, 3:6] = np.eye(3)
-    a[3:6, 6:9] = -np.array([[0.0, -f_n[2], f_n[1]], [f_n[2], 0.0, -f_n[0]], [-f_n[1], f_n[0], 0.0]])
+    a[ERR_P, ERR_V] = _I3
+    a[ERR_V, ERR_TH] = -skew(f_n)
     if n == 15:
-        a[3:6, 9:12] = -c_nb
-        a[6:9, 12:15] = -c_nb
-    return np.eye(n) + a * dt
+        a[ERR_V, ERR_BA] = -c_nb
+        a[ERR_TH, ERR_BG] = -c_nb
+    return a
+
+
+def build_transition(fpar: np.ndarray, n: int) -> np.ndarray:
+    """Discrete error-state transition F = I + A Δt from fpar = (Δt, f_n(3), C_nb row-major(9))."""
+    return np.eye(n) + error_dynamics(fpar[1:4], fpar[4:13].reshape(3, 3), n) * fpar[0]
 
 
 def rts_backward_numpy(p_post, p_pred, fpar, dx_upd, m, n):
@@ -63,12 +74,12 @@ def rts_backward_numpy(p_post, p_pred, fpar, dx_upd, m, n):
 
 def apply_smoothed_correction(pos, vel, q, ba, bg, dx):
     """Add a smoothed error estimate to one sample's nominal state (readable form)."""
-    pos += dx[0:3]
-    vel += dx[3:6]
-    q[:] = correct_attitude(q, dx[6:9])
+    pos += dx[ERR_P]
+    vel += dx[ERR_V]
+    q[:] = correct_attitude(q, dx[ERR_TH])
     if dx.shape[0] == 15:
-        ba += dx[9:12]
-        bg += dx[12:15]
+        ba += dx[ERR_BA]
+        bg += dx[ERR_BG]
 
 
 # ---------------------------------------------------------------------------------------------- numba kernel
@@ -84,19 +95,19 @@ def _transition_into(fpar, n, f):
     dt = fpar[0]
     fx, fy, fz = fpar[1], fpar[2], fpar[3]
     for i in range(3):
-        f[i, 3 + i] = dt
+        f[DP + i, DV + i] = dt
     # −[f×] Δt
-    f[3, 7] = fz * dt
-    f[3, 8] = -fy * dt
-    f[4, 6] = -fz * dt
-    f[4, 8] = fx * dt
-    f[5, 6] = fy * dt
-    f[5, 7] = -fx * dt
+    f[DV, DTH + 1] = fz * dt
+    f[DV, DTH + 2] = -fy * dt
+    f[DV + 1, DTH] = -fz * dt
+    f[DV + 1, DTH + 2] = fx * dt
+    f[DV + 2, DTH] = fy * dt
+    f[DV + 2, DTH + 1] = -fx * dt
     if n == 15:
         for i in range(3):
             for j in range(3):
-                f[3 + i, 9 + j] = -fpar[4 + 3 * i + j] * dt
-                f[6 + i, 12 + j] = -fpar[4 + 3 * i + j] * dt
+                f[DV + i, DBA + j] = -fpar[4 + 3 * i + j] * dt
+                f[DTH + i, DBG + j] = -fpar[4 + 3 * i + j] * dt
 
 
 @njit(cache=True)
@@ -172,13 +183,13 @@ def rts_backward(p_post, p_pred, fpar, dx_upd, m, n, start, pos, vel, q, ba, bg)
             dxs[i] = s
         kk = start + j
         for i in range(3):
-            pos[kk, i] += dxs[i]
-            vel[kk, i] += dxs[3 + i]
+            pos[kk, i] += dxs[DP + i]
+            vel[kk, i] += dxs[DV + i]
         if n == 15:
             for i in range(3):
-                ba[kk, i] += dxs[9 + i]
-                bg[kk, i] += dxs[12 + i]
-        _rotate_left(q, kk, dxs[6], dxs[7], dxs[8])
+                ba[kk, i] += dxs[DBA + i]
+                bg[kk, i] += dxs[DBG + i]
+        _rotate_left(q, kk, dxs[DTH], dxs[DTH + 1], dxs[DTH + 2])
     return bad
 
 
