@@ -45,7 +45,7 @@ SHOE_GRID = [10.0 ** e for e in np.arange(4.0, 10.01, 0.5)]
 
 
 def configs(quick: bool = False) -> dict:
-    from bootnav.postproc.detectors import DetectorSettings
+    from bootnav.postproc.detectors import DETECTORS, DetectorSettings
 
     out = {"adaptive": DetectorSettings(method="adaptive"),
            # pyshoe's G with the σ's as briefed (OpenShoe's): marks ~100 % of samples as stance here
@@ -56,17 +56,10 @@ def configs(quick: bool = False) -> dict:
     for g in SHOE_GRID[:: 2 if quick else 1]:
         out[f"shoe_{g:.0e}"] = DetectorSettings(method="shoe", window_s=0.025, threshold=g)
     if not quick:
-        for m in ("ared", "mv", "mag", "paper_accmag", "xio"):
+        for m in sorted(set(DETECTORS) - {"adaptive", "shoe"}):
             out[f"{m}_default"] = DetectorSettings(method=m, min_stance_s=0.05 if m == "paper_accmag" else 0.0)
         out["shoe_literal_default"] = DetectorSettings(method="shoe", literal_paper_form=True)
     return out
-
-
-def read_csv(path: Path) -> np.ndarray:
-    import gzip
-
-    with (gzip.open if str(path).endswith(".gz") else open)(path, "rt") as fh:
-        return np.loadtxt(fh, delimiter=",", skiprows=1, ndmin=2)
 
 
 def foot_files(root: Path, trial: dict) -> list[str]:
@@ -89,6 +82,7 @@ def filter_positions(t, acc, gyro, stance, init, g):
 
 
 def score(folder: Path, kinds: list[str], fname: str, t, pos, stance) -> dict:
+    from bootnav.core.runs import runs
     from bootnav.postproc.evaluate import metrics as M
     from bootnav.postproc.evaluate.runner import read_csv_columns
 
@@ -112,8 +106,8 @@ def score(folder: Path, kinds: list[str], fname: str, t, pos, stance) -> dict:
         sel = c["foot"] == letter
         out.update(M.stride_length_metrics(t, pos, c["t_start_s"][sel], c["t_end_s"][sel], c["stride_length_m"][sel]))
     if "out_and_back" in kinds:
-        phases = M.stance_phases(stance)
-        st = np.array([t[(a + b - 1) // 2] for a, b in phases])
+        starts, stops = runs(stance)
+        st = t[(starts + stops - 1) // 2]
         r = M.out_and_back_metrics(st, M.stance_positions(pos, stance), truth["t_start_s"], truth["t_end_s"],
                                    truth["distance_m"])
         out["abs_distance_err_pct"] = abs(r["distance_err_pct"])
@@ -124,12 +118,13 @@ def run_trial(job) -> list[tuple]:
     root, trial, fname, cfgs, overrides = job
     FILTER_OVERRIDES.clear()
     FILTER_OVERRIDES.update(overrides)
+    from bootnav.core.csvio import read_imu_csv
     from bootnav.postproc.calibration import CalibrationSettings, initial_alignment
     from bootnav.postproc.detectors import detect_stance
 
     folder = root / trial["path"] if "path" in trial else root / trial["id"]
-    a = read_csv(folder / fname)
-    t, acc, gyro = a[:, 0], a[:, 1:4], a[:, 4:7]
+    imu = read_imu_csv(folder / fname)
+    t, acc, gyro = imu.t_s, imu.acc_mps2, imu.gyro_radps
     cal = CalibrationSettings()
     g = cal.gravity()
     init = initial_alignment(t, acc, gyro, cal, g)

@@ -2,19 +2,18 @@
 
 Equations
 ---------
-WGS-84 normal gravity on the ellipsoid (Somigliana's closed formula, NIMA TR8350.2, 3rd ed. 2000, eq. 4-1)::
+WGS-84 normal gravity on the ellipsoid (Somigliana's closed formula [NIMA2000, eq. 4-1])::
 
     g0(φ) = g_e (1 + k sin²φ) / sqrt(1 − e² sin²φ),   k = b g_p / (a g_e) − 1
 
 with g_e = 9.7803253359 m/s² (equator), g_p = 9.8321849378 m/s² (pole), a = 6378137 m,
-b = 6356752.3142 m, e² = 6.69437999014e-3. Free-air (height) correction, second order (TR8350.2 eq. 4-3)::
+b = 6356752.3142 m, e² = 6.69437999014e-3. Free-air (height) correction, second order [NIMA2000, eq. 4-3]::
 
     g(φ, h) = g0 [1 − 2/a (1 + f + m − 2 f sin²φ) h + 3 h²/a²]
 
 with flattening f = 1/298.257223563 and m = ω² a² b / GM = 0.00344978650684.
 
-Initial alignment (e.g. Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
-Systems*, 2nd ed., §5.6.2, "leveling"): at rest the accelerometer measures the specific force
+Initial alignment (levelling [Groves2013, §5.6.2]): at rest the accelerometer measures the specific force
 f_b = C_bn [0, 0, g]; with q_nb = Rz(ψ) Ry(θ) Rx(φ) (z-y-x Euler angles)::
 
     φ (roll)  = atan2(f_y, f_z)
@@ -30,7 +29,7 @@ Accelerometer calibration (optional JSON file ``{"bias_mps2": [bx, by, bz], "mat
     f_corrected = M (f_raw − b)
 
 M holds scale factors on its diagonal and misalignment / cross-axis terms off it (e.g. from a six-position
-test, IEEE Std 1293 style model inverted).
+test: the model of [IEEE1293], inverted).
 """
 
 from __future__ import annotations
@@ -41,7 +40,10 @@ from pathlib import Path
 
 import numpy as np
 
-# WGS-84 constants (NIMA TR8350.2, tables 3.1-3.4)
+from bootnav.core.rotations import quat_from_euler_zyx
+from bootnav.core.runs import runs
+
+# WGS-84 constants [NIMA2000, tables 3.1-3.4]
 WGS84_A_M = 6378137.0
 WGS84_B_M = 6356752.3142
 WGS84_F = 1.0 / 298.257223563
@@ -54,7 +56,7 @@ WGS84_M = 0.00344978650684
 def normal_gravity(lat_deg: float = 45.0, height_m: float = 0.0) -> float:
     """WGS-84 normal gravity (m/s²) at geodetic latitude ``lat_deg`` and ellipsoidal height ``height_m``.
 
-    Somigliana (TR8350.2 eq. 4-1) plus the second-order free-air correction (eq. 4-3); see module docstring.
+    Somigliana [NIMA2000, eq. 4-1] plus the second-order free-air correction (eq. 4-3); see module docstring.
     """
     if not -90.0 <= lat_deg <= 90.0:
         raise ValueError(f"latitude must be within [-90, 90] degrees, got {lat_deg}")
@@ -74,7 +76,7 @@ class CalibrationSettings:
     still_window_s: moving window (s) for the still test.
     still_acc_std_mps2: max std of |f| inside the window (MEMS noise ~0.01-0.05 m/s²; walking ≫ 0.5).
     still_gyro_std_radps: max per-axis std of ω inside the window (a standing foot ≪ 0.05 rad/s; swing ≫ 1).
-    still_gyro_max_radps: max |ω − median ω| inside the window (rejects slow rotations that have low std).
+    still_gyro_max_radps: max |ω − window mean ω| inside the window (rejects slow rotations that have low std).
     still_acc_dev_mps2: max | |f| − g | (uncalibrated MEMS read 9.4-10.5 m/s² at rest, hence 1.0).
     still_search_s: the still period must start within this time from the first sample.
     min_still_s: shortest accepted still period.
@@ -83,9 +85,7 @@ class CalibrationSettings:
         local (``still_window_s``) rate variance is at most this multiple of the quietest window's. A resting
         foot's gyro varies only by sensor noise; a window with more variance holds a small motion (a shifting
         foot passes the still thresholds), and the mean rate of a motion is not bias. 2 = std within √2 of
-        the quietest window (``quiet_core``). Foot-set eval: koroglu_footprints final error 2.8 -> 1.7 %,
-        koroglu_rectangles closure 2.6 -> 1.2 % (run33's 1.06 s "still" start moves at 50 mrad/s std: the
-        full mean gave a 15 mrad/s z bias, the quiet core 5); ratios 1.5-3 give the same, 4: 2.3 %. 0 = off.
+        the quietest window (``quiet_core``); 1.5-3 perform alike (pre-LODO; docs/tuning-log.md). 0 = off.
     use_gyro_bias: subtract the still-period gyro mean as the initial gyro bias.
     accel_calibration_file: JSON file with bias_mps2 and matrix (see module docstring), or None.
     latitude_deg, height_m: for WGS-84 normal gravity.
@@ -177,9 +177,7 @@ def find_still_period(t_s, acc_b, gyro_b, *, min_duration_s: float = 0.5, settin
     ok = still_mask(t_s, acc_b, gyro_b, s, gravity)
     if not ok.any():
         return None
-    edges = np.diff(np.concatenate(([0], ok.view(np.int8), [0])))
-    starts = np.flatnonzero(edges == 1)
-    stops = np.flatnonzero(edges == -1)  # exclusive
+    starts, stops = runs(ok)  # stops exclusive
     dt = _median_dt(t_s)
     dur = t_s[stops - 1] - t_s[starts] + dt
     good = (dur >= min_duration_s) & (t_s[starts] - t_s[0] <= s.still_search_s)
@@ -208,15 +206,6 @@ def roll_pitch_from_specific_force(f_b) -> tuple[float, float]:
     """Roll and pitch (rad) that make C_nb f_b point up (module docstring)."""
     fx, fy, fz = (float(v) for v in f_b)
     return math.atan2(fy, fz), math.atan2(-fx, math.hypot(fy, fz))
-
-
-def quat_from_euler_zyx(roll: float, pitch: float, yaw: float = 0.0) -> np.ndarray:
-    """q_nb (wxyz) for C_nb = Rz(yaw) Ry(pitch) Rx(roll)."""
-    from scipy.spatial.transform import Rotation
-
-    x, y, z, w = Rotation.from_euler("ZYX", [yaw, pitch, roll]).as_quat()
-    q = np.array([w, x, y, z])
-    return q if q[0] >= 0 else -q
 
 
 def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
@@ -265,7 +254,7 @@ def load_accel_calibration(path: str | Path) -> AccelCalibration:
     """Read ``{"bias_mps2": [3 numbers], "matrix": [[3x3 numbers]]}``; clear error naming the file otherwise."""
     from bootnav.errors import InputError
 
-    from bootnav.jsonfile import read_json_file
+    from bootnav.core.jsonio import read_json_file
 
     path = Path(path)
     doc = read_json_file(path, "accelerometer calibration file")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from bootnav.core.rotations import quat_from_euler_zyx
 from bootnav.errors import InputError
 from bootnav.postproc.calibration import (
     CalibrationSettings,
@@ -17,7 +18,6 @@ from bootnav.postproc.calibration import (
     initial_alignment,
     load_accel_calibration,
     normal_gravity,
-    quat_from_euler_zyx,
 )
 
 

@@ -1,15 +1,18 @@
-"""Stance detectors: synthetic gait with known stance, hand-computed statistics, post-processing,
-saturation, and the adaptive default on real recordings (shared/datasets)."""
+"""Stance detectors: the registry and the CLI listing, synthetic gait with known stance, hand-computed
+statistics, post-processing, saturation, and the adaptive default on real recordings (shared/datasets)."""
 
 from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
-from bootnav.postproc.detectors import METHODS, DetectorSettings, detect_stance, postprocess
+from bootnav.postproc.detectors import DETECTORS, DetectorSettings, StanceDetector, detect_stance, postprocess
 from bootnav.postproc.detectors.ared import ared_statistic
 from bootnav.postproc.detectors.mag import mag_statistic
 from bootnav.postproc.detectors.mv import mv_statistic
@@ -61,6 +64,7 @@ def _near_transition(truth: np.ndarray, tol: int) -> np.ndarray:
 # is far above the rest level and far below the swing level (T > 1e4 a few ms into a swing).
 SYNTH = {
     "shoe": dict(threshold=120.0),
+    "shoe-literal": dict(),  # its threshold is read off the recording
     "ared": dict(threshold=60.0),
     "mv": dict(threshold=60.0),
     "mag": dict(threshold=20.0),
@@ -71,7 +75,7 @@ SYNTH = {
 
 
 @pytest.mark.parametrize("fs", [100.0, 200.0, 820.0])
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", sorted(DETECTORS))
 def test_detector_finds_synthetic_stance(method, fs):
     t, acc, gyro, truth = synthetic_gait(fs)
     s = DetectorSettings(method=method, sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G, window_s=0.03,
@@ -88,8 +92,160 @@ def test_detector_finds_synthetic_stance(method, fs):
     assert mismatch.sum() == 0, f"{method} @ {fs} Hz: {mismatch.sum()} samples wrong away from transitions"
     starts, _ = res.phases()
     assert starts.size == 9  # the initial rest + one stance per stride
-    if method in ("shoe", "ared", "mv", "mag"):
-        assert res.info["sigma_acc_mps2"] == SIGMA_A and res.info["sigma_gyro_radps"] == SIGMA_G
+    # the settings reach the detector: its σ's are recorded beside the result
+    if method in ("shoe", "adaptive", "mv", "mag"):
+        assert res.info["sigma_acc_mps2"] == SIGMA_A
+    if method in ("shoe", "adaptive", "ared"):
+        assert res.info["sigma_gyro_radps"] == SIGMA_G
+
+
+# ---- registry, configured detector objects, CLI listing ----
+
+# The names are the `method` of settings files saved before: renaming one breaks those files.
+REGISTERED = {"adaptive", "shoe", "shoe-literal", "ared", "mv", "mag", "paper_accmag", "xio"}
+
+
+def test_registry_lists_every_detector_module():
+    import importlib
+    import pkgutil
+
+    import bootnav.postproc.detectors as pkg
+
+    assert set(DETECTORS) == REGISTERED
+    for mod in pkgutil.iter_modules(pkg.__path__):
+        if mod.name.startswith("_") or mod.name in ("base", "postprocess"):
+            continue
+        module = importlib.import_module(f"{pkg.__name__}.{mod.name}")
+        defined = [c for c in vars(module).values()
+                   if isinstance(c, type) and issubclass(c, StanceDetector) and c.__module__ == module.__name__]
+        assert defined, f"module {mod.name} defines no stance detector"
+        for cls in defined:
+            assert DETECTORS.get(cls.name) is cls, f"{cls.__name__} is not registered"
+    for name, cls in DETECTORS.items():
+        assert cls.name == name and cls.description() and "\n" not in cls.description()
+
+
+def test_unknown_detector_name_lists_the_choices():
+    from bootnav.postproc.detectors import detector_class
+
+    choices = ", ".join(sorted(REGISTERED))
+    with pytest.raises(ValueError, match=rf"unknown stance detector 'glrt2'; choose one of {choices}$"):
+        DetectorSettings(method="glrt2")
+    with pytest.raises(ValueError, match=rf"choose one of {choices}$"):
+        detector_class("SHOE")
+
+
+def test_settings_saved_before_the_registry_still_load_and_build_the_same_detector():
+    from bootnav.postproc.detectors.adaptive import AdaptiveDetector
+    from bootnav.postproc.detectors.shoe import ShoeDetector
+    from bootnav.postproc.settings import ProcessSettings
+
+    saved = {"method": "adaptive", "window_s": 0.025, "window_samples": None, "sigma_acc_mps2": 0.01,
+             "sigma_gyro_radps": 0.0017453292519943296, "threshold": None, "literal_paper_form": False,
+             "hysteresis_ratio": 1.0, "min_stance_s": 0.0, "min_swing_s": 0.0, "detect_clipping": True,
+             "saturation_guard_s": 0.02, "adaptive_window_s": 0.05, "adaptive_span_s": 1.5, "adaptive_alpha": 0.3,
+             "adaptive_floor_decades": 1.0, "adaptive_noise_quantile": 0.05, "adaptive_min_stance_s": 0.05,
+             "adaptive_isolated_min_stance_s": 0.035, "adaptive_isolation_s": 0.4, "adaptive_min_swing_s": 0.1,
+             "adaptive_max_rate_radps": 4.0}  # DetectorSettings().to_dict() of 2026-11
+    s = ProcessSettings.from_dict({"detector": saved}).detector
+    assert s == DetectorSettings()
+    # adaptive_<p> fills parameter p; the unprefixed fields fill the rest
+    assert s.build(9.8) == AdaptiveDetector(gravity_mps2=9.8)
+    tuned = DetectorSettings(adaptive_alpha=0.25, adaptive_min_swing_s=0.2, sigma_gyro_radps=0.002, min_swing_s=0.7)
+    assert tuned.build(9.8) == AdaptiveDetector(gravity_mps2=9.8, alpha=0.25, min_swing_s=0.2, sigma_gyro_radps=0.002)
+    shoe = DetectorSettings(**{**saved, "method": "shoe", "min_swing_s": 0.1, "window_samples": 3}).build(9.8)
+    assert shoe == ShoeDetector(gravity_mps2=9.8, min_swing_s=0.1, window_samples=3)
+    assert shoe.threshold == ShoeDetector.DEFAULT_THRESHOLD  # None in the settings: the class default
+
+
+def walk_from_physics(fs: float, n_strides: int = 6, stance_s: float = 0.5, swing_s: float = 0.6, seed: int = 1):
+    """IMU signal of a foot that rests, then strides: t, acc_b, gyro_b and the true stance mask.
+
+    At rest the specific force is gravity only, seen in a tilted body frame (roll 0.1, pitch -0.05 rad).
+    In each swing the foot moves forward by L = 1.4 m, x(τ) = L (τ/T − sin(2πτ/T)/2π), rises and falls with
+    z(τ) = h (1 − cos(2πτ/T))² / 4 (peak h = 0.15 m), and pitches about its own y axis by
+    θ(τ) = Θ (1 − cos(2πτ/T)) / 2, Θ = 0.5 rad: position, velocity and acceleration all start and end at
+    rest. Then ω_b = (0, θ', 0) exactly and f_b = C_bn (a_n − g_n), g_n = (0, 0, −g). White noise
+    σ_a = SIGMA_A, σ_ω = SIGMA_G is added (the sensor at rest reads gravity plus noise).
+    """
+    rng = np.random.default_rng(seed)
+    c_nb0 = Rotation.from_euler("ZYX", [0.0, -0.05, 0.1])
+    length_m, lift_m, pitch_rad = 1.4, 0.15, 0.5
+    segments = [(1.0, True)] + [(swing_s, False), (stance_s, True)] * n_strides
+    t_list, acc_list, gyro_list, truth = [], [], [], []
+    t0 = 0.0
+    for dur, still in segments:
+        n = int(round(dur * fs))
+        tau = np.arange(n) / fs
+        w = 2 * np.pi / dur
+        a_n = np.zeros((n, 3))
+        theta = np.zeros(n)
+        theta_dot = np.zeros(n)
+        if not still:
+            a_n[:, 0] = length_m * w**2 / (2 * np.pi) * np.sin(w * tau)  # x'' of x = L(τ/T − sin(wτ)/2π)
+            # z = h (1 − cos wτ)² / 4 -> z'' = h w² (cos wτ − cos 2wτ) / 2
+            a_n[:, 2] = lift_m * w**2 * (np.cos(w * tau) - np.cos(2 * w * tau)) / 2
+            theta = pitch_rad * (1 - np.cos(w * tau)) / 2
+            theta_dot = pitch_rad * w * np.sin(w * tau) / 2
+        c_nb = c_nb0 * Rotation.from_rotvec(np.column_stack([0 * theta, theta, 0 * theta]))
+        f_n = a_n + np.array([0.0, 0.0, G])
+        t_list.append(t0 + tau)
+        acc_list.append(c_nb.inv().apply(f_n) + rng.normal(0, SIGMA_A, (n, 3)))
+        gyro_list.append(np.column_stack([0 * theta, theta_dot, 0 * theta]) + rng.normal(0, SIGMA_G, (n, 3)))
+        truth.append(np.full(n, still))
+        t0 += n / fs
+    return np.concatenate(t_list), np.vstack(acc_list), np.vstack(gyro_list), np.concatenate(truth)
+
+
+# Detector objects configured for walk_from_physics from its noise, not from the detector output: σ's =
+# the noise σ's; the windowed statistics then have E[T] <= their degrees of freedom at rest (SHOE 6,
+# ARED/MV 3, MAG 1) and γ = 20·dof sits far above that and far below any swing; 0.05 g on | |f| − g | is
+# 14 σ_a; a sample-wise test also passes where |f| crosses g in mid-swing, hence its 0.1 s minimum stance.
+OBJECTS = {
+    "adaptive": dict(sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G),
+    "shoe": dict(sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G, threshold=120.0),
+    "shoe-literal": dict(sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G),
+    "ared": dict(sigma_gyro_radps=SIGMA_G, threshold=60.0),
+    "mv": dict(sigma_acc_mps2=SIGMA_A, threshold=60.0),
+    "mag": dict(sigma_acc_mps2=SIGMA_A, threshold=20.0),
+    "paper_accmag": dict(threshold=0.05 * G, min_stance_s=0.1),
+    "xio": dict(),  # x-io's own 0.05 g
+}
+
+
+@pytest.mark.parametrize("fs", [100.0, 400.0])
+@pytest.mark.parametrize("name", sorted(DETECTORS))
+def test_every_registered_detector_marks_the_still_part_of_a_physical_walk(name, fs):
+    assert name in OBJECTS, f"give the new detector {name!r} its parameters for this test"
+    t, acc, gyro, truth = walk_from_physics(fs)
+    det = DETECTORS[name](gravity_mps2=G, **OBJECTS[name])
+    res = det.detect(acc, gyro, t)
+    assert res.method == name and res.stance.shape == truth.shape and res.stance.dtype == bool
+    # wrong only within one window plus the swing onset / end (the motion starts from zero: ω grows like τ,
+    # so every statistic is below its threshold for the first few ms) plus, for x-io, its 5 Hz low-pass (0.1 s)
+    tol_s = 0.12 if name in ("xio", "paper_accmag") else 0.06
+    away = ~_near_transition(truth, res.info["window_samples"] + int(tol_s * fs))
+    assert np.all(res.stance[away] == truth[away]), f"{name} @ {fs} Hz"
+    assert res.phases()[0].size == 7  # the initial rest + one stance per stride
+
+
+def _bootnav(*args):
+    return subprocess.run([sys.executable, "-m", "bootnav", *map(str, args)], capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_list_detectors_through_the_cli():
+    proc = _bootnav("process", "--list-detectors")  # no INPUT, no --out: the listing comes first
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert [line.split()[0] for line in lines] == sorted(REGISTERED)
+    for line in lines:
+        name = line.split()[0]
+        assert DETECTORS[name].description() in line
+        assert line.endswith("(default)") == (name == "adaptive")
+    bad = _bootnav("process", "walk.h5", "--out", "o", "--detector", "glrt2")
+    assert bad.returncode == 2
+    assert "invalid choice: 'glrt2'" in bad.stderr and all(f"'{n}'" in bad.stderr for n in REGISTERED)
 
 
 def test_shoe_statistic_equals_hand_computed_value():
@@ -115,7 +271,7 @@ def test_settings_recorded_beside_threshold_and_literal_form():
     res = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", literal_paper_form=True,
                                                        sigma_acc_mps2=0.05, sigma_gyro_radps=0.01), G)
     assert res.info["form"] == "literal_paper" and res.info["sigma_acc_mps2"] == 0.05
-    assert res.info["sigma_gyro_radps"] == 0.01 and res.threshold == 1e3  # DEFAULT_THRESHOLDS["shoe_literal"]
+    assert res.info["sigma_gyro_radps"] == 0.01 and res.threshold == 1e3  # the printed form's default γ
     assert res.info["window_samples"] == 5  # 0.025 s at 200 Hz
     # the window follows the recording's own rate: 0.03 s at 820 Hz = 24.6 -> 25 samples
     t8, a8, g8, _ = synthetic_gait(820.0, n_strides=2)
@@ -159,7 +315,7 @@ def test_hysteresis_and_minimum_durations():
                                   [1, 1, 1, 0, 1, 1, 1, 1, 0, 0, 0, 0])
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", sorted(DETECTORS))
 def test_saturated_samples_are_never_stance(method):
     t, acc, gyro, truth = synthetic_gait(200.0)
     sat = np.zeros(t.size, bool)
@@ -326,8 +482,6 @@ def test_short_and_nan_input():
     assert tiny.stance.shape == (4,)
     with pytest.raises(ValueError, match="shape"):
         detect_stance(t, acc[:-1], gyro, DetectorSettings(), G)
-    with pytest.raises(ValueError, match="unknown stance detector"):
-        DetectorSettings(method="glrt2")
 
 
 def test_clipping_on_both_rails_of_a_twos_complement_sensor():

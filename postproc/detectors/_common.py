@@ -1,10 +1,21 @@
 """Shared helpers of the stance detectors: sample rate, windows in seconds, centred moving means,
-saturation / clipping masks. Vectorised with scipy.ndimage (no per-sample Python loop)."""
+saturation / clipping masks. Vectorised with scipy.ndimage (no per-sample Python loop); scipy is imported
+where it is used, so that importing the detector registry stays light (``bootnav process --help``)."""
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import binary_dilation, uniform_filter1d
+
+
+def as_imu_arrays(t_s, acc_b, gyro_b) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """float64 arrays t_s (N,), acc_b (N, 3), gyro_b (N, 3); ValueError naming the shapes otherwise."""
+    t_s = np.asarray(t_s, dtype=np.float64)
+    acc_b = np.asarray(acc_b, dtype=np.float64)
+    gyro_b = np.asarray(gyro_b, dtype=np.float64)
+    n_samples = t_s.shape[0]
+    if acc_b.shape != (n_samples, 3) or gyro_b.shape != (n_samples, 3):
+        raise ValueError(f"expected acc_b and gyro_b of shape ({n_samples}, 3); got {acc_b.shape}, {gyro_b.shape}")
+    return t_s, acc_b, gyro_b
 
 
 def median_dt(t_s: np.ndarray) -> float:
@@ -23,6 +34,8 @@ def window_samples(window_s: float, dt: float, minimum: int = 1) -> int:
 
 def moving_mean(x: np.ndarray, n: int) -> np.ndarray:
     """Centred moving mean over ``n`` samples along axis 0 (edges: nearest value repeated)."""
+    from scipy.ndimage import uniform_filter1d
+
     return uniform_filter1d(np.asarray(x, dtype=np.float64), size=int(n), axis=0, mode="nearest")
 
 
@@ -63,6 +76,8 @@ def saturation_mask(saturated, n: int) -> np.ndarray:
 
 def dilate(mask: np.ndarray, n: int) -> np.ndarray:
     """Grow a bool mask by ``n`` samples on both sides."""
+    from scipy.ndimage import binary_dilation
+
     if n <= 0 or not mask.any():
         return mask.copy()
     return binary_dilation(mask, structure=np.ones(2 * n + 1, dtype=bool))

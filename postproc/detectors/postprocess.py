@@ -1,8 +1,7 @@
 """Post-processing of a raw stance mask: hysteresis, minimum swing and minimum stance durations.
 
-* Hysteresis (two thresholds, e.g. Wahlström & Skog 2021, "Fifteen years of progress at zero velocity: a
-  review", IEEE Sensors J. 21(2)): a stance run is a maximal run with T < γ_high that contains at least
-  one sample with T < γ_low. Suppresses chatter at the threshold.
+* Hysteresis (two thresholds, e.g. [Wahlstrom2021]): a stance run is a maximal run with T < γ_high that
+  contains at least one sample with T < γ_low. Suppresses chatter at the threshold.
 * Minimum swing: swing gaps shorter than ``min_swing_s`` between two stance runs are filled (a foot cannot
   complete a swing that fast; these are impacts inside the stance phase).
 * Minimum stance: stance runs shorter than ``min_stance_s`` are dropped (one quiet sample in mid-swing
@@ -13,18 +12,14 @@ Durations use the real timestamps: run duration = t[last] − t[first] + dt_medi
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import label
 
-
-def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(starts, stops) of the True runs of ``mask``; stops are exclusive."""
-    m = np.asarray(mask, dtype=np.int8)
-    edges = np.diff(np.concatenate(([0], m, [0])))
-    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+from bootnav.core.runs import runs
 
 
 def hysteresis(statistic: np.ndarray, low: float, high: float) -> np.ndarray:
     """T < high runs that contain at least one sample with T < low."""
+    from scipy.ndimage import label
+
     loose = statistic < high
     labels, n = label(loose)
     if n == 0:
