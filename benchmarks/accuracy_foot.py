@@ -42,7 +42,8 @@ def goals_table(metrics: dict) -> list[dict]:
         per_trial = [m["metrics"].get(key) if "metrics" in m else m.get(key)
                      for tid, m in metrics.get("trials", {}).items() if tid.startswith(ds + "/")]
         vals = [v for v in per_trial if isinstance(v, (int, float)) and math.isfinite(v)]
-        mean = metrics.get("datasets", {}).get(ds, {}).get(key, float("nan"))
+        mean = metrics.get("datasets", {}).get(ds, {}).get(key)
+        mean = float("nan") if mean is None else mean  # null in metrics.json: undefined in every trial
         worst = max(vals) if vals else float("nan")
         rows.append({"dataset": ds, "metric": key, "ours": mean, "worst": worst, "n": len(vals),
                      "goal": goal, "met": bool(mean <= bound), "pyshoe": anchor})

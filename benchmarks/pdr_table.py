@@ -1,9 +1,11 @@
-"""PDR accuracy table in the style of seed-002 (Bayındır & Karabey) Tables 3–9, on ../shared/datasets.
+"""PDR accuracy table in the style of [Bayindir2014] Tables 3–9, on the developer datasets (../shared/datasets).
 
 Rows: carrying position (Oxford phone positions, lower back of Voisard and Mobilise-D), × speed where the
 data allow (Voisard: slow < 0.9 m/s <= normal < 1.15 m/s <= fast from its truth.json walking speed).
 Cells: mean count error % (sample std, ddof = 1) per detector; then F1 on step events; step-length MAE per
-length model (Mobilise-D) and distance error on Voisard's 20 m out-and-back.
+length model (Mobilise-D) and distance error on Voisard's 20 m out-and-back. Every figure is scored by
+``bootnav.postproc.evaluate`` exactly as ``bootnav eval`` scores it (an undefined value, NaN, is left out of a
+cell; a cell with none defined reads "n/a").
 Runs trials in 2 processes (multiprocessing). Usage:
 
     .venv/bin/python benchmarks/pdr_table.py [--datasets DIR] [--detectors a,b] [--lengths a,b] [--engineered]
@@ -51,10 +53,14 @@ def _job(args):
 
 
 def _foot_job(trial) -> dict:
-    """Foot IMUs of one Voisard walk: the foot-mounted ZUPT pipeline (bootnav.postproc.pipeline.process) -> strides
-    -> the steps table, and the seed-000 §2.5 two-axis foot detector (literal and engineered)."""
+    """Foot IMUs of one Voisard walk: the foot-mounted ZUPT pipeline -> strides of both feet (steps table of
+    ``steps_from_foot_ins``), and the two-axis foot detector of [NKUA2009, §2.5] (literal and engineered).
+    Scored by ``bootnav.postproc.evaluate`` (step events of both feet; 20 m distance per foot as ``bootnav
+    eval``'s ``foot_distance_err_pct``, averaged over the feet)."""
+    from bootnav.core.csvio import read_imu_csv
+    from bootnav.postproc.evaluate.metrics import step_event_metrics
+    from bootnav.postproc.evaluate.runner import estimate_foot, score_foot
     from bootnav.postproc.pdr.detectors import TwoAxisFootDetector
-    from bootnav.postproc.pdr.evaluate import event_metrics, load_imu_csv
     from bootnav.postproc.pdr.foot_ins import steps_from_foot_ins
 
     row = {"id": trial.id, "detector": "foot_zupt", "length": "-", "error": None}
@@ -62,25 +68,19 @@ def _foot_job(trial) -> dict:
     for lit in (True, False):
         ta = []
         for f in feet:
-            tt, acc, _ = load_imu_csv(trial.path / f)
-            ta.append(TwoAxisFootDetector(literal=lit).detect(tt, acc).t_s)
-        m2 = event_metrics(trial.t_steps, np.sort(np.concatenate(ta)))
+            imu = read_imu_csv(trial.path / f)
+            ta.append(TwoAxisFootDetector(literal=lit).detect(imu.t_s, imu.acc_mps2).t_s)
+        m2 = step_event_metrics(np.concatenate(ta), trial.t_steps)
         key = "two_axis" if lit else "two_axis_eng"
         row[f"{key}_f1"], row[f"{key}_count_err_pct"] = m2["f1"], m2["count_err_pct"]
     try:
-        from bootnav.postproc.pipeline import process
-
-        tj = trial.info["truth_json"]
-        times, dist = [], []
+        times, dist_err = [], []
         for f in feet:
-            r = process(trial.path / f)
-            s = steps_from_foot_ins(r.t_s, r.pos_n, r.stance)
-            times.append(s["t_s"])
-            inside = (s["t_s"] > tj["t_start_s"]) & (s["t_s"] <= tj["t_end_s"] + 0.5)
-            dist.append(float(np.sum(s["length_m"][inside])))
-        row.update(event_metrics(trial.t_steps, np.sort(np.concatenate(times))))
-        d = float(np.mean(dist))
-        row["distance_err_pct"] = 100.0 * (d - tj["distance_m"]) / tj["distance_m"]
+            est = estimate_foot(trial.path / f, None)
+            times.append(steps_from_foot_ins(est.t_s, est.pos_n, est.stance)["t_s"])
+            dist_err.append(score_foot(est, trial.path, ["out_and_back"], f)[0]["distance_err_pct"])
+        row.update(step_event_metrics(np.concatenate(times), trial.t_steps))
+        row["distance_err_pct"] = float(np.mean(dist_err))
     except Exception as exc:  # counted as a failure with its reason
         row["error"] = f"{type(exc).__name__}: {exc}"
     return row
@@ -178,7 +178,7 @@ def main(argv=None) -> int:
         print("\n### Same Voisard walks: foot-mounted ZUPT strides (both feet) vs lower-back PDR (robust + "
               "frequency_variance)\n")
         print("| trials | foot ZUPT: step F1 | foot ZUPT: count err % | foot ZUPT: 20 m distance err % | "
-              "foot two_axis (seed-000 §2.5) literal: F1 / count err % | two_axis engineered: F1 / count err % | "
+              "foot two_axis [NKUA2009, §2.5] literal: F1 / count err % | two_axis engineered: F1 / count err % | "
               "PDR: step F1 | PDR: count err % | PDR: 20 m distance err % |")
         print("|---|---|---|---|---|---|---|---|---|")
         ok = [r for r in foot_rows if r.get("error") is None]

@@ -1,7 +1,7 @@
 """Reference paths and the paper's Table 1 metrics (distance, deviation and height error).
 
-The paper (seed-004 §4.2, Table 1) reports "deviation", "distance" and "height" errors in % for a 9 m
-straight walk and an 11 m stair path but never defines them (seed-004 §7.6 R19). bootnav fixes these
+The paper [Heidari2019, §4.2, Table 1] reports "deviation", "distance" and "height" errors in % for a 9 m
+straight walk and an 11 m stair path but never defines them. bootnav fixes these
 definitions (also in ``docs/metrics.md``); every metric is given in metres *and* in %, because the
 paper's conclusion mixes the two.
 
@@ -57,7 +57,7 @@ import numpy as np
 
 from bootnav.errors import InputError
 
-from .strides import footprints, stance_phases
+from .strides import footprints, stride_footprints
 
 ALIGN_DISTANCE_M = 0.8
 
@@ -306,16 +306,19 @@ def distance_to_polyline(p_xy: np.ndarray, poly: np.ndarray) -> np.ndarray:
 
 
 def compute_metrics(ref: Reference, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray,
-                    mount: str | None = None) -> dict:
-    """Table 1 metrics + closure (definitions in the module docstring). Keys end in _m or _pct."""
+                    mount: str | None = None, min_stride_m: float = 0.0) -> dict:
+    """Table 1 metrics + closure (definitions in the module docstring). Keys end in _m or _pct.
+
+    The estimated distance counts the same strides as the path summary (moves >= ``min_stride_m``,
+    ``strides.stride_footprints``)."""
     t_s = np.asarray(t_s, float)
     aligned, ref_pts, yaw = align_to_reference(ref, t_s, pos_n)
-    _, fp = footprints(t_s, aligned, stance_phases(stance))
+    _, fp = footprints(t_s, aligned, stance)
     out: dict = {"reference_kind": ref.kind, "reference_source": ref.source,
                  "alignment_yaw_rad": yaw, "alignment_rule": "start + heading at first sample >= 0.8 m"}
     if len(fp) < 2:
         raise InputError("reference metrics need at least 2 stance phases in the estimate")
-    d = np.diff(fp, axis=0)
+    d = np.diff(fp[stride_footprints(fp, min_stride_m)], axis=0)
     l_est = float(np.hypot(d[:, 0], d[:, 1]).sum())
     c = fp[-1] - fp[0]
     out.update(

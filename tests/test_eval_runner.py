@@ -55,7 +55,7 @@ def test_estimates_are_made_before_any_truth_file_is_read(datasets, monkeypatch)
     trial = _manifest_subset(datasets, ["pyshoe_vicon/2017-11-22-11-22-03"])[0]
     order = []
     real_read = runner.read_csv_columns
-    real_estimate = runner._estimate_foot
+    real_estimate = runner.estimate_foot
 
     def spy_read(path):
         order.append(("read", path.name))
@@ -66,7 +66,7 @@ def test_estimates_are_made_before_any_truth_file_is_read(datasets, monkeypatch)
         return real_estimate(path, settings)
 
     monkeypatch.setattr(runner, "read_csv_columns", spy_read)
-    monkeypatch.setattr(runner, "_estimate_foot", spy_estimate)
+    monkeypatch.setattr(runner, "estimate_foot", spy_estimate)
     result = runner.evaluate_trial(trial, str(datasets))
     assert result.status == "ok", result.reason
     first_truth = next(i for i, (kind, name) in enumerate(order) if kind == "read" and name.startswith("truth"))

@@ -311,3 +311,22 @@ def test_robust_detector_drops_the_gait_initiation_bump():
     ev = DETECTORS["robust"]().detect(t, acc)
     assert ev.count == 30 and ev.t_s[0] > 3.0
     assert DETECTORS["robust"](onset_trim_fraction=0.0).detect(t, acc).count == 31
+
+
+def test_leppakoski_peak_validates_only_its_own_crossing():
+    """|a| crossing g twice per step (a big step peak, then a small bump above g that stays under the
+    1.7 m/s^2 gate), as a phone in a pocket does: one step per step. A validation window reaching past the
+    next up-crossing lets the next step's peak validate the small bump too (twice the count)."""
+    fs, period, n = 100.0, 0.6, 30
+    t = np.arange(0, n * period + 1.0, 1 / fs)
+    s = -1.0 * np.ones_like(t)
+    for k in range(n):
+        s += 4.0 * np.exp(-0.5 * ((t - 0.5 - k * period) / 0.05) ** 2)
+        s += 1.5 * np.exp(-0.5 * ((t - 0.8 - k * period) / 0.05) ** 2)
+    acc = np.zeros((t.size, 3))
+    acc[:, 2] = G + s
+    ev = DETECTORS["leppakoski"]().detect(t, acc)
+    crossings = np.sum((ev.trace["signal"][:-1] < 0) & (ev.trace["signal"][1:] >= 0))
+    assert crossings == 2 * n  # the premise: two up-crossings of g per step
+    assert ev.count == n
+    assert DETECTORS["leppakoski"](own_crossing=False).detect(t, acc).count >= 2 * n - 1

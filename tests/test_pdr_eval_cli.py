@@ -1,5 +1,5 @@
-"""Event matching per METRICS.md, the pipeline API, ``bootnav pdr`` end to end in a fresh process, and one
-public dataset trial."""
+"""Event matching per METRICS.md (the one scorer, ``bootnav.postproc.evaluate.metrics``, as the PDR benchmark
+uses it), the pipeline API, ``bootnav pdr`` end to end in a fresh process, and one public dataset trial."""
 
 import gzip
 import json
@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from bootnav.postproc.pdr import PdrSettings, run_pdr
-from bootnav.postproc.pdr.evaluate import event_metrics, list_trials, match_events, step_length_metrics
+from bootnav.postproc.evaluate.metrics import match_events, step_event_metrics, step_length_metrics
+from bootnav.postproc.pdr.evaluate import list_trials
 from tests.conftest import REPO
 from tests.test_pdr_detectors import walk
 
@@ -18,18 +19,18 @@ from tests.test_pdr_detectors import walk
 def test_matching_is_one_to_one_nearest_first():
     true = np.array([1.0, 2.0, 3.0])
     det = np.array([1.1, 1.15, 2.2, 3.26])
-    pairs = match_events(true, det)
-    assert pairs.tolist() == [[0, 0], [1, 2]]  # 1.15 is a duplicate; 3.26 is outside +-0.25 s
-    m = event_metrics(true, det)
+    pairs = match_events(det, true)
+    assert sorted(pairs) == [(0, 0), (2, 1)]  # 1.15 is a duplicate; 3.26 is outside +-0.25 s
+    m = step_event_metrics(det, true)
     assert (m["precision"], m["recall"]) == pytest.approx((0.5, 2 / 3))
     assert m["f1"] == pytest.approx(2 * 0.5 * (2 / 3) / (0.5 + 2 / 3))
     assert m["count_err_pct"] == pytest.approx(100 / 3)
     # nearest first, not time order: true 1.0 and 1.2, detection 1.18 belongs to 1.2
-    assert match_events(np.array([1.0, 1.2]), np.array([1.18])).tolist() == [[1, 0]]
+    assert match_events(np.array([1.18]), np.array([1.0, 1.2])) == [(0, 1)]
 
 
 def test_step_length_metrics_nearest_within_tolerance():
-    m = step_length_metrics([1.0, 2.0, 5.0], [0.5, 0.6, 0.7], [1.1, 2.05, 3.0], [0.55, 0.5, 0.9])
+    m = step_length_metrics([1.1, 2.05, 3.0], [0.55, 0.5, 0.9], [1.0, 2.0, 5.0], [0.5, 0.6, 0.7])
     assert m["n_matched"] == 2
     assert m["step_len_mae_m"] == pytest.approx(0.075)
     assert m["step_len_bias_m"] == pytest.approx(-0.025)
@@ -74,11 +75,12 @@ def test_cli_end_to_end(tmp_path):
                           capture_output=True, text=True, cwd=REPO, timeout=120)
     assert proc.returncode == 0, proc.stderr
     steps = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)
-    assert open(out / "steps.csv").readline().strip() == "t_s,length_m,heading_rad,x_m,y_m"
+    assert open(out / "steps.csv").readline().strip() == "t_s,length_m,yaw_enu_rad,heading_deg_cw_from_north,x_m,y_m"
     assert abs(len(steps) - 60) <= 1
     assert np.allclose(steps[:, 1], 0.415 * 1.70)
-    # heading from the gyro: 3 deg/s since t = 0
-    assert np.allclose(np.degrees(steps[:, 2]), 3.0 * steps[:, 0], atol=0.05)
+    # heading from the gyro: 3 deg/s clockwise since t = 0 (start bearing 0 = north = yaw 90 deg)
+    assert np.allclose(steps[:, 3], 3.0 * steps[:, 0], atol=0.05)
+    assert np.allclose(np.degrees(steps[:, 2]), 90.0 - 3.0 * steps[:, 0], atol=0.05)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["heading_source"] == "gyro" and summary["settings"]["height_m"] == 1.70
     latlon = np.loadtxt(out / "path_latlon.csv", delimiter=",", skiprows=1)
@@ -142,18 +144,19 @@ def test_phyphox_export_step_counts(datasets):
 
 
 def test_bad_rows_are_reported_with_line_numbers(tmp_path):
+    from bootnav.core.csvio import read_imu_csv
     from bootnav.errors import InputError
-    from bootnav.postproc.pdr.evaluate import load_imu_csv
 
     t, acc = walk(n_steps=10)
     lines = ["t_s,ax_mps2,ay_mps2,az_mps2"] + [f"{a},{b},{c},{d}" for a, b, c, d in np.c_[t, acc]]
     lines.insert(300, "7.0,abc,1,2")  # becomes line 301
     (tmp_path / "one.csv").write_text("\n".join(lines) + "\n")
-    tt, aa, gg = load_imu_csv(tmp_path / "one.csv")  # one bad row of ~1000: skipped, the rest kept
-    assert tt.size == t.size and gg is None and np.allclose(aa, acc)
+    imu = read_imu_csv(tmp_path / "one.csv")  # one bad row of ~1000: skipped, the rest kept
+    assert imu.t_s.size == t.size and imu.gyro_radps is None and np.allclose(imu.acc_mps2, acc)
+    assert [ln for ln, _ in imu.bad_lines] == [301]
     (tmp_path / "many.csv").write_text("t_s,ax_mps2,ay_mps2,az_mps2\n1,2,3\n2,3,4\n3,4,5,6\n")
-    with pytest.raises(InputError, match=r"lines 2, 3"):
-        load_imu_csv(tmp_path / "many.csv")
+    with pytest.raises(InputError, match=r"2 of 3 data lines unreadable \(line 2: "):
+        read_imu_csv(tmp_path / "many.csv")
 
 
 def test_alternation_corrected_count():
@@ -181,5 +184,5 @@ def test_cli_on_importer_formats(tmp_path, name, n_steps):
         # HMR3300-style heading column (90 +- 5 deg + 1 deg noise): the path goes east
         assert summary["heading_source"] == "compass"
         steps = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)
-        assert np.all(np.abs(np.degrees(steps[:, 2]) - 90.0) < 7.0)
-        assert steps[-1, 3] > 0 and abs(steps[-1, 4]) < 0.2 * steps[-1, 3]
+        assert np.all(np.abs(steps[:, 3] - 90.0) < 7.0) and np.all(np.abs(steps[:, 2]) < np.radians(7.0))
+        assert steps[-1, 4] > 0 and abs(steps[-1, 5]) < 0.2 * steps[-1, 4]

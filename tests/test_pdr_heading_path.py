@@ -110,7 +110,7 @@ def test_steps_from_foot_ins():
     out = steps_from_foot_ins(t, pos, np.array(stance))
     assert out["length_m"].size == n_str
     assert np.allclose(out["length_m"], L, atol=1e-9)
-    assert np.allclose(out["heading_rad"], h, atol=1e-9)
+    assert np.allclose(out["yaw_enu_rad"], np.pi / 2 - h, atol=1e-9)  # bearing 30 deg = 60 deg from east
     assert out["x_m"][-1] == pytest.approx(n_str * L * np.sin(h))
     assert np.allclose(out["t_s"], np.arange(1, n_str + 1) * 1.0)  # stance starts (initial contacts)
 
@@ -125,7 +125,7 @@ def test_steps_from_foot_ins_merges_split_stance():
     stance[150:200] = True
     out = steps_from_foot_ins(t, pos, stance)
     assert out["length_m"].tolist() == pytest.approx([1.3])
-    assert out["heading_rad"][0] == pytest.approx(0.0)
+    assert out["yaw_enu_rad"][0] == pytest.approx(np.pi / 2)  # due north
 
 
 def test_seed000_T14_synthetic_checkpoint_walk():
@@ -163,5 +163,5 @@ def test_run_pdr_with_magnetometer_heading():
     res = run_pdr(t, acc, settings=PdrSettings(heading="mag", declination_deg=5.0), mag_b=mag_b)
     # the 1 m/s^2 sway of the synthetic walk leaks ~0.1 m/s^2 through the 0.3-Hz gravity low-pass:
     # a tilt of ~0.01 rad, so the bearing is good to ~1 deg
-    assert np.allclose(np.degrees(res.heading_rad), 80.0, atol=1.0)
+    assert np.allclose(np.degrees(res.yaw_enu_rad), 90.0 - 80.0, atol=1.0)  # bearing 80 deg = 10 deg from east
     assert res.heading_source == "mag"

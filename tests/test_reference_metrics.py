@@ -184,7 +184,7 @@ def test_strides_on_known_stair_geometry():
     assert np.allclose(steps["dz_m"][climbing], 2 * 0.17)
     assert np.allclose(steps["stride_length_m"][climbing], 2 * 0.28)
     assert np.allclose(steps["z_m"], fp[1:, 2])
-    assert np.allclose(steps["heading_rad"][0], 0.0)
+    assert np.allclose(steps["yaw_enu_rad"][0], 0.0)
     summary = path_summary(t, pos, stance, FloorSettings(floor_height_m=3.06))
     assert summary["floors_climbed"] == 3
     assert summary["floors_descended"] == 1

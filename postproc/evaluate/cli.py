@@ -10,7 +10,7 @@ from bootnav.errors import InputError
 
 
 def add_arguments(parser):
-    parser.add_argument("root", type=Path, help="dataset tree with manifest.json (e.g. ../shared/datasets)")
+    parser.add_argument("root", type=Path, help="dataset tree with a manifest.json and METRICS.md truth files")
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--sets", nargs="*", default=None, help="only these datasets")

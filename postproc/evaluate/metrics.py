@@ -1,4 +1,5 @@
-"""Accuracy metrics exactly as ``shared/datasets/METRICS.md`` defines them.
+"""The one scorer of the developer datasets' METRICS.md [DatasetMetrics]: every accuracy figure of
+``bootnav eval``, the PDR evaluation (``bootnav.postproc.pdr.evaluate``) and the benchmarks comes from here.
 
 Every position metric first removes the unknown start position and start heading — never scale, never
 anything fitted to the whole path:
@@ -6,18 +7,52 @@ anything fitted to the whole path:
 1. translate estimate and truth so both start at the origin (first sample, or stride 0);
 2. find the first estimate sample whose horizontal distance from the start is >= 0.8 m and rotate the
    estimate about the vertical axis so that its horizontal position there points the same way as the truth
-   at the same time (truth interpolated linearly in time) — pyshoe's evaluation convention;
+   at the same time (truth interpolated linearly in time) — pyshoe's evaluation convention [Wagstaff2017];
 3. z is never rotated or scaled.
 
 All functions take plain arrays (SI, nav frame z up) so they serve the foot-mounted filter and PDR alike.
+
+Empty cases
+-----------
+METRICS.md defines every rate as a ratio; where its denominator is zero the ratio is undefined and the
+metric is NaN (``null`` in metrics.json, "—" in report.md, left out of a dataset's mean and median, and
+counted per dataset in ``n_undefined``). Never 0, which would read as a measured value:
+
+===================  =============================  ==========================================
+metric               definition                     undefined (NaN) when
+===================  =============================  ==========================================
+precision            matched / detected             nothing detected
+recall               matched / true                 no true event
+f1                   2 matched / (detected + true)  both empty (0 when only one side is empty:
+                     (= 2 P R / (P + R))            every detection false, or every event missed)
+count_err_pct        100 (detected − true) / true   no true step, even with none detected
+step_len_mae_m/bias  over matched steps             no detected step within ±0.25 s of a contact
+stance_precision     per sample, as precision       no stance sample estimated
+stance_recall        per sample, as recall          no stance sample in the truth
+closure_pct          100 closure_3d / distance      no horizontal distance walked
+final_fp_err_pct     100 final error / length       truth polyline of zero length
+distance_err_pct     100 (est − true) / true        true distance zero
+===================  =============================  ==========================================
+
+[Lazarevskiy2021] Table 3.1 prints a count error of 0 % for a still recording (0 true, 0 detected); here
+that case is undefined: a percentage of zero steps measures nothing.
+
+[DatasetMetrics] METRICS.md of the bootnav developer dataset collection (alignment, metric per truth kind).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from bootnav.core.runs import runs
+
 ALIGN_DISTANCE_M = 0.8
 EVENT_TOLERANCE_S = 0.25
+
+
+def _ratio(num: float, den: float) -> float:
+    """num / den, NaN when the denominator is zero (module docstring, "Empty cases")."""
+    return num / den if den else float("nan")
 
 
 # ----------------------------------------------------------------------------------------- alignment
@@ -59,22 +94,13 @@ def align_to_truth(t_est, pos_est, t_truth, pos_truth, t_origin: float | None = 
 
 
 # ----------------------------------------------------------------------------------- stance phases
-def stance_phases(stance) -> list[tuple[int, int]]:
-    """Contiguous stance intervals as (first, last_exclusive) sample indices."""
-    s = np.asarray(stance, dtype=np.int8)
-    edges = np.diff(np.concatenate([[0], s, [0]]))
-    starts = np.flatnonzero(edges == 1)
-    ends = np.flatnonzero(edges == -1)
-    return list(zip(starts.tolist(), ends.tolist()))
-
-
 def stance_positions(pos, stance) -> np.ndarray:
-    """Mean position of each stance phase (the foot is still there)."""
-    phases = stance_phases(stance)
+    """Mean position of each stance phase (run of True in ``stance``: the foot is still there)."""
+    starts, stops = runs(stance)
     pos = np.asarray(pos, float)
-    if not phases:
+    if starts.size == 0:
         return np.zeros((0, pos.shape[1]))
-    return np.array([pos[a:b].mean(axis=0) for a, b in phases])
+    return np.array([pos[a:b].mean(axis=0) for a, b in zip(starts, stops)])
 
 
 # --------------------------------------------------------------------------------- per truth kind
@@ -111,7 +137,7 @@ def closed_loop_metrics(pos_est, stance) -> dict:
         "closure_v_m": float(abs(d[2])),
         "closure_3d_m": c3,
         "distance_m": distance,
-        "closure_pct": 100.0 * c3 / distance if distance > 0 else float("nan"),
+        "closure_pct": _ratio(100.0 * c3, distance),
     }
 
 
@@ -128,7 +154,7 @@ def footprint_metrics(t_est, pos_est, fp_t, fp_xy, n_detected_strides: int | Non
     out = {
         "mean_fp_err_m": float(err.mean()),
         "final_fp_err_m": float(err[-1]),
-        "final_fp_err_pct": 100.0 * float(err[-1]) / length,
+        "final_fp_err_pct": _ratio(100.0 * float(err[-1]), length),
         "truth_length_m": length,
         "align_angle_rad": angle,
     }
@@ -158,7 +184,7 @@ def out_and_back_metrics(t_est, pos_est, stance_t, stance_xy, t_start, t_end, di
     inside = (stance_t > t_start) & (stance_t < t_end)
     p = np.vstack([start[:1], np.asarray(stance_xy, float)[inside, :2], start[1:]])
     est = float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
-    return {"distance_est_m": est, "distance_err_pct": 100.0 * (est - distance_truth) / distance_truth}
+    return {"distance_est_m": est, "distance_err_pct": _ratio(100.0 * (est - distance_truth), distance_truth)}
 
 
 def step_distance_metrics(step_t, step_len, t_start, t_end, distance_truth,
@@ -168,11 +194,25 @@ def step_distance_metrics(step_t, step_len, t_start, t_end, distance_truth,
     step_t = np.asarray(step_t, float)
     inside = (step_t >= t_start - tolerance) & (step_t <= t_end + tolerance)
     est = float(np.sum(np.asarray(step_len, float)[inside]))
-    return {"distance_est_m": est, "distance_err_pct": 100.0 * (est - distance_truth) / distance_truth}
+    return {"distance_est_m": est, "distance_err_pct": _ratio(100.0 * (est - distance_truth), distance_truth)}
 
 
 def match_events(detected, truth, tolerance: float = EVENT_TOLERANCE_S) -> list[tuple[int, int]]:
-    """One-to-one matching within ±tolerance, nearest pairs first. Returns (detected_i, truth_j) pairs."""
+    """One-to-one matching of detected to true events within ±tolerance, nearest pairs first.
+
+    Parameters
+    ----------
+    detected, truth : array_like, shape (D,), (T,)
+        Event times, s (any order).
+    tolerance : float
+        Largest |detected − true| of a match, s (METRICS.md: 0.25 s).
+
+    Returns
+    -------
+    list of (int, int)
+        (index into ``detected`` sorted by time, index into ``truth`` as given) pairs. Equal distances go to
+        the earlier detection.
+    """
     detected = np.sort(np.asarray(detected, float))
     truth = np.asarray(truth, float)
     order_truth = np.argsort(truth)
@@ -187,7 +227,7 @@ def match_events(detected, truth, tolerance: float = EVENT_TOLERANCE_S) -> list[
     pairs = []
     used_d = np.zeros(len(detected), bool)
     used_t = np.zeros(len(truth), bool)
-    for k in np.argsort(dist, kind="stable"):
+    for k in np.argsort(dist, kind="stable"):  # greedy over candidate pairs (a few per event), not samples
         i, j = det_idx[k], tru_idx[k]
         if not used_d[i] and not used_t[j]:
             used_d[i] = used_t[j] = True
@@ -195,38 +235,79 @@ def match_events(detected, truth, tolerance: float = EVENT_TOLERANCE_S) -> list[
     return pairs
 
 
+def count_err_pct(n_detected: int, n_true: int) -> float:
+    """Step-count error, % = 100 (detected − true) / true; NaN when there is no true step."""
+    return _ratio(100.0 * (n_detected - n_true), n_true)
+
+
 def step_event_metrics(detected, truth, tolerance: float = EVENT_TOLERANCE_S) -> dict:
-    """precision, recall, f1, count_err_pct."""
+    """METRICS.md ``step_events``: precision, recall, f1 and count_err_pct of detected event times.
+
+    Parameters
+    ----------
+    detected, truth : array_like
+        Detected and true event times, s (heel strikes, foot-switch edges, initial contacts).
+    tolerance : float
+        Matching tolerance, s (``match_events``).
+
+    Returns
+    -------
+    dict
+        ``precision``, ``recall``, ``f1``, ``count_err_pct`` (NaN where undefined, module docstring),
+        ``n_detected``, ``n_true``.
+    """
     n_det, n_true = len(detected), len(truth)
     tp = len(match_events(detected, truth, tolerance))
-    precision = tp / n_det if n_det else 0.0
-    recall = tp / n_true if n_true else 0.0
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+    precision = _ratio(tp, n_det)
+    recall = _ratio(tp, n_true)
+    # 2PR/(P+R) = 2 tp/(n_det + n_true); with no match it is 0, or undefined when both sides are empty
+    f1 = 2 * precision * recall / (precision + recall) if tp else _ratio(0.0, n_det + n_true)
     return {
         "precision": precision,
         "recall": recall,
         "f1": f1,
-        "count_err_pct": 100.0 * (n_det - n_true) / n_true if n_true else float("nan"),
+        "count_err_pct": count_err_pct(n_det, n_true),
         "n_detected": n_det,
         "n_true": n_true,
     }
 
 
 def step_count_metrics(n_detected: int, n_true: int) -> dict:
-    return {"count_err_pct": 100.0 * (n_detected - n_true) / n_true, "n_detected": n_detected, "n_true": n_true}
+    """METRICS.md ``step_count``: count_err_pct (NaN without true steps), n_detected, n_true."""
+    return {"count_err_pct": count_err_pct(n_detected, n_true), "n_detected": n_detected, "n_true": n_true}
 
 
 def step_length_metrics(step_t, step_len, ref_t, ref_len, tolerance: float = EVENT_TOLERANCE_S) -> dict:
-    """The detected step nearest each reference contact within ±tolerance; MAE and bias over matches."""
+    """METRICS.md ``step_lengths``: the detected step nearest each reference contact within ±tolerance.
+
+    Parameters
+    ----------
+    step_t, step_len : array_like, shape (N,)
+        Detected step times, s, and their estimated lengths, m.
+    ref_t, ref_len : array_like, shape (M,)
+        Reference initial contacts, s, and the reference step lengths, m.
+    tolerance : float
+        Largest |detected − reference| time of a match, s. Equidistant steps: the earlier one.
+
+    Returns
+    -------
+    dict
+        ``step_len_mae_m``, ``step_len_bias_m`` (estimate − reference) over the matches (NaN without a
+        match), ``n_matched``.
+    """
     step_t = np.asarray(step_t, float)
     step_len = np.asarray(step_len, float)
-    errors = []
-    if len(step_t):
-        for t, length in zip(np.asarray(ref_t, float), np.asarray(ref_len, float)):
-            k = int(np.argmin(np.abs(step_t - t)))
-            if abs(step_t[k] - t) <= tolerance:
-                errors.append(step_len[k] - length)
-    e = np.asarray(errors)
+    ref_t = np.asarray(ref_t, float)
+    ref_len = np.asarray(ref_len, float)
+    if step_t.size == 0 or ref_t.size == 0:
+        return {"step_len_mae_m": float("nan"), "step_len_bias_m": float("nan"), "n_matched": 0}
+    order = np.argsort(step_t, kind="stable")
+    step_t, step_len = step_t[order], step_len[order]
+    right = np.clip(np.searchsorted(step_t, ref_t), 0, step_t.size - 1)
+    left = np.maximum(right - 1, 0)
+    nearest = np.where(np.abs(step_t[left] - ref_t) <= np.abs(step_t[right] - ref_t), left, right)
+    ok = np.abs(step_t[nearest] - ref_t) <= tolerance
+    e = step_len[nearest[ok]] - ref_len[ok]
     if e.size == 0:
         return {"step_len_mae_m": float("nan"), "step_len_bias_m": float("nan"), "n_matched": 0}
     return {"step_len_mae_m": float(np.abs(e).mean()), "step_len_bias_m": float(e.mean()), "n_matched": int(e.size)}
@@ -240,6 +321,6 @@ def stance_metrics(t_est, stance_est, t_truth, stance_truth) -> dict:
     truth = np.asarray(stance_truth, bool)
     tp = np.sum(est & truth)
     return {
-        "stance_precision": float(tp / max(est.sum(), 1)),
-        "stance_recall": float(tp / max(truth.sum(), 1)),
+        "stance_precision": float(_ratio(tp, est.sum())),
+        "stance_recall": float(_ratio(tp, truth.sum())),
     }

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.jsonio import to_jsonable
 from bootnav.postproc.evaluate.runner import TrialResult, dataset_summary
 
 # Metrics shown first in each dataset's table (the rest follow alphabetically in metrics.json only).
@@ -31,6 +32,7 @@ def _fmt(v) -> str:
 
 
 def write_metrics_json(results: list[TrialResult], path: Path, extra: dict | None = None) -> dict:
+    """Write every trial's metrics and the per-dataset summary; an undefined metric (NaN) is ``null``."""
     doc = {
         "trials": {
             r.id: {"set": r.set, "mount": r.mount, "status": r.status, "reason": r.reason, **r.metrics,
@@ -41,7 +43,7 @@ def write_metrics_json(results: list[TrialResult], path: Path, extra: dict | Non
     }
     if extra:
         doc.update(extra)
-    path.write_text(json.dumps(doc, indent=1, default=float, allow_nan=True))
+    path.write_text(json.dumps(to_jsonable(doc), indent=1, allow_nan=False))
     return doc
 
 
@@ -92,6 +94,10 @@ def write_report(results: list[TrialResult], doc: dict, out_dir: Path, header: s
         rows = [r for r in results if r.set == set_name]
         keys = [k for k in HEADLINE if any(k in r.metrics for r in rows)]
         lines += [f"## {set_name}", "", f"{summary['n_trials']} trials, {summary['n_failed']} failed.", ""]
+        if summary["n_undefined"]:
+            counts = ", ".join(f"`{k}` in {n}" for k, n in summary["n_undefined"].items())
+            lines += [f"Undefined (zero denominator; — below, left out of mean and median): {counts} "
+                      f"trial(s).", ""]
         if keys:
             lines.append("| trial | " + " | ".join(keys) + " |")
             lines.append("|---|" + "---|" * len(keys))

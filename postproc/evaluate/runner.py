@@ -1,8 +1,8 @@
 """Run bootnav on every trial of a dataset tree and score it with METRICS.md.
 
 One fixed configuration for all trials: the estimate of a trial is computed from its IMU files alone;
-its truth files are read only after the estimate is final (``_estimate`` never sees the trial folder's
-truth files, ``_score`` never runs the processor).
+its truth files are read only after the estimate is final (``estimate_*`` never sees the trial folder's
+truth files, ``score_*`` never runs the processor; metric definitions: ``metrics``).
 
 Foot-mounted IMU files go through the ZUPT post-processor (``bootnav.postproc.pipeline.process``); lower-back and
 phone files through the PDR pipeline (``bootnav.postproc.pdr.run_pdr``). A trial's unprefixed metrics come from its
@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.runs import runs
 from bootnav.postproc.evaluate import metrics as M
 
 FOOT_LETTER = {"imu_left.csv.gz": "L", "imu_right.csv.gz": "R"}
@@ -84,7 +85,8 @@ def read_imu(path: Path):
 
 
 # ----------------------------------------------------------------------------------------- estimate
-def _estimate_foot(path: Path, settings) -> FootEstimate:
+def estimate_foot(path: Path, settings) -> FootEstimate:
+    """Path and stance of one foot-mounted IMU file (``process``); reads no truth."""
     from bootnav.postproc.pipeline import process
 
     t0 = time.perf_counter()
@@ -92,7 +94,8 @@ def _estimate_foot(path: Path, settings) -> FootEstimate:
     return FootEstimate(result.t_s, result.pos_n, np.asarray(result.stance, bool), time.perf_counter() - t0)
 
 
-def _estimate_pdr(path: Path, settings) -> PdrEstimate:
+def estimate_pdr(path: Path, settings) -> PdrEstimate:
+    """Steps of one lower-back / phone IMU file (``run_pdr``); reads no truth."""
     from bootnav.postproc.pdr import run_pdr
 
     t0 = time.perf_counter()
@@ -108,12 +111,14 @@ def _truth_json(folder: Path) -> dict:
     return json.loads(p.read_text()) if p.exists() else {}
 
 
-def _score_foot(est: FootEstimate, folder: Path, kinds: list[str], imu_name: str, trial: dict) -> tuple[dict, dict]:
+def score_foot(est: FootEstimate, folder: Path, kinds: list[str], imu_name: str) -> tuple[dict, dict]:
+    """METRICS.md metrics of a foot-mounted estimate of ``imu_name`` for the truth ``kinds`` in ``folder``;
+    (metrics, plot data). Used by ``bootnav eval`` and the foot comparison of benchmarks/pdr_table.py."""
     out: dict = {"seconds": est.seconds, "samples": int(len(est.t_s))}
     plot: dict = {"est_xy": est.pos_n[:, :2]}
     truth = _truth_json(folder)
-    phases = M.stance_phases(est.stance)
-    stance_t = np.array([est.t_s[(a + b - 1) // 2] for a, b in phases])
+    starts, stops = runs(est.stance)
+    stance_t = est.t_s[(starts + stops - 1) // 2]  # mid-stance time of each stance phase
     stance_p = M.stance_positions(est.pos_n, est.stance)
     suffix = imu_name.replace("imu", "").replace(".csv.gz", "")  # "", "_b", "_left", ...
     if "trajectory" in kinds:
@@ -155,7 +160,7 @@ def _score_foot(est: FootEstimate, folder: Path, kinds: list[str], imu_name: str
                                                c["stride_length_m"][sel]))
     if "step_events" in kinds and letter and (folder / "truth_steps.csv").exists():
         c = read_csv_columns(folder / "truth_steps.csv")
-        onsets = np.array([est.t_s[a] for a, _ in phases])
+        onsets = est.t_s[starts]  # first sample of each stance phase
         out.update(M.step_event_metrics(onsets, c["t_s"][c["foot"] == letter]))
     if "out_and_back" in kinds:
         out.update(M.out_and_back_metrics(est.t_s, est.pos_n, stance_t, stance_p, truth["t_start_s"],
@@ -181,7 +186,11 @@ def _inside_walking_bouts(folder: Path, truth: dict, t: np.ndarray) -> np.ndarra
     return mask
 
 
-def _score_pdr(est: PdrEstimate, folder: Path, kinds: list[str]) -> tuple[dict, dict]:
+def score_pdr(est: PdrEstimate, folder: Path, kinds: list[str]) -> tuple[dict, dict]:
+    """METRICS.md metrics of a PDR estimate for the truth ``kinds`` in ``folder``; (metrics, plot data).
+
+    The one PDR scoring of the project: ``bootnav eval`` and ``bootnav.postproc.pdr.evaluate`` (the PDR
+    benchmark) both call it. Step events of mobgap_lab are scored inside the reference's walking bouts."""
     out: dict = {"seconds": est.seconds, "n_steps": int(len(est.step_t))}
     truth = _truth_json(folder)
     in_bouts = _inside_walking_bouts(folder, truth, est.step_t)
@@ -205,9 +214,15 @@ def _score_pdr(est: PdrEstimate, folder: Path, kinds: list[str]) -> tuple[dict, 
 
 
 # -------------------------------------------------------------------------------------------- trial
+def _nan_stat(stat, values: list) -> float:
+    """``np.nanmean`` / ``np.nanmedian`` of the values; NaN (without a warning) when none is defined."""
+    v = np.asarray(values, float)
+    return float(stat(v)) if np.any(~np.isnan(v)) else float("nan")
+
+
 def _mean_metrics(per_file: list[dict]) -> dict:
     keys = {k for d in per_file for k, v in d.items() if isinstance(v, (int, float))}
-    return {k: float(np.nanmean([d[k] for d in per_file if k in d])) for k in sorted(keys)}
+    return {k: _nan_stat(np.nanmean, [d[k] for d in per_file if k in d]) for k in sorted(keys)}
 
 
 def evaluate_trial(trial: dict, root: str, foot_settings=None, pdr_settings=None) -> TrialResult:
@@ -221,18 +236,18 @@ def evaluate_trial(trial: dict, root: str, foot_settings=None, pdr_settings=None
         for name, mount in imu_files.items():
             path = folder / name
             if mount == "foot":
-                estimates[name] = ("foot", _estimate_foot(path, foot_settings))
+                estimates[name] = ("foot", estimate_foot(path, foot_settings))
             elif mount == "lower_back" or mount.startswith("phone"):
-                estimates[name] = ("pdr", _estimate_pdr(path, pdr_settings))
+                estimates[name] = ("pdr", estimate_pdr(path, pdr_settings))
         if not estimates:
             raise ValueError(f"no IMU file with a mount bootnav processes: {imu_files}")
         # --- estimates are final; from here on truth may be read ---
         groups: dict[str, list[dict]] = {"foot": [], "pdr": []}
         for name, (kind, est) in estimates.items():
             if kind == "foot":
-                scored, plot = _score_foot(est, folder, kinds, name, trial)
+                scored, plot = score_foot(est, folder, kinds, name)
             else:
-                scored, plot = _score_pdr(est, folder, kinds)
+                scored, plot = score_pdr(est, folder, kinds)
             res.files[name] = scored
             res.plot_data[name] = plot
             groups[kind].append(scored)
@@ -281,15 +296,20 @@ def evaluate_all(root, trials: list[dict], jobs: int | None = None, foot_setting
 
 
 def dataset_summary(results: list[TrialResult]) -> dict:
-    """Per dataset: mean and median of every metric over its successful trials, plus failure counts."""
+    """Per dataset: mean and median of every metric over its successful trials, plus failure counts.
+
+    A metric that is undefined in a trial (NaN: a zero denominator, ``metrics`` module docstring) is left
+    out of the mean and median; ``n_undefined`` maps each such metric to the number of trials."""
     out: dict = {}
     for set_name in dict.fromkeys(r.set for r in results):
         rows = [r for r in results if r.set == set_name]
         ok = [r.metrics for r in rows if r.status == "ok"]
         keys = sorted({k for m in ok for k in m})
-        summary = {k: float(np.nanmean([m[k] for m in ok if k in m])) for k in keys}
-        summary.update({f"median_{k}": float(np.nanmedian([m[k] for m in ok if k in m])) for k in keys})
+        summary = {k: _nan_stat(np.nanmean, [m[k] for m in ok if k in m]) for k in keys}
+        summary.update({f"median_{k}": _nan_stat(np.nanmedian, [m[k] for m in ok if k in m]) for k in keys})
         summary["n_trials"] = len(rows)
         summary["n_failed"] = len(rows) - len(ok)
+        undefined = {k: sum(1 for m in ok if k in m and np.isnan(m[k])) for k in keys}
+        summary["n_undefined"] = {k: n for k, n in undefined.items() if n}
         out[set_name] = summary
     return out

@@ -1,8 +1,15 @@
-"""``bootnav pdr INPUT [--detector NAME] [--length NAME] [--heading NAME] [--height M]
-[--start LAT,LON] --out DIR``: step-and-heading dead reckoning.
+"""``bootnav pdr INPUT [options] --out DIR``: step-and-heading dead reckoning.
 
-Writes steps.csv (t_s,length_m,heading_rad,x_m,y_m), path_local.csv, path_latlon.csv (with --start),
-summary.json (counts, distance, settings) and plots (bootnav.postproc.pdr.plots)."""
+Settings: defaults < ``--settings FILE.json`` (a full or partial ``PdrSettings`` dict, or a summary.json of
+an earlier run) < the options given on the command line; ``--save-settings`` writes the effective ones.
+Every detector and step-length parameter is reachable with ``--detector-param NAME=VALUE`` /
+``--length-param NAME=VALUE`` (names: the dataclass fields, listed in summary.json "detector_params" /
+"settings"); the common ones have their own flags.
+
+Writes steps.csv (t_s,length_m,yaw_enu_rad,heading_deg_cw_from_north,x_m,y_m; headings as
+``bootnav.CONVENTIONS["heading"]``), path_local.csv, path_latlon.csv (with --start or GPS), gps.csv (with GPS),
+summary.json (counts, distance, settings, conventions, GPS and checkpoint comparisons) and plots
+(bootnav.postproc.pdr.plots)."""
 
 from __future__ import annotations
 
@@ -10,18 +17,48 @@ DETECTOR_NAMES = ["robust", "peak_valley", "zero_crossing", "pan_tompkins", "tem
                   "leppakoski", "li", "peak_group"]
 LENGTH_NAMES = ["frequency_variance", "renaudin", "weinberg", "ladetto", "footpath", "constant", "frequency"]
 HEADING_NAMES = ["auto", "none", "gyro", "mag", "complementary", "compass"]
+MAG_TILT_NAMES = ["gravity", "weights", "none"]
+MAG_CAL_NAMES = ["none", "percentile", "percentile_literal", "ellipse", "ellipsoid"]
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("input", help="acc.csv.gz / imu.csv.gz, an HDF5 recording, or a file bootnav.logger.importers reads")
-    parser.add_argument("--detector", default="robust", choices=DETECTOR_NAMES)
-    parser.add_argument("--length", default="frequency_variance", choices=LENGTH_NAMES, help="step-length model")
-    parser.add_argument("--heading", default="auto", choices=HEADING_NAMES)
-    parser.add_argument("--height", type=float, default=None, metavar="M", help="walker height, m (default 1.83)")
+    parser.add_argument("--settings", metavar="FILE.json", help="PdrSettings as JSON (full or partial, or a summary.json)")
+    parser.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
+    parser.add_argument("--detector", default=None, choices=DETECTOR_NAMES, help="step detector (default robust)")
+    parser.add_argument("--detector-param", action="append", default=[], metavar="NAME=VALUE",
+                        help="a detector parameter (repeatable), e.g. min_distance_s=0.3 or literal=false")
     parser.add_argument("--engineered", action="store_true",
-                        help="seed methods with literal=False (engineered fixes) instead of their literal form")
-    parser.add_argument("--declination", type=float, default=0.0, metavar="DEG", help="east positive")
+                        help="source methods with literal=False (engineered fixes) instead of their literal form")
+    parser.add_argument("--length", default=None, choices=LENGTH_NAMES,
+                        help="step-length model (default frequency_variance)")
+    parser.add_argument("--length-param", action="append", default=[], metavar="NAME=VALUE",
+                        help="a step-length model parameter (repeatable), e.g. k=0.55")
+    parser.add_argument("--weinberg-k", type=float, default=None, metavar="K",
+                        help="= --length weinberg --length-param k=K (0.95 code / 0.55 text of NKUA2009)")
+    parser.add_argument("--step-length", type=float, default=None, metavar="M",
+                        help="= --length constant --length-param length_m=M")
+    parser.add_argument("--calibrate-length", action="append", default=[], metavar="FILE=METRES",
+                        help="fit the length model on a walk of known distance (repeatable: NKUA2009 5.4 uses "
+                             "20 m at normal, slow and fast pace)")
+    parser.add_argument("--height", type=float, default=None, metavar="M", help="walker height, m (default 1.83)")
+    parser.add_argument("--heading", default=None, choices=HEADING_NAMES, help="heading method (default auto)")
+    parser.add_argument("--heading0", type=float, default=None, metavar="DEG",
+                        help="start bearing, deg clockwise from north (gyro / none)")
+    parser.add_argument("--forward-axis", default=None, metavar="X,Y,Z", help="body axis pointing forward (default 0,1,0)")
+    parser.add_argument("--complementary-tau", type=float, default=None, metavar="S", help="gyro/mag crossover, s")
+    parser.add_argument("--mag-tilt", default=None, choices=MAG_TILT_NAMES,
+                        help="levelling of the magnetometer: gravity (default), weights (NKUA2009 4.2), none "
+                             "(level device, Lazarevskiy2021 eq. 3.2)")
+    parser.add_argument("--mag-calibration", default=None, choices=MAG_CAL_NAMES,
+                        help="magnetometer calibration fitted on the recording (NKUA2009 4.3 percentiles, fits)")
+    parser.add_argument("--mag-calibration-window", default=None, metavar="T0,T1",
+                        help="fit the calibration on these seconds after the start only (e.g. a turn on the spot)")
+    parser.add_argument("--declination", type=float, default=None, metavar="DEG", help="east positive")
     parser.add_argument("--start", default=None, metavar="LAT,LON", help="start point for the lat/lon path")
+    parser.add_argument("--no-gps", action="store_true", help="ignore GPS columns of the input")
+    parser.add_argument("--checkpoints", default=None, metavar="FILE.csv",
+                        help="true checkpoints t_s,x_m,y_m (m east/north of the start): errors without reset")
     parser.add_argument("--no-plots", action="store_true")
     parser.add_argument("--out", required=True, metavar="DIR")
 
@@ -40,6 +77,115 @@ def _parse_start(text):
     return (lat, lon)
 
 
+def _floats(text, n, flag):
+    from bootnav.errors import InputError
+
+    try:
+        v = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        v = ()
+    if len(v) != n:
+        raise InputError(f"{flag} {text!r}: expected {n} comma-separated numbers")
+    return v
+
+
+def _params(items, cls, flag) -> dict:
+    """NAME=VALUE pairs, the value read as JSON (numbers, true/false, null, lists) or else as text; names
+    checked against the dataclass fields of ``cls``."""
+    import json
+
+    from bootnav.errors import InputError
+
+    known = cls.__dataclass_fields__
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name = name.strip().replace("-", "_")
+        if not sep or not name:
+            raise InputError(f"{flag} {item!r}: expected NAME=VALUE")
+        if name not in known:
+            raise InputError(f"{flag} {name!r}: {cls.__name__} has no such parameter; known: {sorted(known)}")
+        try:
+            out[name] = json.loads(value)
+        except json.JSONDecodeError:
+            out[name] = value
+    return out
+
+
+def build_settings(args):
+    """Defaults < --settings file < command-line options."""
+    from bootnav.errors import InputError
+    from bootnav.postproc.pdr.detectors import DETECTORS
+    from bootnav.postproc.pdr.length import LENGTH_MODELS
+    from bootnav.postproc.pdr.pipeline import PdrSettings
+
+    s = PdrSettings.from_file(args.settings) if args.settings else PdrSettings()
+    if args.detector and args.detector != s.detector:
+        s.detector, s.detector_params = args.detector, {}
+    if s.detector not in DETECTORS:
+        raise InputError(f"unknown step detector {s.detector!r}; choose one of {sorted(DETECTORS)}")
+    if args.engineered and "literal" in DETECTORS[s.detector].__dataclass_fields__:
+        s.detector_params["literal"] = False
+    s.detector_params.update(_params(args.detector_param, DETECTORS[s.detector], "--detector-param"))
+    length = args.length
+    for flag, model, key, value in (("--weinberg-k", "weinberg", "k", args.weinberg_k),
+                                    ("--step-length", "constant", "length_m", args.step_length)):
+        if value is not None:
+            if length not in (None, model):
+                raise InputError(f"{flag} sets the {model} model; it contradicts --length {length}")
+            length = model
+            args.length_param = [*args.length_param, f"{key}={value}"]
+    if length and length != s.length:
+        s.length, s.length_params = length, {}
+    if s.length not in LENGTH_MODELS:
+        raise InputError(f"unknown step-length model {s.length!r}; choose one of {sorted(LENGTH_MODELS)}")
+    s.length_params.update(_params(args.length_param, LENGTH_MODELS[s.length], "--length-param"))
+    for attr, value in (("height_m", args.height), ("heading", args.heading), ("heading0_deg", args.heading0),
+                        ("complementary_tau_s", args.complementary_tau), ("mag_tilt", args.mag_tilt),
+                        ("mag_calibration", args.mag_calibration), ("declination_deg", args.declination)):
+        if value is not None:
+            setattr(s, attr, value)
+    if args.forward_axis:
+        s.forward_axis = _floats(args.forward_axis, 3, "--forward-axis")
+    if args.mag_calibration_window:
+        s.mag_calibration_window_s = _floats(args.mag_calibration_window, 2, "--mag-calibration-window")
+    if args.start:
+        s.start_lat_lon = _parse_start(args.start)
+    if args.no_gps:
+        s.use_gps = False
+    return s
+
+
+def _calibration_walks(items):
+    from bootnav.errors import InputError
+    from bootnav.postproc.pdr.io import load_input
+
+    for item in items:
+        path, sep, dist = item.rpartition("=")
+        try:
+            d = float(dist)
+        except ValueError:
+            d = float("nan")
+        if not sep or not path or not d > 0:
+            raise InputError(f"--calibrate-length {item!r}: expected FILE=METRES with a positive distance")
+        inp = load_input(path)
+        yield inp.t_s, inp.acc_b, d
+
+
+def _checkpoints(path):
+    from bootnav.errors import InputError
+
+    import numpy as np
+
+    try:
+        a = np.atleast_2d(np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"--checkpoints {path}: {exc}") from None
+    if a.shape[1] != 3 or a.shape[0] < 1:
+        raise InputError(f"--checkpoints {path}: expected a header line and rows t_s,x_m,y_m")
+    return a.T
+
+
 def run(args) -> int:
     import json
     import time
@@ -47,24 +193,28 @@ def run(args) -> int:
 
     import numpy as np
 
-    from bootnav.postproc.pdr.detectors import DETECTORS
+    from bootnav.core.jsonio import to_jsonable
+    from bootnav.postproc.outputs import heading_columns
+    from bootnav.postproc.pdr.detectors import make_detector
     from bootnav.postproc.pdr.io import load_input
-    from bootnav.postproc.pdr.pipeline import PdrSettings, run_pdr
+    from bootnav.postproc.pdr.path import checkpoint_report
+    from bootnav.postproc.pdr.pipeline import calibrate_length, run_pdr
 
     t0 = time.perf_counter()
+    settings = build_settings(args)
+    if args.calibrate_length:
+        settings.length_params = calibrate_length(settings, _calibration_walks(args.calibrate_length))
+    if args.save_settings:
+        settings.save(args.save_settings)
     inp = load_input(args.input)
-    params = {}
-    if args.engineered and "literal" in DETECTORS[args.detector].__dataclass_fields__:
-        params["literal"] = False
-    settings = PdrSettings(detector=args.detector, detector_params=params, length=args.length,
-                           height_m=args.height, heading=args.heading, declination_deg=args.declination,
-                           start_lat_lon=_parse_start(args.start))
-    res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg)
+    res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg,
+                  gps=inp.gps)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    table = np.column_stack([res.t_s, res.length_m, res.heading_rad, res.x_m, res.y_m])
-    np.savetxt(out / "steps.csv", table, delimiter=",", fmt="%.6f", header="t_s,length_m,heading_rad,x_m,y_m",
-               comments="")
+    columns = {"t_s": res.t_s, "length_m": res.length_m, **heading_columns(res.yaw_enu_rad), "x_m": res.x_m,
+               "y_m": res.y_m}
+    np.savetxt(out / "steps.csv", np.column_stack(list(columns.values())), delimiter=",", fmt="%.6f",
+               header=",".join(columns), comments="")
     np.savetxt(out / "path_local.csv", np.column_stack([np.r_[res.t_s[:1] if res.count else [], res.t_s],
                                                         np.r_[[0.0] if res.count else [], res.x_m],
                                                         np.r_[[0.0] if res.count else [], res.y_m]]),
@@ -72,16 +222,28 @@ def run(args) -> int:
     if res.lat_deg is not None:
         np.savetxt(out / "path_latlon.csv", np.column_stack([res.t_s, res.lat_deg, res.lon_deg]), delimiter=",",
                    fmt=["%.6f", "%.9f", "%.9f"], header="t_s,lat_deg,lon_deg", comments="")
+    if res.gps is not None:
+        g = res.gps
+        np.savetxt(out / "gps.csv", np.column_stack([g["t_s"], g["gps_east_m"], g["gps_north_m"], g["pdr_east_m"],
+                                                     g["pdr_north_m"]]), delimiter=",", fmt="%.6f",
+                   header="t_s,gps_east_m,gps_north_m,pdr_east_m,pdr_north_m", comments="")
     summary = res.summary()
     summary.update({"input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
                     "has_gyro": inp.gyro_b is not None, "has_mag": inp.mag_b is not None,
-                    "has_compass": inp.compass_deg is not None,
-                    "detector_params": DETECTORS[args.detector](**params).to_dict(),
-                    "runtime_s": time.perf_counter() - t0})
+                    "has_compass": inp.compass_deg is not None, "has_gps": inp.gps is not None,
+                    "detector_params": make_detector(settings.detector, **settings.detector_params).to_dict(),
+                    "start_lat_lon": None if res.start_lat_lon is None else list(res.start_lat_lon)})
+    if args.checkpoints:
+        summary["checkpoints"] = checkpoint_report(res.t_s, res.x_m, res.y_m, float(inp.t_s[0]),
+                                                   *_checkpoints(args.checkpoints))
     if not args.no_plots:
         from bootnav.postproc.pdr.plots import write_plots
 
         summary["plots"] = [p.name for p in write_plots(res, out)]
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float))
-    print(f"{res.count} steps, {summary['distance_m']:.1f} m, heading from {res.heading_source} -> {out}")
+    summary["runtime_s"] = time.perf_counter() - t0
+    (out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False))
+    msg = f"{res.count} steps, {summary['distance_m']:.1f} m, heading from {res.heading_source}"
+    if res.gps is not None:
+        msg += f", {res.gps['mean_m']:.1f} m mean / {res.gps['final_m']:.1f} m final from GPS"
+    print(f"{msg} -> {out}")
     return 0

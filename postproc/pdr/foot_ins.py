@@ -5,7 +5,7 @@ For a foot sensor one "step" is a stride (one stance phase to the next, METRICS.
 k = 0..K (contiguous runs of stance = True) and p_k = mean horizontal position over stance phase k:
 
     stride k (k >= 1):  t_k = start time of stance phase k (initial contact),
-                        length_k = ||p_k - p_{k-1}||_xy,  heading_k = atan2(dE, dN)  (bearing, cw from N)
+                        length_k = ||p_k - p_{k-1}||_xy,  yaw_k = atan2(dN, dE)  (yaw_enu_rad, ccw from E)
 
 Stance phases closer than ``min_stride_m`` to the previous kept one (standing still, weight shifts, a
 stance split by a noisy detector) are merged into it: they are not strides.
@@ -15,25 +15,17 @@ from __future__ import annotations
 
 import numpy as np
 
-
-def stance_phases(stance: np.ndarray, min_samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """(start, end_exclusive) index arrays of contiguous stance runs."""
-    s = np.r_[0, np.asarray(stance, bool).astype(int), 0]
-    d = np.diff(s)
-    a = np.nonzero(d == 1)[0]
-    b = np.nonzero(d == -1)[0]
-    keep = (b - a) >= min_samples
-    return a[keep], b[keep]
+from bootnav.core.runs import runs
 
 
 def steps_from_foot_ins(t_s, pos_n, stance, min_stance_samples: int = 3, min_stride_m: float = 0.1) -> dict:
-    """Returns dict with t_s, length_m, heading_rad, x_m, y_m (positions at the end of each stride)."""
+    """Returns dict with t_s, length_m, yaw_enu_rad, x_m, y_m (positions at the end of each stride)."""
     t = np.asarray(t_s, float)
     p = np.asarray(pos_n, float)
-    a, b = stance_phases(stance, min_stance_samples)
+    a, b = runs(stance, min_samples=min_stance_samples)
     if a.size < 2:
         z = np.zeros(0)
-        return {"t_s": z, "length_m": z, "heading_rad": z, "x_m": z, "y_m": z}
+        return {"t_s": z, "length_m": z, "yaw_enu_rad": z, "x_m": z, "y_m": z}
     pk = np.array([p[i:j, :2].mean(axis=0) for i, j in zip(a, b)])
     keep = [0]
     for k in range(1, len(pk)):  # loop over stance phases (tens to hundreds), not samples
@@ -44,7 +36,7 @@ def steps_from_foot_ins(t_s, pos_n, stance, min_stance_samples: int = 3, min_str
     return {
         "t_s": t[a[1:]],
         "length_m": np.hypot(d[:, 0], d[:, 1]),
-        "heading_rad": np.arctan2(d[:, 0], d[:, 1]),
+        "yaw_enu_rad": np.arctan2(d[:, 1], d[:, 0]),
         "x_m": pk[1:, 0] - pk[0, 0],
         "y_m": pk[1:, 1] - pk[0, 1],
     }

@@ -4,6 +4,7 @@ waist log, other IMU CSVs)."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +22,7 @@ class PdrInput:
     source: str
     kind: str
     compass_deg: np.ndarray | None = None
+    gps: tuple | None = None  # (t_s, lat_deg, lon_deg) rows of the GPS columns (Physics Toolbox), unfiltered
 
 
 def _mag_from_aux(aux: dict) -> np.ndarray | None:
@@ -35,6 +37,14 @@ def _compass_from_aux(aux: dict) -> np.ndarray | None:
         if k in aux:
             return np.asarray(aux[k], float)
     return None
+
+
+def _gps_from_aux(t_s, aux: dict):
+    lat = next((aux[k] for k in ("latitude", "lat", "lat_deg") if k in aux), None)
+    lon = next((aux[k] for k in ("longitude", "lon", "lon_deg") if k in aux), None)
+    if lat is None or lon is None:
+        return None
+    return np.asarray(t_s, float), np.asarray(lat, float), np.asarray(lon, float)
 
 
 def _gyro_or_none(g):
@@ -61,19 +71,22 @@ def load_input(path) -> PdrInput:
         except ImportError:
             pass
         return PdrInput(rec.t_s, rec.acc_mps2, _gyro_or_none(rec.gyro_radps), _mag_from_aux(aux), str(path), "hdf5",
-                        _compass_from_aux(aux))
+                        _compass_from_aux(aux), _gps_from_aux(rec.t_s, aux))
     if name.endswith((".csv.gz", ".csv")):
         with (__import__("gzip").open(path, "rt") if name.endswith(".gz") else open(path)) as f:
             header = f.readline()
         if header.strip().startswith("t_s,ax_mps2"):
-            from bootnav.postproc.pdr.evaluate import load_imu_csv
+            from bootnav.core.csvio import read_imu_csv
 
-            t, acc, gyro = load_imu_csv(path)
-            return PdrInput(t, acc, _gyro_or_none(gyro), None, str(path), "canonical_csv")
+            imu = read_imu_csv(path)
+            if imu.bad_lines:
+                print(f"warning: {path}: skipped {len(imu.bad_lines)} unreadable line(s): "
+                      + "; ".join(f"line {ln}: {why}" for ln, why in imu.bad_lines[:5]), file=sys.stderr)
+            return PdrInput(imu.t_s, imu.acc_mps2, _gyro_or_none(imu.gyro_radps), None, str(path), "canonical_csv")
     try:
         from bootnav.logger.importers import read_any
     except ImportError as exc:
         raise InputError(f"{path}: not a canonical acc/imu csv(.gz) or .h5 and no importer available ({exc})")
     res = read_any(path)
     return PdrInput(res.t_s, res.acc_mps2, _gyro_or_none(res.gyro_radps), _mag_from_aux(res.aux), str(path),
-                    f"import:{res.profile}", _compass_from_aux(res.aux))
+                    f"import:{res.profile}", _compass_from_aux(res.aux), _gps_from_aux(res.t_s, res.aux))

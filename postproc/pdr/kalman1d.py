@@ -1,4 +1,4 @@
-"""Two-measurement fusion (seed-000 §3.2, R19, test T10; theory only in the thesis, Maybeck ch. 1):
+"""Two-measurement fusion ([NKUA2009, §3.2]; theory only in the thesis, Maybeck ch. 1):
 
     K = s1^2 / (s1^2 + s2^2),   x^ = z1 + K (z2 - z1),   1/s^2 = 1/s1^2 + 1/s2^2
 """

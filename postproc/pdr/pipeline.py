@@ -1,21 +1,33 @@
 """The PDR pipeline: detector -> step features -> step-length model -> heading -> path.
 
-    run_pdr(t_s, acc_b, gyro_b=None, settings=PdrSettings(), mag_b=None) -> PdrResult
+    run_pdr(t_s, acc_b, gyro_b=None, settings=PdrSettings(), mag_b=None, compass_deg=None) -> PdrResult
 
-Every tunable lives in ``PdrSettings`` (saved with the results as summary.json["settings"]).
+Every tunable lives in ``PdrSettings`` (saved with the results as summary.json["settings"]; ``from_dict``
+/ ``from_file`` read a full or partial dict back, ``save`` writes one).
 Heading methods: "auto" (gyro if a gyro is present, else a device compass column if present, else
 "none"), "none" (every step keeps the start bearing: a straight line; heading is unobservable without
 gyro/magnetometer), "gyro", "mag", "complementary", "compass" (a heading column delivered by the device,
-e.g. the HMR3300 of seed-000, averaged circularly over the 0.4 s = 8 samples at 20 Hz before each step,
-seed-000 R5/R6; seed-003: "if the device can calculate the direction ... this data is transmitted"). Bearing convention: clockwise from north (heading/__init__.py).
+e.g. the HMR3300 compass of [NKUA2009], averaged circularly over the 0.4 s = 8 samples at 20 Hz before each
+step as its code does; [Lazarevskiy2021] also prefers a device-computed direction when there is one).
+The magnetometer ("mag", "complementary") is first corrected by ``mag_calibration``
+(``heading.mag_calibration.calibrate_mag``), then levelled by ``mag_tilt``: "gravity" (low-passed gravity
+direction, engineered), "weights" (the [NKUA2009, §4.2] tilt weights) or "none" (a level device,
+[Lazarevskiy2021, eq. 3.2] literal).
+With GPS fixes (``gps=``), the geodetic path starts at the first fix unless ``start_lat_lon`` is set, and
+``PdrResult.gps`` compares the two paths (``path.gps_comparison``).
+
+Inside the package headings are bearings, clockwise from north, as in the sources (``heading/__init__.py``);
+``PdrResult`` and every output file give ``yaw_enu_rad`` instead (``bootnav.CONVENTIONS["heading"]``).
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
 
 import numpy as np
 
+from bootnav import CONVENTIONS
 from bootnav.errors import InputError
 
 
@@ -32,19 +44,80 @@ class PdrSettings:
     forward_axis: tuple = (0.0, 1.0, 0.0)  # body axis pointing forward (magnetometer heading)
     complementary_tau_s: float = 10.0
     start_lat_lon: tuple | None = None
+    mag_tilt: str = "gravity"  # "gravity" | "weights" [NKUA2009, §4.2] | "none" [Lazarevskiy2021, eq. 3.2]
+    mag_calibration: str = "none"  # heading.mag_calibration.MAG_CALIBRATIONS
+    mag_calibration_window_s: tuple | None = None  # (t0, t1) s after the first sample to fit on; None = all
+    use_gps: bool = True  # GPS fixes of the input: start point and comparison
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d["forward_axis"] = list(self.forward_axis)
         d["start_lat_lon"] = list(self.start_lat_lon) if self.start_lat_lon else None
+        if self.mag_calibration_window_s is not None:
+            d["mag_calibration_window_s"] = list(self.mag_calibration_window_s)
         return d
+
+    @classmethod
+    def from_dict(cls, data: dict | None) -> "PdrSettings":
+        """Settings from a full or partial dict (missing keys keep their defaults), as ``to_dict`` writes it;
+        a whole summary.json of ``bootnav pdr`` is accepted too (its "settings").
+
+        Parameters
+        ----------
+        data : dict or None
+            Field name -> value; None = defaults.
+
+        Returns
+        -------
+        PdrSettings
+
+        Raises
+        ------
+        InputError
+            An unknown key or a value of the wrong kind.
+        """
+        data = dict(data or {})
+        if isinstance(data.get("settings"), dict) and "conventions" in data:
+            data = dict(data["settings"])
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise InputError(f"PDR settings: unknown key(s) {unknown}; known: {sorted(names)}")
+        for key in ("detector_params", "length_params"):
+            if key in data and not isinstance(data[key], dict):
+                raise InputError(f"PDR settings: {key} must be an object, got {type(data[key]).__name__}")
+        for key, n in (("forward_axis", 3), ("start_lat_lon", 2), ("mag_calibration_window_s", 2)):
+            v = data.get(key)
+            if v is not None:
+                if not isinstance(v, (list, tuple)) or len(v) != n:
+                    raise InputError(f"PDR settings: {key} must be a list of {n} numbers, got {v!r}")
+                data[key] = tuple(float(x) for x in v)
+        return cls(**data)
+
+    @classmethod
+    def from_file(cls, path) -> "PdrSettings":
+        """``from_dict`` of a JSON file; errors name the file."""
+        from bootnav.core.jsonio import read_json_file
+
+        try:
+            return cls.from_dict(read_json_file(path, "PDR settings file"))
+        except InputError as exc:
+            raise InputError(f"{path}: {exc}") from None
+
+    def save(self, path) -> Path:
+        """Write ``to_dict`` as JSON to ``path``; returns the path."""
+        import json
+
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+        return path
 
 
 @dataclass
 class PdrResult:
     t_s: np.ndarray  # (N,) step times
     length_m: np.ndarray
-    heading_rad: np.ndarray  # bearing, clockwise from north
+    yaw_enu_rad: np.ndarray  # direction of each step, counter-clockwise from east (bootnav.CONVENTIONS)
     x_m: np.ndarray  # east after each step
     y_m: np.ndarray  # north after each step
     events: object  # StepEvents (with the detector's trace)
@@ -54,6 +127,8 @@ class PdrResult:
     lon_deg: np.ndarray | None = None
     heading_source: str = "none"
     gravity_restored: bool = False
+    gps: dict | None = None  # path.gps_comparison, when the input had GPS fixes
+    start_lat_lon: tuple | None = None  # start of lat_deg/lon_deg (settings.start_lat_lon or from the first fix)
 
     @property
     def count(self) -> int:
@@ -71,8 +146,10 @@ class PdrResult:
             "final_y_m": float(self.y_m[-1]) if self.count else 0.0,
             "heading_source": self.heading_source,
             "gravity_restored": self.gravity_restored,
-            "heading_convention": "bearing, rad, clockwise from north; x east, y north",
+            "conventions": CONVENTIONS,
             "settings": self.settings.to_dict(),
+            "gps_comparison": None if self.gps is None else
+            {k: v for k, v in self.gps.items() if not isinstance(v, np.ndarray)},
         }
 
 
@@ -139,12 +216,35 @@ def compass_at_steps(t, compass_deg, t_steps, window_s: float = 0.4) -> np.ndarr
     return np.angle(c[hi] - c[lo])
 
 
+def _mag_bearing(settings, t, acc, mag):
+    """Magnetic bearing per sample (rad): ``mag_calibration`` fitted on the recording (or its window), then
+    levelled as ``mag_tilt`` says."""
+    from bootnav.postproc.pdr.heading.mag_calibration import calibrate_mag
+    from bootnav.postproc.pdr.heading.magnetometer import (tilt_compensated_heading, tilt_weight_heading,
+                                                           untilted_heading)
+    from bootnav.postproc.pdr.signals import gravity_direction, nominal_rate_hz
+
+    mask = None
+    if settings.mag_calibration_window_s is not None:
+        lo, hi = settings.mag_calibration_window_s
+        mask = (t - t[0] >= lo) & (t - t[0] <= hi)
+    try:
+        mag = calibrate_mag(mag, settings.mag_calibration, mask)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    if settings.mag_tilt == "gravity":
+        return tilt_compensated_heading(mag, gravity_direction(acc, nominal_rate_hz(t)), settings.forward_axis)
+    if settings.mag_tilt == "weights":
+        return tilt_weight_heading(t, mag, acc, settings.forward_axis)
+    if settings.mag_tilt == "none":
+        return untilted_heading(mag, settings.forward_axis)
+    raise InputError(f"unknown mag_tilt {settings.mag_tilt!r}; choose gravity, weights or none")
+
+
 def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
     from bootnav.postproc.pdr.heading.complementary import complementary_heading
     from bootnav.postproc.pdr.heading.declination import apply_declination
     from bootnav.postproc.pdr.heading.gyro import gyro_heading
-    from bootnav.postproc.pdr.heading.magnetometer import tilt_compensated_heading
-    from bootnav.postproc.pdr.signals import gravity_direction, nominal_rate_hz
 
     method = settings.heading
     if method not in ("auto", "none", "gyro", "mag", "complementary", "compass"):
@@ -165,9 +265,7 @@ def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
     if method == "gyro":
         tt, psi = gyro_heading(t, gyro, acc, psi0)
     else:
-        up = gravity_direction(acc, nominal_rate_hz(t))
-        psi_m = np.unwrap(apply_declination(tilt_compensated_heading(mag, up, settings.forward_axis),
-                                            settings.declination_deg))
+        psi_m = np.unwrap(apply_declination(_mag_bearing(settings, t, acc, mag), settings.declination_deg))
         tt = t
         psi = psi_m
         if method == "complementary":
@@ -182,13 +280,49 @@ def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
 
 
 def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=None,
-            compass_deg=None) -> PdrResult:
-    """Step-and-heading dead reckoning on one recording (SI units, sensor frame, gravity included).
+            compass_deg=None, gps=None) -> PdrResult:
+    """Step-and-heading dead reckoning of one recording: steps, their lengths and directions, the path.
 
-    mag_b: (N, 3) magnetometer (any unit); compass_deg: (N,) device heading, deg clockwise from north."""
+    Parameters
+    ----------
+    t_s : array_like, shape (N,)
+        Sample times, s (any clock; irregular sampling is fine, detectors resample).
+    acc_b : array_like, shape (N, 3)
+        Specific force in the sensor frame, m/s², gravity included. Linear acceleration (gravity removed
+        by a phone's OS) is accepted: gravity is restored (``restore_gravity``). Rows with a non-finite
+        value are dropped.
+    gyro_b : array_like, shape (N, 3), optional
+        Angular rate in the sensor frame, rad/s (heading "gyro", "complementary", and "auto").
+    settings : PdrSettings, optional
+        Detector, step-length model, heading method and their parameters (default ``PdrSettings()``).
+    mag_b : array_like, shape (N, 3), optional
+        Magnetometer in the sensor frame, any unit (heading "mag", "complementary").
+    compass_deg : array_like, shape (N,), optional
+        Heading computed by the device, deg clockwise from north (heading "compass", and "auto" without a
+        gyro).
+    gps : tuple of 3 array_like, optional
+        (t_s, lat_deg, lon_deg) of a phone's GPS columns, same clock as ``t_s`` (rows without a fix allowed).
+        Used when ``settings.use_gps``: the geodetic path starts at the first fix (unless
+        ``settings.start_lat_lon``) and ``PdrResult.gps`` holds ``path.gps_comparison``.
+
+    Returns
+    -------
+    PdrResult
+        Per detected step: time ``t_s`` (s), ``length_m``, direction ``yaw_enu_rad`` (counter-clockwise
+        from east), position after the step ``x_m`` (east), ``y_m`` (north) from the origin at the start,
+        and ``lat_deg``/``lon_deg`` when ``settings.start_lat_lon`` is set or a GPS fix is given; plus the
+        detector's events and trace, the step features, the heading source actually used and whether gravity was restored.
+
+    Raises
+    ------
+    InputError
+        Wrong array shapes, fewer than 10 samples, an unknown method name, or a heading method whose
+        sensor is missing.
+    """
     from bootnav.postproc.pdr.detectors import make_detector
     from bootnav.postproc.pdr.length.features import step_features
-    from bootnav.postproc.pdr.path import geodetic_path, local_path
+    from bootnav.postproc.pdr.path import (geodetic_path, gps_comparison, gps_fixes, local_path, local_to_latlon,
+                                           position_at, yaw_enu_from_bearing)
 
     settings = settings or PdrSettings()
     t, acc, keep = _check_inputs(t_s, acc_b)
@@ -208,10 +342,58 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     acc, events = min(runs, key=lambda r: (-r[1].count, irregularity(r[1].t_s)))
     feats = step_features(events.t_s, t, acc)
     length = _length_model(settings).estimate(feats)
-    heading, source = _heading(settings, t, acc, gyro, mag, events.t_s, compass)
+    heading, source = _heading(settings, t, acc, gyro, mag, events.t_s, compass)  # bearings, cw from north
     x, y = local_path(length, heading)
-    res = PdrResult(events.t_s, np.asarray(length, float), heading, x, y, events, feats, settings,
-                    heading_source=source, gravity_restored=gravity_restored)
-    if settings.start_lat_lon:
-        res.lat_deg, res.lon_deg = geodetic_path(settings.start_lat_lon[0], settings.start_lat_lon[1], length, heading)
+    res = PdrResult(events.t_s, np.asarray(length, float), yaw_enu_from_bearing(heading), x, y, events, feats,
+                    settings, heading_source=source, gravity_restored=gravity_restored)
+    start = settings.start_lat_lon
+    if gps is not None and settings.use_gps:
+        fixes = gps_fixes(*gps)
+        if fixes[0].size:
+            res.gps = gps_comparison(res.t_s, x, y, float(t[0]), *fixes)
+            if not start:  # the start point that puts the path on the first fix at the fix's time
+                x0, y0 = position_at(fixes[0][0], res.t_s, x, y, float(t[0]))
+                start = tuple(float(v) for v in local_to_latlon(-x0, -y0, fixes[1][0], fixes[2][0]))
+    if start:
+        res.start_lat_lon = tuple(start)
+        res.lat_deg, res.lon_deg = geodetic_path(start[0], start[1], length, heading)
     return res
+
+
+def calibrate_length(settings: PdrSettings, walks) -> dict:
+    """Fit the step-length model of ``settings`` on calibration walks of known distance ([NKUA2009, §5.4]:
+    20 m at normal, slow and fast pace): each walk's steps get the length distance / count, and the model's
+    ``fit`` solves for its parameters by least squares over all steps.
+
+    Parameters
+    ----------
+    settings : PdrSettings
+        Detector, length model and its starting parameters.
+    walks : iterable of (t_s, acc_b, distance_m)
+        Sample times (s), specific force (N, 3) in m/s² and the walked distance (m) of each walk.
+
+    Returns
+    -------
+    dict
+        The fitted model's parameters (for ``settings.length_params``).
+
+    Raises
+    ------
+    InputError
+        The model has no ``fit``, or a walk yields fewer than 2 steps.
+    """
+    from bootnav.postproc.pdr.length.features import StepFeatures
+
+    model = _length_model(settings)
+    if not hasattr(model, "fit"):
+        raise InputError(f"step-length model {settings.length!r} has no fit; calibrate ladetto, weinberg, "
+                         "constant or footpath")
+    parts, truth = [], []
+    for t, acc, dist in walks:
+        res = run_pdr(t, acc, None, PdrSettings(**{**asdict(settings), "heading": "none", "use_gps": False}))
+        if res.count < 2:
+            raise InputError(f"calibration walk of {dist} m: only {res.count} step(s) detected")
+        parts.append(res.features)
+        truth.append(np.full(res.count, float(dist) / res.count))
+    feats = StepFeatures(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(StepFeatures)))
+    return model.fit(feats, np.concatenate(truth)).to_dict()

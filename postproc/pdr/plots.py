@@ -1,11 +1,13 @@
 """Figures mirroring the sources' plots (matplotlib, Agg backend):
 
-* steps.png, steps_zoom.png – the detector's processed signal with the detected steps (seed-000 Fig. 2.2.1 green lines;
-                seed-003 Figs. 3.5–3.9 clamped magnitude / main peaks / steps)
-* length.png  – step length per step and cumulative distance (seed-002 step-length apps)
-* heading.png – heading per step (seed-003 Fig. 3.10 "Heading angle")
-* path.png    – local E/N path (seed-000 Fig. 6.3.4, seed-003 Fig. 3.11); path_latlon.png when a start
-                point is given (seed-003 Fig. 3.12)
+* steps.png, steps_zoom.png – the detector's processed signal with the detected steps ([NKUA2009,
+                Fig. 2.2.1] green lines; [Lazarevskiy2021, Figs. 3.5–3.9] clamped magnitude / main peaks /
+                steps)
+* length.png  – step length per step and cumulative distance (the step-length apps of [Bayindir2014])
+* heading.png – compass heading per step, deg clockwise from north ([Lazarevskiy2021, Fig. 3.10] "Heading angle")
+* path.png    – local E/N path ([NKUA2009, Fig. 6.3.4], [Lazarevskiy2021, Fig. 3.11]); path_latlon.png when a
+                start point is given ([Lazarevskiy2021, Fig. 3.12])
+* path_gps.png – PDR path (red) and GPS track (blue) when the input has GPS fixes ([Lazarevskiy2021, Fig. 3.13])
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from bootnav.postproc.outputs import heading_columns
 
 
 def write_plots(res, out_dir) -> list[Path]:
@@ -44,7 +48,7 @@ def write_plots(res, out_dir) -> list[Path]:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(10, 3.5))
-    ax.plot(res.t_s - t0, np.mod(np.degrees(res.heading_rad), 360.0), ".")
+    ax.plot(res.t_s - t0, heading_columns(res.yaw_enu_rad)["heading_deg_cw_from_north"], ".")
     ax.set_ylim(0, 360)
     ax.set_ylabel("heading (deg, cw from N)")
     ax.set_xlabel("time since start (s)")
@@ -69,14 +73,30 @@ def write_plots(res, out_dir) -> list[Path]:
 
     if res.lat_deg is not None:
         fig, ax = plt.subplots(figsize=(6, 6))
-        lat0, lon0 = res.settings.start_lat_lon
+        lat0, lon0 = res.start_lat_lon
         ax.plot(np.r_[lon0, res.lon_deg], np.r_[lat0, res.lat_deg], "r.-", ms=3, lw=0.8)
         ax.set_xlabel("longitude (deg)")
         ax.set_ylabel("latitude (deg)")
-        ax.set_title("PDR path on the map (seed-003 eq. 3.3)")
+        ax.set_title("PDR path on the map (Lazarevskiy 2021, eq. 3.3)")
         ax.ticklabel_format(useOffset=False)
         fig.tight_layout()
         files.append(out / "path_latlon.png")
+        fig.savefig(files[-1], dpi=110)
+        plt.close(fig)
+
+    if res.gps is not None:
+        g = res.gps
+        fig, ax = plt.subplots(figsize=(6, 6))
+        ax.plot(g["gps_east_m"], g["gps_north_m"], "b.-", ms=3, lw=0.8, label="GPS")
+        ax.plot(g["pdr_east_m"], g["pdr_north_m"], "r.-", ms=3, lw=0.8, label="PDR")
+        ax.plot([0], [0], "ks", label="first fix")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("east of the first fix (m)")
+        ax.set_ylabel("north of the first fix (m)")
+        ax.set_title(f"PDR vs GPS: mean {g['mean_m']:.1f} m, final {g['final_m']:.1f} m")
+        ax.legend()
+        fig.tight_layout()
+        files.append(out / "path_gps.png")
         fig.savefig(files[-1], dpi=110)
         plt.close(fig)
     return files
@@ -84,7 +104,7 @@ def write_plots(res, out_dir) -> list[Path]:
 
 def _steps_figure(plt, res, t0, path, xlim):
     tr = res.events.trace
-    two = "magnitude_g" in tr  # seed-003 Figs. 3.3-3.9: magnitude, clamped magnitude, peaks, steps
+    two = "magnitude_g" in tr  # [Lazarevskiy2021, Figs. 3.3-3.9]: magnitude, clamped magnitude, peaks, steps
     fig, axs = plt.subplots(2 if two else 1, 1, figsize=(12, 6 if two else 4), sharex=True)
     axs = np.atleast_1d(axs)
     if two:

@@ -1,9 +1,9 @@
 """Signal helpers shared by every PDR method: uniform resampling, moving averages, filters, magnitudes.
 
-Phones deliver event-driven samples (duplicates, gaps, jitter; see oxford_steps/README.md and seed-003
-§2 "Sample rate"), while every seed method is defined at a fixed rate (20 Hz seed-000 §2.2, 30/50 Hz
-seed-002 Table 1, ~100 Hz seed-003 §2). ``resample_uniform`` is the one place where the raw clock is
-turned into such a grid (seed-002 §7.1: "the library must resample to a uniform grid").
+Phones deliver event-driven samples (duplicates, gaps, jitter; as in the Oxford step-counting recordings
+and the phone data of [Lazarevskiy2021]), while every source method is defined at a fixed rate (20 Hz
+[NKUA2009], 30/50 Hz [Bayindir2014, Table 1], ~100 Hz [Lazarevskiy2021]). ``resample_uniform`` is the one
+place where the raw clock is turned into such a grid.
 """
 
 from __future__ import annotations
@@ -52,12 +52,12 @@ def nominal_rate_hz(t_s: np.ndarray) -> float:
 
 
 def magnitude(acc: np.ndarray) -> np.ndarray:
-    """Eq. (1) of seed-002 §1.0 / eq. (3.1) of seed-003: a = sqrt(ax^2 + ay^2 + az^2)."""
+    """[Bayindir2014, eq. 1] / [Lazarevskiy2021, eq. 3.1]: a = sqrt(ax^2 + ay^2 + az^2)."""
     return np.linalg.norm(np.asarray(acc, float), axis=1)
 
 
 def causal_moving_average(x: np.ndarray, n: int) -> np.ndarray:
-    """Causal mean of the last ``n`` samples including the current one (seed-000 §3.1, documented
+    """Causal mean of the last ``n`` samples including the current one ([NKUA2009, §3.1], documented
     form); the first n-1 outputs average the samples available so far."""
     x = np.asarray(x, float)
     c = np.cumsum(np.insert(x, 0, 0.0))
@@ -89,7 +89,7 @@ def butter_filter(x: np.ndarray, fs_hz: float, cutoff_hz, btype: str = "low", or
 
 
 def ema(x: np.ndarray, alpha: float) -> np.ndarray:
-    """Exponential filter y <- y + alpha (x - y) (FootPath's low-pass, seed-002 §1.1 [external])."""
+    """Exponential filter y <- y + alpha (x - y) (FootPath's low-pass as [Bayindir2014] evaluates it)."""
     from scipy import signal
 
     x = np.asarray(x, float)
@@ -102,7 +102,7 @@ def ema(x: np.ndarray, alpha: float) -> np.ndarray:
 
 def gravity_direction(acc: np.ndarray, fs_hz: float, cutoff_hz: float = 0.3) -> np.ndarray:
     """Unit gravity ("up") direction in the body frame per sample: low-passed specific force, normalised
-    (seed-003 §1.4: "the mean acceleration vector is approximately the gravity vector")."""
+    ([Lazarevskiy2021, §2.2]: "the mean acceleration vector is approximately the gravity vector")."""
     lp = butter_filter(acc, fs_hz, cutoff_hz, "low", order=2)
     return lp / np.maximum(np.linalg.norm(lp, axis=1, keepdims=True), 1e-9)
 

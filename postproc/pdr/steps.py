@@ -30,10 +30,10 @@ class StepEvents:
 
 
 def step_intervals(t_steps: np.ndarray, max_step_s: float = 1.5) -> tuple[np.ndarray, np.ndarray]:
-    """Start/end time of each step: step i runs from step i-1 to step i (seed-002 §1.2 and §1.3: "the
-    start of the next step is the end of the detected step"). The first step of a bout (gap to the
-    previous step > ``max_step_s``, or no previous step) gets the median step duration of the run
-    (seed-002 §7.3: "first step: use the median duration of the run")."""
+    """Start/end time of each step: step i runs from step i-1 to step i (the Leppäkoski and Li detectors of
+    [Bayindir2014]: "the start of the next step is the end of the detected step"). The first step of a bout
+    (gap to the previous step > ``max_step_s``, or no previous step) gets the median step duration of the
+    run [engineered]."""
     t = np.asarray(t_steps, float)
     if t.size == 0:
         return t.copy(), t.copy()

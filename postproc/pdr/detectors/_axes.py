@@ -10,7 +10,7 @@ from bootnav.postproc.pdr.signals import G0, gravity_direction
 def vertical_and_horizontal(acc: np.ndarray, fs_hz: float, mode: str):
     """Return (vertical, horiz_1, horiz_2) specific-force components, m/s^2.
 
-    mode "sensor": sensor z, x, y as they are (literal: a belt/level phone with z up, seed-000 §5.1 R1).
+    mode "sensor": sensor z, x, y as they are (literal: a belt/level phone with z up, [NKUA2009]).
     mode "gravity": projection on the low-passed gravity direction and on two horizontal unit vectors
     orthogonal to it (engineered: any mounting)."""
     acc = np.asarray(acc, float)

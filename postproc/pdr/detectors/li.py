@@ -1,4 +1,4 @@
-"""Li et al. (UbiComp 2012) step detector, as evaluated in seed-002 §1.3, Table 1, §7.2(c).
+"""Li et al. (UbiComp 2012) step detector, as evaluated in [Bayindir2014, Table 1].
 
     a = ||f||, then FIR low-pass: order 30 (31 taps), cut-off 3 Hz, fs 50 Hz             [literal]
         (Hamming firwin [engineered]; causal as on the phone, times corrected by the 15-sample group delay)
@@ -12,7 +12,7 @@
         ``"none"`` uses (approximately) the total cost]; steps without a neighbour at +-2 are kept.
     g = 9.8 (the paper's value) in literal mode; ``literal=False``: g = median |a| of the recording and the
     2 m/s^2 "minimum peak magnitude" read as PROMINENCE instead of height above g
-    (the paper does not say which; seed-002 §7.6 suggests offering both) [engineered].
+    (the paper does not say which, so both are offered) [engineered].
 A rejected step removes its END peak from the count (the paper does not say) [engineered].
 """
 

@@ -1,17 +1,17 @@
-"""seed-003 (NAU Kyiv 2021) phone magnitude peak-group detector with the 1.2 g clamp, §1.5 steps 3–8.
+"""[Lazarevskiy2021] phone magnitude peak-group detector with the 1.2 g clamp, thesis §3.1.4–3.1.9.
 
     A_m = sqrt(Ax^2 + Ay^2 + Az^2)   in g                                    (eq. 3.1)
     clamp  A_c(i) = 1  if A_m(i) <= A_filter  else A_m(i),  A_filter = 1.2 g  (§3.1.5; the thesis prints
-           "m/s^2" but the data are in g: the unit is the digest's strong inference)
+           "m/s^2" but the data are in g: the unit is a strong inference)
     candidates: local maxima of A_c (A_c(i+1) - A_c(i) < 0 after a rise); plateau = its LAST sample in
-           literal mode (seed-003 R9), the middle otherwise
+           literal mode, the middle otherwise
     groups: consecutive candidates closer than A_LocalPeaksStep belong to one step; main peak = highest
     steps: main peaks at least A_LocalDistancePeaks apart (tallest first, MATLAB MinPeakDistance)
 
 The two coefficients have NO values in the thesis (hand-tuned per file with sliders). Defaults
-[engineered, seed-003 §6.6]: A_LocalPeaksStep = 0.15 s, A_LocalDistancePeaks = 0.3 s (in seconds, converted
+[engineered]: A_LocalPeaksStep = 0.15 s, A_LocalDistancePeaks = 0.3 s (in seconds, converted
 with the measured rate). Literal mode processes the rows as recorded (no resampling, no smoothing);
-``literal=False`` resamples to 100 Hz and low-passes at 5 Hz (seed-003 R14, off in faithful mode).
+``literal=False`` resamples to 100 Hz and low-passes at 5 Hz (not in the thesis, off in faithful mode).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from bootnav.postproc.pdr.steps import StepEvents
 
 
 def clamp(a_g: np.ndarray, a_filter: float = 1.2) -> np.ndarray:
-    """A_c = 1 where A_m <= A_filter (inclusive), unchanged elsewhere (seed-003 R8)."""
+    """A_c = 1 where A_m <= A_filter (inclusive), unchanged elsewhere (thesis §3.1.5)."""
     a = np.asarray(a_g, float).copy()
     a[a <= a_filter] = 1.0
     return a
@@ -79,7 +79,7 @@ class PeakGroupDetector:
     def detect(self, t_s, acc_b) -> StepEvents:
         if self.literal:
             t, a = np.asarray(t_s, float), np.asarray(acc_b, float)  # rows as recorded (faithful)
-            fs = (t.size - 1) / (t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 100.0  # seed-003 R5
+            fs = (t.size - 1) / (t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 100.0  # effective rate of the rows
             am = magnitude(a) / G0
         else:
             t, a = resample_uniform(t_s, acc_b, self.resample_hz)

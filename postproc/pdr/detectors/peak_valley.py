@@ -1,23 +1,24 @@
-"""seed-000 (NKUA 2009 thesis) waist peak/valley detector: 8-sample moving average, alternating
-extrema, amplitude gates, K (Amax - Amin)^(1/4) step length. seed-000 §1.2 (2.1), §2.4 Π3–Π5, §5.2–5.4.
+"""[NKUA2009] waist peak/valley detector: 8-sample moving average, alternating
+extrema, amplitude gates, K (Amax - Amin)^(1/4) step length. [NKUA2009, §2.1, §5.2, appendix code Π3–Π5].
 
-Equations / rules (seed-000):
-* moving average (R5): documented  f[i] = (1/8) sum_{j=i-7..i} z[j];
+Equations / rules ([NKUA2009]; Π = its C# code listing):
+* moving average: documented  f[i] = (1/8) sum_{j=i-7..i} z[j];
   literal (C# Π3)  f[i] = mean(z[i-1..i-7] within the buffer, topped up from the 8-sample carry-over
   storage of RAW values until 8 values or the storage runs out); f[0] = z[0].
-* sign s[i] = '+' if f[i] - f[i-1] >= 0 else '-' (R8); a sign change counts only if
-  i >= last_extremum + 4 samples (R9); '-'->'+' (trough) then '+'->'-' (crest) = candidate step at the
-  crest + 1 sample if raw range of z since the buffer start >= 0.20 (R9).
-* acceptance (R12): raw z range >= 0.20 AND (raw x range >= 0.15 OR raw y range >= 0.15).
-* threads (R10/R11, literal): rescan the whole buffer every 4 samples (200 ms); consume a candidate after
+* sign s[i] = '+' if f[i] - f[i-1] >= 0 else '-' (Π4); a sign change counts only if
+  i >= last_extremum + 4 samples (Π4); '-'->'+' (trough) then '+'->'-' (crest) = candidate step at the
+  crest + 1 sample if raw range of z since the buffer start >= 0.20 (Π4).
+* acceptance (Π5): raw z range >= 0.20 AND (raw x range >= 0.15 OR raw y range >= 0.15).
+* threads (literal): rescan the whole buffer every 4 samples (200 ms); consume a candidate after
   ``process_delay_samples``; then storage := 8 newest raw samples (newest first), drop buffer[0..crest];
   buffer > 201 samples -> drop the first 50.
 
 Literal parameters (defaults): fs 20 Hz, n_ma 8, gap 4 samples, gates 0.20 / 0.15 in ``acc_unit`` (the
-code's unit is ambiguous, seed-000 R2: we apply them in g, which makes K = 0.95 plausible [reconstructed]),
+code's unit is ambiguous: we apply them in g, which makes K = 0.95 plausible [reconstructed]),
 scan every 4 samples. ``literal=False`` = the thesis prose: clean moving average of the last 8 samples,
-scan every sample, no delay (the "idealised sequential variant", R10), vertical axis = gravity direction.
-Quirk kept in literal mode: steps faster than ~2 steps/s are under-counted (seed-000 §2.4 Π4 table).
+scan every sample, no delay (an idealised sequential variant), vertical axis = gravity direction.
+Quirk kept in literal mode: steps faster than ~2 steps/s are under-counted (a property of
+[NKUA2009, appendix code Π4] at 20 Hz).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from bootnav.postproc.pdr.steps import StepEvents
 
 
 def literal_moving_average(raw: list, storage: list, n: int = 8) -> float:
-    """C# Π3 filtered value for the newest element of ``raw`` (seed-000 R5 literal / test T7)."""
+    """C# Π3 filtered value for the newest element of ``raw`` (literal)."""
     if len(raw) == 1:
         return raw[0]
     vals = raw[max(len(raw) - n, 0):len(raw) - 1][::-1]  # indices Count-2 .. Count-8 (7 previous)
@@ -45,7 +46,7 @@ def literal_moving_average(raw: list, storage: list, n: int = 8) -> float:
 
 
 def wrap_heading_average(values: list[float], normalize: bool = False) -> float:
-    """seed-000 R6: average headings (deg) relative to the FIRST value: h-360 if h-ref > 180, h+360 if
+    """[NKUA2009, Π3]: average headings (deg) relative to the FIRST value: h-360 if h-ref > 180, h+360 if
     h-ref < -180; literal result not re-normalised (may be < 0 or >= 360)."""
     ref = values[0]
     acc = [h - 360 if h - ref > 180 else h + 360 if h - ref < -180 else h for h in values]

@@ -1,66 +1,53 @@
-"""bootnav's engineered step detector (not from a seed paper): band-pass magnitude, relative-prominence
-peaks, an activity gate, a periodicity gate and a dynamic-programming "beat tracker" at the local cadence.
+"""bootnav's engineered step detector for waist, lower-back and phone sensors (no source paper): band-passed
+magnitude, relative-prominence peaks, activity / periodicity / handling gates and a dynamic-programming
+"beat tracker" at the local cadence.
 
-All parameters are ENGINEERED defaults, chosen for generality across carrying positions (hand, pockets,
-armband, neck pouch, purse, swinging arm, lower back) with one fixed configuration; none is a literal
-value of a source.
+Every parameter is ENGINEERED, chosen for one fixed configuration across carrying positions (hand,
+pockets, armband, neck pouch, purse, swinging arm, lower back); none is a value of a source. They were
+chosen on all developer recordings at once; the measurements behind each choice, and the options measured
+and rejected, are in docs/tuning-log.md ("PDR"). ``RobustDetector`` lists every parameter.
 
 Pipeline (fs = 50 Hz after resampling the recording's own clock):
 
-1. a[n] = ||f_b[n]|| (orientation-free, seed-002 eq. 1 / seed-003 eq. 3.1), band-passed
-   x = BP_[0.3, 3.0] Hz(a) (2nd-order Butterworth, zero phase; walking cadence <= 3 Hz, seed-000 §1.2).
+1. a[n] = ||f_b[n]||, orientation-free ([Bayindir2014, eq. 1], [Lazarevskiy2021, eq. 3.1]), band-passed
+   x = BP_[0.3, 3.0] Hz(a) (2nd-order Butterworth, zero phase; walking cadence <= 3 Hz [NKUA2009, ch. 2]).
 2. Candidates: every local maximum of x with topographic prominence p_k.
    Local reference R_k = 80th percentile of the prominences within +-2.5 s; salience
-   s_k = min(p_k / R_k, 1.5) - 0.15 (relative, so weak hand/lower-back and strong pocket signals look
-   alike; the offset 0.15 keeps the weak first/last steps of a walk, whose p_k / R_k is 0.2-0.3).
+   s_k = min(p_k / R_k, 1.5) - 0.15: relative, so weak hand / lower-back and strong pocket signals look
+   alike; the small offset keeps the weak first and last steps of a walk, whose p_k / R_k is 0.2-0.3.
 3. Gates (s_k := -1, the DP then never picks the peak):
    activity: 2-s RMS of x < 0.2 m/s^2 or R_k < 0.1 m/s^2 (standing, phone on a table);
    periodicity: rho(t) = max over the 2.5-s window before and the one after t of
    max_{lag in [0.3, 1.5] s} Pearson(x[w], x[w + lag]) < 0.45 -- walking repeats itself every step or
    stride, handling a phone / sitting down / single bumps do not.
    handling: the device's gravity direction u(t) = LP_0.5Hz(f_b) / |LP_0.5Hz(f_b)| turns by more than
-   30 deg between t - 0.5 s and t + 0.5 s (angle(u(t-0.5), u(t+0.5)) > 30 deg). A carried device keeps its
-   mean attitude while walking (median 1-2 deg, 99th percentile 4-24 deg per Oxford position, < 10 deg on
-   a lower back); putting a phone away, taking it out or a pouch settling after the stop turns it by tens
-   of degrees. Such a peak gets s_k = -0.5 (not -1): half the break cost, so inside a walk the chain
-   still bridges it (a purse swinging hard mid-walk) while at the walk's ends it is never picked.
-   Oxford 1.70 -> 1.34 %, lower back unchanged (Voisard) or -0.002 F1 (Mobilise-D).
+   30 deg between t - 0.5 s and t + 0.5 s. A carried device keeps its mean attitude while walking (median
+   1-2 deg, 99th percentile 4-24 deg per Oxford carrying position, < 10 deg on a lower back); putting a phone
+   away, taking it out or a pouch settling after the stop turns it by tens of degrees. Such a peak gets
+   s_k = -0.5 (not -1): half the break cost, so inside a walk the chain still bridges it (a purse swinging
+   hard mid-walk) while at the walk's ends it is never picked.
 4. First pass: candidates with p_k >= 0.45 R_k, then minimum spacing 0.6 T_loc (T_loc = local median
    step interval, >= 0.25 s), twice; gives the local step period T(t) (median over +-5 s).
 5. Final selection by dynamic programming over candidates (beat tracking):
        B_j = s_j + max( max_i [B_i - lambda (ln((t_j - t_i)/T_j))^2]   for 0.5 T_j <= t_j - t_i <= 1.7 T_j,
                         max_{t_i < t_j - 1.7 T_j} B_i - c_break,  0 )
    lambda = 1, c_break = 1; the best chain is traced back. (lambda = 1: a step 20 % late costs 0.03,
-   less than the salience of a weak closing step; a half-period double peak costs ln(2)^2 = 0.48.) This picks one peak per step even when a step
-   has two bumps (heel strike + push-off) and bridges a weak step.
+   less than the salience of a weak closing step; a half-period double peak costs ln(2)^2 = 0.48.) This
+   picks one peak per step even when a step has two bumps (heel strike + push-off) and bridges a weak step.
 6. Onset: leading steps of a bout (gap > 1.6 s) whose prominence is below 0.3 x the bout's median are
    dropped. Gait initiation shows a weak bump (anticipatory weight shift / push-off) about one step before
    the first heel strike: 0.07-0.35 of the median on Voisard's lower back, where the first true step is
    0.41-0.80; at the END the true closing steps are that weak too, so the rule is one-sided.
-   (Voisard F1 0.949 -> 0.956, Oxford 1.34 -> 1.25 %.)
 7. Bouts shorter than 4 steps (gap > 1.6 s) are dropped (isolated bumps are not walking).
 
 Step time = time of the chosen peak of x (no offset).
 
-Options off by default (measured, then rejected for generality): ``long_ref_fraction`` gates peaks whose
-local reference R_k is below that fraction of the 80th percentile over +-``long_ref_half_window_s``: at
-0.4 / 30 s it removes a neck pouch still swinging after the stop (Oxford 1.72 -> 1.25 %) but it also
-drops the weak closing steps of short walks (Voisard -3.7 -> -6.7 %) and would drop slow sections of a
-walk that changes speed (amplitude grows ~ with speed squared). ``edge_trim_fraction`` trims weak bout
-ends; ``refine_window_s`` / ``event_offset_s`` move the event time (no gain measured).
-
-``signal="vertical"`` uses the specific force along the low-passed gravity direction instead of |a|:
-Oxford 1.25 -> 3.4 % (a front-pocket phone turns with the thigh every stride: -43 % on one trial), though
-Mobilise-D count -4.4 -> -2.3 %; rejected for the one configuration.
-
-Also measured and rejected (Oxford mean |count err| / Voisard mean count err / Mobilise-D F1, against
-1.70 / -1.0 / 0.900 of the defaults before the handling gate and the onset trim were added): a larger reference window (+-4 s: 1.52 / -5.8 / 0.89) or quantile
-(0.9-1.0: 1.6-1.8 / -4.6 to -6.7), which shrink the weak closing steps of lower-back walks; an absolute
-activity floor (2-s RMS 0.4-0.5 m/s^2: 1.53-1.60 / -4.9 to -7.6 / 0.88), which drops slow walking; the
-long-window gate at 0.3-0.5 even with this smaller salience offset (1.22-1.65 / -2.4 to -5.2): it removes
-slow steps after a Voisard trial's end and at the U-turn; trimming bout-end steps whose 0.3-8 Hz waveform
-correlates < 0.3 with the bout's median step waveform (1.61 / -1.9): handling bumps and true weak closing
-steps overlap in shape as in amplitude. Figures on ../shared/datasets: benchmarks/pdr_table.py.
+Options off by default (measured and rejected for the one configuration, figures in the tuning log):
+``long_ref_fraction`` (a long-window amplitude gate: removes a pouch still swinging after the stop, but
+also the weak closing steps of short walks and the slow sections of a walk that changes speed),
+``edge_trim_fraction`` (trims weak bout ends), ``refine_window_s`` / ``event_offset_s`` (move the event
+time), ``signal="vertical"`` (specific force along the gravity direction instead of |a|: a front-pocket
+phone turns with the thigh every stride).
 """
 
 from __future__ import annotations
@@ -144,7 +131,66 @@ def gravity_turn_deg(acc: np.ndarray, fs: float, lowpass_hz: float, half_window_
 
 @dataclass
 class RobustDetector:
-    """Engineered default detector (see module docstring for the equations)."""
+    """Engineered default detector (equations in the module docstring; every value engineered).
+
+    Parameters
+    ----------
+    fs_hz : float
+        Rate the recording is resampled to, Hz: well above twice the 3-Hz band edge, cheap to process.
+    band_hz : tuple of float
+        Band-pass of |a|, Hz: 0.3 removes gravity drift and posture changes, 3.0 passes the fastest walking
+        cadence [NKUA2009, ch. 2] and drops impact ringing.
+    ref_half_window_s, ref_quantile : float
+        Window (+-s) and quantile of the local prominence reference R_k: a few steps either side, high
+        enough that the walk's typical step, not its weakest, sets the scale.
+    first_pass_rel_prominence : float
+        Prominence (fraction of R_k) a candidate needs in the first pass that estimates the cadence.
+    spacing_factor, min_spacing_s : float
+        First pass: minimum distance between kept peaks, as a fraction of the local step interval and in
+        s (0.25 s: faster than any walking cadence).
+    period_half_window_s : float
+        Window (+-s) of the local median step interval T(t).
+    salience_offset, salience_cap : float
+        s_k = min(p_k / R_k, cap) - offset: the offset is the relative prominence below which a peak costs
+        rather than gains; the cap keeps one huge bump from paying for a wrong chain.
+    activity_rms_mps2, activity_window_s : float
+        Activity gate: RMS of the band-passed signal over the window below which nobody walks, m/s^2, s.
+    ref_floor_mps2 : float
+        Activity gate on R_k, m/s^2: a reference prominence this small is sensor noise, not steps.
+    interval_penalty : float
+        lambda, the cost of a step interval off the local period: lambda (ln(dt / T))^2.
+    interval_range : tuple of float
+        Allowed step interval as fractions of T (0.5-1.7): a half-period double bump or one missed step.
+    break_cost : float
+        c_break, the cost of restarting a chain after a gap (a pause, a bridged weak step).
+    bout_gap_s, min_bout_steps : float, int
+        Steps further apart than bout_gap_s (s) start a new bout; a bout of fewer steps is dropped.
+    default_period_s : float
+        Step period assumed where the cadence cannot be estimated yet, s (typical walking: 0.5-0.6 s).
+    periodicity_min, periodicity_window_s : float
+        Periodicity gate: smallest windowed autocorrelation (Pearson r) of walking, and the window, s.
+    periodicity_lags_s : tuple of float
+        Lags searched, s: from the shortest step to the longest stride.
+    edge_trim_fraction : float
+        Off (0). Drop bout-start and bout-end steps below this fraction of the bout's median prominence.
+    onset_trim_fraction : float
+        Drop leading bout steps below this fraction of the bout's median prominence (step 6).
+    signal : str
+        "magnitude" (|a|) or "vertical" (projection on the low-passed gravity direction; off).
+    long_ref_half_window_s, long_ref_fraction : float
+        Off (fraction 0). Gate peaks whose R_k is below that fraction of the same quantile over +-window s.
+    refine_window_s : tuple of float or None
+        Off (None). Move each event to the largest lightly filtered |a| within this window around it, s.
+    refine_lowpass_hz : float
+        Low-pass of that refinement, Hz.
+    event_offset_s : float
+        Constant shift added to every event time, s (0: the peak itself).
+    handling_max_deg, handling_lowpass_hz, handling_half_window_s : float
+        Handling gate: largest turn (deg) of the gravity direction (low-passed at this Hz) between
+        t -/+ the half window (s) that still counts as carried walking (module docstring, step 3).
+    handling_salience : float
+        Salience of a peak during handling: -0.5 = half the break cost (bridged mid-walk, never at an end).
+    """
 
     fs_hz: float = 50.0
     band_hz: tuple = (0.3, 3.0)

@@ -1,4 +1,4 @@
-"""Template-matching step detector, seed-000 §1.2 (2.4) after Ying et al. 2007 [13].
+"""Template-matching step detector, [NKUA2009, §2.4] after Ying et al. 2007 [13].
 
     blocks of 10 s [literal]; low-pass 20 Hz [literal; only applied when fs > 40 Hz];
     NCC  R^_xy[k] = <X, Y_k> / (||X|| ||Y_k||)  (zero-mean segments), max 1           [literal]

@@ -1,4 +1,4 @@
-"""Combined 2-axis peak detector for a FOOT-mounted sensor, seed-000 §1.2 (2.5) after Ying et al. [13].
+"""Combined 2-axis peak detector for a FOOT-mounted sensor, [NKUA2009, §2.5] after Ying et al. [13].
 
     1. band-pass each of two axes (X and Z of the sensor, as the thesis' figure names them)
     2. keep negative samples: n_k = min(x_k, 0)
@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from bootnav.core.runs import runs
 from bootnav.postproc.pdr.signals import butter_filter, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -53,9 +54,7 @@ class TwoAxisFootDetector:
         s = signal.filtfilt(np.ones(n) / n, [1.0], c) if c.size > 3 * n else c
         p = s ** 2
         thr = self.threshold_fraction * (p.max() if p.size else 0.0)
-        above = np.r_[False, p > thr, False].astype(int)
-        starts = np.nonzero(np.diff(above) == 1)[0]
-        ends = np.nonzero(np.diff(above) == -1)[0]
+        starts, ends = runs(p > thr)
         idx = np.array([s0 + int(np.argmin(c[s0:e0])) for s0, e0 in zip(starts, ends) if e0 > s0], int)
         if not self.literal and idx.size:
             size = np.array([p[s0:e0].max() for s0, e0 in zip(starts, ends) if e0 > s0])

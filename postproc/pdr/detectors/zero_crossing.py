@@ -1,13 +1,13 @@
-"""seed-000 §1.2 (2.2) zero-crossing detector: a step each time the filtered vertical acceleration goes
+"""[NKUA2009, §2.2] zero-crossing detector: a step each time the filtered vertical acceleration goes
 from negative to positive, with the §2.1 false-step checks.
 
     f = MA_8(a_v) - mean_local(a_v)        (8-sample moving average as §3.1; gravity removed)
     step at n  if  f[n-1] < 0 <= f[n]  and  n - n_prev >= min_interval  and  range(a_v over the step) >= min_range
 
-The source gives NO numbers for this method (seed-000 §2.2 "No numeric parameters are given"). Defaults:
+The source gives NO numbers for this method ([NKUA2009, §2.2] gives no numeric parameter). Defaults:
 fs 20 Hz, MA 8 and the 0.20 g range gate are borrowed from the same thesis' ch.6 system [literal there];
 gravity removal by a 2-s centred mean and the 0.25 s minimum interval are ENGINEERED. ``literal=True``
-uses the sensor z axis (belt mount, §5.1 R1); ``literal=False`` the gravity-projected vertical.
+uses the sensor z axis (belt mount); ``literal=False`` the gravity-projected vertical.
 """
 
 from __future__ import annotations

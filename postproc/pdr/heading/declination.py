@@ -1,4 +1,4 @@
-"""Magnetic declination (seed-000 §4.4, R17): heading_true = heading_mag + declination, declination
+"""Magnetic declination ([NKUA2009, §4.4]): heading_true = heading_mag + declination, declination
 EAST-positive. Example from the thesis: New York, October 2008, 13°7' W = -13.1167 deg, changing
 0°1' E per year."""
 

@@ -1,6 +1,7 @@
-"""Gyro heading by integration of the rate about gravity, seed-003 §1.3 eqs. 2.5–2.6 (Manos et al. [24]):
+"""Gyro heading by integration of the rate about gravity, [Lazarevskiy2021, eqs. 2.5–2.6] (after Manos,
+Klein & Hazan):
 
-    omega_v(t) = u(t)^T omega(t)              (u: unit UP direction in the body frame; seed-003 uses the
+    omega_v(t) = u(t)^T omega(t)              (u: unit UP direction in the body frame; the thesis uses the
                                                gravity (down) direction, which flips the sign so that a
                                                right turn is positive -- the same as a bearing increase)
     psi(t) = psi_s - integral_{t_s}^{t} omega_v dtau     (bearing, clockwise from north)

@@ -1,6 +1,6 @@
 """Hard/soft-iron magnetometer calibration.
 
-seed-000 §4.3 (R16, test T11), 2-axis percentile method [literal scale factors]:
+[NKUA2009, §4.3], 2-axis percentile method [literal scale factors]:
     X_sf = max(1, (H_y95 - H_y05) / (H_x95 - H_x05))
     Y_sf = max(1, (H_x95 - H_x05) / (H_y95 - H_y05))
     X_off = ((H_x95 - H_x05)/2 - H_x95) X_sf,  Y_off likewise        [centring form, Honeywell; the
@@ -99,3 +99,44 @@ def ellipse_fit_2d(hx, hy) -> EllipsoidCalibration:
     W[:2, :2] = W2
     norm = float(np.mean(np.hypot(hx - o[0], hy - o[1])))
     return EllipsoidCalibration(np.r_[o, 0.0], W, norm)
+
+
+MAG_CALIBRATIONS = ("none", "percentile", "percentile_literal", "ellipse", "ellipsoid")
+
+
+def calibrate_mag(mag_b, method: str = "none", fit_mask=None) -> np.ndarray:
+    """The magnetometer samples corrected by one of the calibrations above, fitted on the recording itself.
+
+    Parameters
+    ----------
+    mag_b : array_like, shape (N, 3)
+        Field in the sensor frame, any unit.
+    method : str
+        "none"; "percentile" ([NKUA2009, §4.3] scale factors, centring offsets; x and y only, z kept);
+        "percentile_literal" (the offsets as the thesis' OCR reads them); "ellipse" (2-D fit, z kept);
+        "ellipsoid" (3-D fit, needs samples over many orientations).
+    fit_mask : array_like of bool, shape (N,), optional
+        Samples to fit on (e.g. a calibration turn at the start of the walk); default all.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        The corrected field (every sample, fitted on ``fit_mask``).
+    """
+    m = np.array(mag_b, float)
+    if method == "none":
+        return m
+    if method not in MAG_CALIBRATIONS:
+        raise ValueError(f"unknown magnetometer calibration {method!r}; choose one of {MAG_CALIBRATIONS}")
+    f = m if fit_mask is None else m[np.asarray(fit_mask, bool)]
+    if len(f) < 9:
+        raise ValueError(f"magnetometer calibration {method!r} needs at least 9 samples to fit; got {len(f)}")
+    if method.startswith("percentile"):
+        cal = percentile_calibration(f[:, 0], f[:, 1], literal_offset=method == "percentile_literal")
+        m[:, 0], m[:, 1] = cal.apply(m[:, 0], m[:, 1])
+        return m
+    cal = ellipse_fit_2d(f[:, 0], f[:, 1]) if method == "ellipse" else ellipsoid_fit(f)
+    out = cal.apply(m)
+    if method == "ellipse":
+        out[:, 2] = m[:, 2]
+    return out

@@ -8,8 +8,15 @@ accelerometer at rest reads +g along up, bootnav.CONVENTIONS) and m the calibrat
 where f is the body axis that points forward (phone: +y, towards the top of the screen). Without tilt
 (a level device, u = +z) this reduces to heading = atan2(-m_x, m_y).
 
-seed-003 §1.5 step 9 / R16 (literal): theta = atan2(B_x, B_y) (counter-clockwise from north, [0, 360) deg);
-bearing = -theta. Test T7: B = (-17.9375, -21.0625) uT -> theta = 220.419 deg, bearing 139.581 deg.
+[Lazarevskiy2021, §3.1.10] (literal): theta = atan2(B_x, B_y) (counter-clockwise from north, [0, 360) deg);
+bearing = -theta. Example (the thesis's Fig. 4.5 first row): B = (-17.9375, -21.0625) uT -> theta = 220.419
+deg, bearing 139.581 deg.
+
+[NKUA2009, §4.2] tilt weights (``tilt_weight_heading``): moving-average the compass components and the
+accelerations (8 samples at 20 Hz), w = a_bar / |a_bar| ("the influence of each axis", literal); the final
+equations are unreadable in the thesis except the fragment "+ w_z Z_bar" [reconstructed]: we read it as the
+projection of the field on the plane normal to w, H^ = H_bar - (w_x X_bar + w_y Y_bar + w_z Z_bar) w, whose
+bearing is then taken as above.
 """
 
 from __future__ import annotations
@@ -18,7 +25,7 @@ import numpy as np
 
 
 def seed003_theta_deg(bx, by) -> np.ndarray:
-    """seed-003 literal: theta = mod(degrees(atan2(Bx, By)), 360), counter-clockwise from north."""
+    """[Lazarevskiy2021] literal: theta = mod(degrees(atan2(Bx, By)), 360), counter-clockwise from north."""
     return np.mod(np.degrees(np.arctan2(bx, by)), 360.0)
 
 
@@ -35,3 +42,40 @@ def tilt_compensated_heading(mag_b: np.ndarray, up_b: np.ndarray, forward_b=(0.0
     n = np.cross(u, e)
     f = np.asarray(forward_b, float)
     return np.arctan2(e @ f, n @ f)
+
+
+def tilt_weight_heading(t_s, mag_b, acc_b, forward_b=(0.0, 1.0, 0.0), n_avg: int = 8,
+                        fs_ref_hz: float = 20.0) -> np.ndarray:
+    """Bearing (rad, clockwise from magnetic north) with the [NKUA2009, §4.2] tilt-weight correction.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (N,)
+        Sample times, s (sets the moving-average length: ``n_avg`` samples at ``fs_ref_hz`` = 0.4 s).
+    mag_b, acc_b : array_like, shape (N, 3)
+        Field (any unit) and specific force (gravity included) in the sensor frame.
+    forward_b : sequence of 3 float
+        Body axis pointing forward.
+    n_avg, fs_ref_hz : int, float
+        The thesis' moving average: 8 samples at its 20 Hz.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Bearing in (-pi, pi].
+    """
+    from bootnav.postproc.pdr.signals import causal_moving_average, nominal_rate_hz
+
+    n = max(1, int(round(n_avg * nominal_rate_hz(np.asarray(t_s, float)) / fs_ref_hz)))
+    m_bar = np.column_stack([causal_moving_average(c, n) for c in np.asarray(mag_b, float).T])
+    a_bar = np.column_stack([causal_moving_average(c, n) for c in np.asarray(acc_b, float).T])
+    w = a_bar / np.linalg.norm(a_bar, axis=1, keepdims=True)
+    h_corr = m_bar - np.sum(m_bar * w, axis=1, keepdims=True) * w
+    return tilt_compensated_heading(h_corr, w, forward_b)
+
+
+def untilted_heading(mag_b, forward_b=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """Bearing (rad) of a device assumed level (no tilt compensation): [Lazarevskiy2021, eq. 3.2 / §3.1.10]
+    theta = atan2(B_x, B_y), bearing = -theta, for the forward axis +y; other forward axes turn the same
+    level-device formula."""
+    return tilt_compensated_heading(mag_b, (0.0, 0.0, 1.0), forward_b)

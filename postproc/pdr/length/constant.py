@@ -1,7 +1,7 @@
 """Constant step lengths.
 
-* FootPath (seed-002 §2.1, eq. 2):  L = 0.415 h,  h = 1.83 m [literal Table 2] -> 0.75945 m.
-* Constant (seed-000 §5.1): L = 0.5 m [literal example].
+* FootPath ([Bayindir2014, eq. 2]):  L = 0.415 h,  h = 1.83 m [literal Table 2] -> 0.75945 m.
+* Constant ([NKUA2009, §5.1]): L = 0.5 m [literal example].
 """
 
 from __future__ import annotations
@@ -24,6 +24,11 @@ class FootPathLength:
     def estimate(self, feat) -> np.ndarray:
         return np.full(len(feat), self.k * self.height_m)
 
+    def fit(self, feat, true_length_m) -> "FootPathLength":
+        """k = mean true step length / height (the user's own ratio instead of 0.415)."""
+        self.k = float(np.mean(true_length_m)) / self.height_m
+        return self
+
 
 @dataclass
 class ConstantLength:
@@ -36,3 +41,8 @@ class ConstantLength:
 
     def estimate(self, feat) -> np.ndarray:
         return np.full(len(feat), self.length_m)
+
+    def fit(self, feat, true_length_m) -> "ConstantLength":
+        """The user's mean step length ([NKUA2009, §5.1]: "entering a per-user mean could help")."""
+        self.length_m = float(np.mean(true_length_m))
+        return self

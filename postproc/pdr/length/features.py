@@ -1,10 +1,10 @@
 """Per-step features for the step-length models (computed once, shared by every model).
 
 Step i runs from t_start_i = t_{i-1} to t_end_i = t_i (bootnav.postproc.pdr.steps.step_intervals).
-    freq_hz      f_i = 1 / (t_end_i - t_start_i)            (seed-002 §2 "[inferred] f = 1 / step duration")
-    vert_range   A_max - A_min of the vertical specific force within the step, m/s^2 (seed-000 §5.2;
+    freq_hz      f_i = 1 / (t_end_i - t_start_i)            ([Bayindir2014] leaves f undefined; 1 / step duration)
+    vert_range   A_max - A_min of the vertical specific force within the step, m/s^2 ([NKUA2009, §5.2];
                  vertical = projection on the low-passed gravity direction, so any mounting works)
-    mag_std      sqrt((1/N) sum (a(i) - a_m)^2) of |a| within the step, m/s^2  (seed-002 eq. 5)
+    mag_std      sqrt((1/N) sum (a(i) - a_m)^2) of |a| within the step, m/s^2  ([Bayindir2014, eq. 5])
     mag_var      mag_std^2, m^2/s^4
 """
 

@@ -1,5 +1,5 @@
-"""Frequency–step model, seed-002 §2.2 eq. 3 (after [13], [17]):  L = a f + b,
-a = 0.22 m/Hz, b = 0.28 m [literal Table 2]; f = 1 / step duration [inferred by the digest]."""
+"""Frequency–step model, [Bayindir2014, eq. 3] (after Li et al., Leppäkoski et al.):  L = a f + b,
+a = 0.22 m/Hz, b = 0.28 m [literal Table 2]; f = 1 / step duration [inferred]."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Frequency–variance (activity) model, seed-002 §2.4 eqs. 5–6 ([11] Shin, [19] Lee, [20] Ladetto):
+"""Frequency–variance (activity) model, [Bayindir2014, eqs. 5–6] (after Shin, Lee, Ladetto):
 
     v = sqrt((1/N) sum (a(i) - a_m)^2)          (eq. 5: a standard deviation of |a| over the step)
     L = alpha f + beta v + gamma,  alpha = 0.2 m/Hz, beta = 0.01, gamma = 0.22 m   [literal Table 2]

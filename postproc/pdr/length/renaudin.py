@@ -1,4 +1,4 @@
-"""Height–frequency model (Renaudin, Susi, Lachapelle 2012), seed-002 §2.3 eq. 4:
+"""Height–frequency model (Renaudin, Susi, Lachapelle 2012), [Bayindir2014, eq. 4]:
 
     L = h (a f + b) + c,   h = 1.83 m, a = 0.13 s, b = 0.13, c = 0.1 m   [literal Table 2]
 

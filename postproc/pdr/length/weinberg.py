@@ -1,9 +1,10 @@
-"""Fourth-root (Weinberg) step length, seed-000 §5.2 (R13, test T4):
+"""Fourth-root (Weinberg) step length, [NKUA2009, §5.2]:
 
     L = K (A_max - A_min)^(1/4)
 
 A_max, A_min = max/min vertical acceleration during the step. Literal K = 0.95 (the C# code), applied to
-the range in g (the unit that makes 0.95 plausible, seed-000 Π2 [reconstructed]); the thesis text suggests
+the range in g (the unit that makes 0.95 plausible, [NKUA2009, appendix code Π2] [reconstructed]); the
+thesis text suggests
 K ~ 0.55 (``K_TEXT``); Table 5.2.1 per-user values 0.50 / 0.55 / 0.57 (``K_TABLE_5_2_1``).
 """
 
@@ -38,3 +39,9 @@ class WeinbergLength:
     def estimate(self, feat) -> np.ndarray:
         d = feat.vert_range_mps2 / (G0 if self.acc_unit == "g" else 1.0)
         return weinberg(d, self.k)
+
+    def fit(self, feat, true_length_m) -> "WeinbergLength":
+        """Least-squares K from steps of known length (per-user K, [NKUA2009, Table 5.2.1 / §5.4])."""
+        d = weinberg(feat.vert_range_mps2 / (G0 if self.acc_unit == "g" else 1.0), 1.0)
+        self.k = float(np.dot(d, true_length_m) / max(np.dot(d, d), 1e-12))
+        return self

@@ -1,0 +1,156 @@
+"""Leave-one-dataset-out (LODO) choice of PDR parameters over the developer PDR sets.
+
+The rule (the same for every detector and for the robust default): for a parameter grid, for each PDR set
+S in {oxford_steps, voisard_ipol, mobgap_lab} in turn, choose the grid value with the lowest objective on
+the OTHER sets, then score that value on S (never seen by the choice). The objective is the mean over the
+sets of each set's mean |count_err_pct| (every set weighs the same, whatever its number of trials). The
+value reported for use is the one chosen on all three sets; a change is kept only if every left-out
+figure improves by more than the across-trial spread (standard error of the left-out set's mean).
+
+Trials are read once and scored by ``bootnav eval``'s scorer (``runner.score_pdr``). Robust-default goals
+(issue 15): Oxford |count err| <= 0.5 % and F1 >= 0.99; Voisard lower back <= 1.5 % and F1 >= 0.98;
+Mobilise-D lower back F1 >= 0.95 and step-length MAE <= 0.08 m.
+
+Usage: .venv/bin/python benchmarks/pdr_crossval.py [--datasets DIR] [--grid NAME ...] [--processes 2]
+Grids: ``GRIDS`` below (the literal detectors' open values and the robust default's candidates).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bootnav.postproc.evaluate.runner import PdrEstimate, read_imu, score_pdr  # noqa: E402
+from bootnav.postproc.pdr import run_pdr  # noqa: E402
+from bootnav.postproc.pdr.evaluate import PDR_SETS, list_trials  # noqa: E402
+from bootnav.postproc.pdr.pipeline import PdrSettings  # noqa: E402
+
+# name -> (detector, length model, parameter name, values); the values are the physically sensible range
+GRIDS = {
+    # [Bayindir2014] Leppäkoski: 1st-order low-pass cut-off, not given
+    "leppakoski_cutoff": ("leppakoski", {"literal": True, "own_crossing": True}, "cutoff_hz", [1.5, 2.0, 2.5, 3.0, 4.0, 5.0]),
+    # FootPath: drop threshold, not in the paper (0.5 m/s^2 in the FootPath code)
+    "footpath_threshold": ("footpath", {"literal": True}, "threshold_mps2", [0.5, 1.0, 1.5, 2.0, 3.0]),
+    # [Lazarevskiy2021] A_LocalPeaksStep (group gap), no value in the thesis
+    "peak_group_gap": ("peak_group", {"literal": True}, "local_peaks_step_s", [0.05, 0.1, 0.15, 0.2, 0.25]),
+    # [Lazarevskiy2021] A_LocalDistancePeaks (minimum step spacing), within the thesis' [0.2, 1.0] s
+    "peak_group_distance": ("peak_group", {"literal": True}, "local_distance_peaks_s",
+                            [0.2, 0.25, 0.3, 0.35, 0.4, 0.45]),
+    # robust default (engineered, point 4 of issue 15)
+    "robust_band": ("robust", {}, "band_hz", [(0.3, 2.5), (0.3, 3.0), (0.3, 3.5), (0.3, 4.0)]),
+    "robust_salience_offset": ("robust", {}, "salience_offset", [0.05, 0.1, 0.15, 0.2, 0.3]),
+    "robust_interval_penalty": ("robust", {}, "interval_penalty", [0.5, 1.0, 2.0, 4.0]),
+    "robust_periodicity_min": ("robust", {}, "periodicity_min", [0.3, 0.45, 0.6]),
+    "robust_onset_trim": ("robust", {}, "onset_trim_fraction", [0.0, 0.3, 0.5]),
+}
+
+_CACHE: dict = {}
+
+
+def _load(trial):
+    if trial.id not in _CACHE:
+        _CACHE[trial.id] = read_imu(trial.path / trial.imu_file)
+    return _CACHE[trial.id]
+
+
+def score(trial, detector: str, params: dict, length: str = "frequency_variance") -> dict:
+    """bootnav eval's PDR metrics of one trial for one detector configuration."""
+    t, acc, gyro = _load(trial)
+    res = run_pdr(t, acc, gyro, PdrSettings(detector=detector, detector_params=dict(params), length=length))
+    est = PdrEstimate(np.asarray(res.t_s), np.asarray(res.length_m), np.column_stack([res.x_m, res.y_m]), 0.0)
+    return score_pdr(est, trial.path, trial.truth)[0]
+
+
+def _job(args):
+    trials, detector, params = args
+    return [score(tr, detector, params) for tr in trials]
+
+
+def set_summary(rows: list[dict]) -> dict:
+    """Mean |count err| %, its standard error, mean signed count err %, mean F1, step-length MAE."""
+    ace = np.array([r["abs_count_err_pct"] for r in rows], float)
+    ce = np.array([r["count_err_pct"] for r in rows], float)
+    f1 = np.array([r.get("f1", np.nan) for r in rows], float)
+    mae = np.array([r.get("step_len_mae_m", np.nan) for r in rows], float)
+    nanmean = lambda v: float(np.nanmean(v)) if np.any(np.isfinite(v)) else float("nan")  # noqa: E731
+    return {"abs_count": float(ace.mean()), "se": float(ace.std(ddof=1) / np.sqrt(ace.size)) if ace.size > 1 else 0.0,
+            "count": float(ce.mean()), "f1": nanmean(f1), "mae": nanmean(mae), "n": int(ace.size)}
+
+
+def evaluate_grid(by_set: dict, detector: str, base: dict, name: str, values: list, pool) -> dict:
+    """{value: {set: summary}} for one parameter grid."""
+    jobs, keys = [], []
+    for v in values:
+        for s, trials in by_set.items():
+            for k in range(0, len(trials), 4):  # a few trials per job keeps the IMU cache useful
+                jobs.append((trials[k:k + 4], detector, {**base, name: v}))
+                keys.append((v, s))
+    out: dict = {}
+    for (v, s), rows in zip(keys, pool.map(_job, jobs)):
+        out.setdefault(v, {}).setdefault(s, []).extend(rows)
+    return {v: {s: set_summary(r) for s, r in d.items()} for v, d in out.items()}
+
+
+def objective(summ: dict, sets) -> float:
+    return float(np.mean([summ[s]["abs_count"] for s in sets]))
+
+
+def lodo(table: dict) -> tuple[list, object]:
+    """Per left-out set: (set, value chosen on the others, its left-out summary); and the all-sets choice."""
+    sets = list(next(iter(table.values())))
+    rows = []
+    for s in sets:
+        others = [o for o in sets if o != s]
+        v = min(table, key=lambda x: objective(table[x], others))
+        rows.append((s, v, table[v][s]))
+    return rows, min(table, key=lambda x: objective(table[x], sets))
+
+
+def print_grid(name: str, table: dict) -> None:
+    det, _, pname, _ = GRIDS[name]
+    sets = list(next(iter(table.values())))
+    print(f"\n### {name}: {det}.{pname}  (per set: mean |count err| % ± s.e. / mean F1)\n")
+    print("| value | " + " | ".join(sets) + " | objective (all sets) |")
+    print("|---|" + "---|" * (len(sets) + 1))
+    for v, d in table.items():
+        print(f"| {v} | " + " | ".join(f"{d[s]['abs_count']:.2f} ± {d[s]['se']:.2f} / {d[s]['f1']:.3f}" for s in sets)
+              + f" | {objective(d, sets):.2f} |")
+    rows, chosen = lodo(table)
+    from bootnav.postproc.pdr.detectors import DETECTORS
+
+    cur = getattr(DETECTORS[det](**GRIDS[name][1]), pname)
+    print(f"\n| left-out set | value chosen on the others | left-out mean \\|count err\\| % | left-out F1 | "
+          f"left-out step-length MAE m | current value {cur}: \\|count err\\| % / F1 / MAE |")
+    print("|---|---|---|---|---|---|")
+    for s, v, sm in rows:
+        c = table.get(cur, {}).get(s)
+        ref = f"{c['abs_count']:.2f} ± {c['se']:.2f} / {c['f1']:.3f} / {c['mae']:.3f}" if c else "not in the grid"
+        print(f"| {s} | {v} | {sm['abs_count']:.2f} ± {sm['se']:.2f} | {sm['f1']:.3f} | {sm['mae']:.3f} | {ref} |")
+    print(f"\nchosen on all sets: {pname} = {chosen}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--datasets", default=os.environ.get("BOOTNAV_DATASETS",
+                                                        str(Path(__file__).resolve().parents[2] / "shared" / "datasets")))
+    ap.add_argument("--grid", nargs="*", default=None, help=f"grids to run (default: all of {sorted(GRIDS)})")
+    ap.add_argument("--processes", type=int, default=2)
+    a = ap.parse_args(argv)
+    trials = list_trials(a.datasets)
+    by_set = {s: [t for t in trials if t.set == s] for s in PDR_SETS}
+    with Pool(a.processes) as pool:
+        for name in a.grid if a.grid is not None else GRIDS:
+            det, base, pname, values = GRIDS[name]
+            print_grid(name, evaluate_grid(by_set, det, base, pname, values, pool))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
