@@ -13,7 +13,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--sensor-profile", default="mpu6050-16g-2000dps", help="sensor model (see --list)")
     parser.add_argument("--rate", type=float, default=200.0, help="output sample rate, Hz (default 200)")
     parser.add_argument("--duration", type=float, default=None,
-                        help="length in s (mixed-30min, running, long only)")
+                        help="length in s (mixed-30min, running, long, fast-corridor, shuffle only)")
     parser.add_argument("--mount", default="right_boot", help="sensor mount on the boot (see --list)")
     parser.add_argument("--format", choices=("h5", "sd-txt"), default=None,
                         help="output format (default: from the file extension, .txt -> sd-txt, else h5)")
@@ -78,8 +78,12 @@ def run(args) -> int:
     tr = res.truth
     import numpy as np
 
+    from bootnav.simulator.gait import GAIT_CODES
+
     dist = float(np.sum(res.steps["length_m"]))
-    climb = float(np.sum(np.clip(res.steps["dz_m"], 0, None)))
+    # the foot origin rises when the boot tips onto its toe to crawl: a posture change, not a climb
+    moves = ~np.isin(res.steps["kind"], [GAIT_CODES["kneel"], GAIT_CODES["stand_up"]])
+    climb = float(np.sum(np.clip(res.steps["dz_m"][moves], 0, None)))
     sat = sum(res.saturation_counts().values())
     print(f"{path}: {args.scenario}, {res.n} samples at {res.rate_hz:g} Hz ({tr['t_s'][-1]:.1f} s), "
           f"{len(res.steps['length_m'])} strides, {dist:.1f} m, climb {climb:.2f} m, profile {res.profile.name}, "

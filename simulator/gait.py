@@ -18,7 +18,24 @@ chord, z up, theta nose-up = -pitch): with pivot G on the floor and c the pivot 
     p = G - R(theta) c,  v = -R'(theta) c theta',  a = -(R''(theta) c theta'^2 + R'(theta) c theta''),
 
 R(theta) = [[cos, -sin], [sin, cos]], R' its derivative, R'' = -R. Between knots the curve is the
-piecewise quintic of ``trajectory.py`` (C2, exact derivatives), so the synthesised IMU is exact.
+piecewise septic of ``trajectory.py`` (C3, exact derivatives), so the synthesised IMU is exact.
+
+**Crawling** (a gait with ``rest_pitch_deg > 0``, [Patrick2009]): on hands and knees the shin lies near the
+floor and the boot rests on its toe, the sole flexed at the ball, the rigid rear of the boot (which carries
+the sensor) pitched toe-down by ``beta_r = rest_pitch_deg`` about the ball point B = origin + toe_m e(psi,
+beta), e = [cos psi cos beta, sin psi cos beta, -sin beta] (the foot's x axis). A crawl stride keeps that
+posture at both ends: still for ``still_fraction * T``, then over the drag ``t_m`` (tau = t / t_m) the ball
+slides forward and lifts slightly while the foot pitches and rolls a little,
+
+    B(t) = B0 + (B1 - B0) S(tau) + [0, 0, clearance_m] H(tau),
+    beta(t) = beta_r + swing_pitch_deg H(tau),   phi(t) = roll_amplitude_deg H(tau),   psi = psi0 + turn S(tau),
+    origin(t) = B(t) - toe_m e(psi(t), beta(t)),
+    S = 35 tau^4 - 84 tau^5 + 70 tau^6 - 20 tau^7 (rest to rest),   H = 256 tau^4 (1 - tau)^4 (a bump, peak 1),
+
+both with zero first to third derivatives at the ends, so the curve stays C3. Going down to the knees
+(``kneel``) rotates the flat foot about the fixed ball to ``beta_r``; getting up (``stand_up``) brings the
+foot forward from the toe back to flat. The knots sample these curves with their exact derivatives
+(products and sines of Taylor jets).
 """
 
 from __future__ import annotations
@@ -57,16 +74,29 @@ class Gait:
     roll_amplitude_deg: float = 3.0  # small inversion during swing so all three gyro axes move
     toe_m: float = 0.15  # toe (ball) pivot ahead of the foot origin
     heel_m: float = -0.07  # heel pivot behind the foot origin
+    # crawling only (rest_pitch_deg > 0): the foot rests on its toe, pitched toe-down; the drag uses
+    # stride_length_m, cadence_spm, still_fraction, clearance_m (lift of the ball), roll_amplitude_deg
+    rest_pitch_deg: float = 0.0  # toe-down pitch at rest (0: flat on the sole, walking)
+    swing_pitch_deg: float = 0.0  # pitch change at mid-drag (negative: less toe-down)
 
     @property
     def period_s(self) -> float:
         return 120.0 / self.cadence_spm
+
+    @property
+    def crawl(self) -> bool:
+        """True when the foot rests on its toe (hands-and-knees crawling), not flat on the sole."""
+        return self.rest_pitch_deg > 0
 
     def validate(self) -> None:
         if not (self.cadence_spm > 0 and self.stride_length_m >= 0):
             raise ValueError(f"gait {self.name}: cadence must be > 0 and stride length >= 0")
         if not (0 <= self.still_fraction < 1):
             raise ValueError(f"gait {self.name}: still_fraction must be in [0, 1)")
+        if not (0 <= self.rest_pitch_deg <= 90 and 0 <= self.rest_pitch_deg + self.swing_pitch_deg <= 90):
+            raise ValueError(f"gait {self.name}: rest pitch (and rest + swing pitch) must be in [0, 90] deg")
+        if self.crawl:
+            return
         f = (self.toe_off_fraction, self.heel_strike_fraction)
         if not (0 < f[0] < f[1] < 1):
             raise ValueError(f"gait {self.name}: need 0 < toe_off_fraction < heel_strike_fraction < 1")
@@ -100,8 +130,19 @@ STAIRS_DOWN = Gait(
     impact_speed_mps=0.35, roll_amplitude_deg=2.0,
 )
 TURN = replace(SHUFFLE, name="turn", stride_length_m=0.10)
-GAITS = {g.name: g for g in (WALK, SHUFFLE, RUN, STAIRS_UP, STAIRS_DOWN, TURN)}
-GAIT_CODES = {name: i for i, name in enumerate(GAITS)}
+CRAWL = Gait(
+    "crawl", stride_length_m=0.30, cadence_spm=60, still_fraction=0.55, clearance_m=0.015, rest_pitch_deg=75.0,
+    swing_pitch_deg=-15.0, roll_amplitude_deg=3.0,
+)
+FAST = Gait(
+    "fast", stride_length_m=2.5, cadence_spm=150, still_fraction=0.17, toe_off_fraction=0.18,
+    heel_strike_fraction=0.88, clearance_m=0.16, toe_off_pitch_deg=-50, toe_off_rate_dps=-450,
+    heel_strike_pitch_deg=22, heel_strike_rate_dps=-450, impact_speed_mps=0.6, impact_lead_s=0.025,
+    roll_amplitude_deg=4.0,
+)
+GAITS = {g.name: g for g in (WALK, SHUFFLE, RUN, STAIRS_UP, STAIRS_DOWN, TURN, CRAWL, FAST)}
+# per-stride kind codes: the gaits, then the two posture changes between walking and crawling
+GAIT_CODES = {name: i for i, name in enumerate((*GAITS, "kneel", "stand_up"))}
 
 
 def _profile(p0, v0, a0, p1, v1, a1, T, t):
@@ -139,18 +180,49 @@ def _min_jerk(t, t0, t1, y0, y1):
             d * (60 * s - 180 * s**2 + 120 * s**3) / T**2, d * (60 - 360 * s + 360 * s**2) / T**3)
 
 
+# rest-to-rest ramp S and bump H on tau in [0, 1] (zero first to third derivatives at both ends)
+_RAMP = np.polynomial.Polynomial([0, 0, 0, 0, 35, -84, 70, -20])
+_BUMP = 256 * np.polynomial.Polynomial([0, 0, 0, 0, 1]) * np.polynomial.Polynomial([1, -1]) ** 4
+
+
+def _jet(poly: np.polynomial.Polynomial, tau: float, T: float) -> np.ndarray:
+    """Value and first three time derivatives of ``poly(t / T)`` at ``t = tau T``."""
+    return np.array([poly.deriv(n)(tau) / T**n if n else poly(tau) for n in range(4)])
+
+
+def _jet_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Product of two jets (value, d1, d2, d3) by the Leibniz rule."""
+    return np.array([a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + 2 * a[1] * b[1] + a[0] * b[2],
+                     a[3] * b[0] + 3 * a[2] * b[1] + 3 * a[1] * b[2] + a[0] * b[3]])
+
+
+def _jet_sin_cos(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sin and cos of a jet (value, d1, d2, d3), by the chain rule."""
+    s, c = math.sin(x[0]), math.cos(x[0])
+    x1, x2, x3 = x[1], x[2], x[3]
+    return (np.array([s, c * x1, -s * x1**2 + c * x2, -c * x1**3 - 3 * s * x1 * x2 + c * x3]),
+            np.array([c, -s * x1, -c * x1**2 - s * x2, s * x1**3 - 3 * c * x1 * x2 - s * x3]))
+
+
+def _toe_axis(yaw: float, pitch: float) -> np.ndarray:
+    """The foot's x axis (heel to toe) in the navigation frame for ZYX yaw and pitch (roll leaves it alone)."""
+    return np.array([math.cos(yaw) * math.cos(pitch), math.sin(yaw) * math.cos(pitch), -math.sin(pitch)])
+
+
 @dataclass
 class PathBuilder:
     """Build a foot trajectory from stand periods and strides; the foot starts flat at the origin.
 
     ``stride(length, dz, turn)`` moves the foot by ``length`` (horizontal, along the chord heading,
-    default current yaw + turn / 2), ``dz`` up, and turns it by ``turn`` rad during the swing.
+    default current yaw + turn / 2), ``dz`` up, and turns it by ``turn`` rad during the swing. ``pos`` is the
+    foot origin at rest; ``pitch`` the rest pitch (0 standing, > 0 on the toe while crawling).
     """
 
     yaw0_rad: float = 0.0
     t: float = 0.0
     pos: np.ndarray = field(default_factory=lambda: np.zeros(3))
     yaw: float = 0.0
+    pitch: float = 0.0
     _t: list = field(default_factory=list)
     _k: list = field(default_factory=list)
     steps: list = field(default_factory=list)
@@ -158,12 +230,12 @@ class PathBuilder:
 
     def __post_init__(self):
         self.yaw = self.yaw0_rad
-        self._append(0.0, self._flat())
+        self._append(0.0, self._rest())
 
     # -- knots -------------------------------------------------------------------------------
-    def _flat(self) -> np.ndarray:
+    def _rest(self) -> np.ndarray:
         k = np.zeros((6, 4))
-        k[X, 0], k[Y, 0], k[Z, 0], k[YAW, 0] = *self.pos, self.yaw
+        k[X, 0], k[Y, 0], k[Z, 0], k[YAW, 0], k[PITCH, 0] = *self.pos, self.yaw, self.pitch
         return k
 
     def _append(self, t: float, knot: np.ndarray) -> None:
@@ -174,16 +246,20 @@ class PathBuilder:
 
     # -- segments ----------------------------------------------------------------------------
     def stand(self, duration_s: float) -> "PathBuilder":
-        """Stand still (foot flat) for ``duration_s``."""
+        """Keep the foot still (flat, or on its toe while crawling) for ``duration_s``."""
         if duration_s > 0:
             self.t += duration_s
-            self._append(self.t, self._flat())
+            self._append(self.t, self._rest())
         return self
 
     def stride(self, length_m: float, dz_m: float = 0.0, turn_rad: float = 0.0, gait: Gait = WALK,
                chord_heading_rad: float | None = None) -> "PathBuilder":
         gait.validate()
         chi = self.yaw + turn_rad / 2.0 if chord_heading_rad is None else chord_heading_rad
+        if gait.crawl:
+            return self._crawl_stride(length_m, dz_m, turn_rad, gait, chi)
+        if self.pitch:
+            raise ValueError(f"a {gait.name} stride needs the foot flat: stand_up() after crawling")
         T = gait.period_s
         t_still = gait.still_fraction * T
         t_m = T - t_still
@@ -249,12 +325,87 @@ class PathBuilder:
             self._append(t0 + t, k)
         self.pos = self.pos + np.array([L * cx, L * sx, dz])
         self.yaw = yaw1
-        self._k[-1] = self._flat()
+        self._k[-1] = self._rest()
         self.t = t0 + t_m
         self.steps.append(dict(t_start_s=t0, t_toe_off_s=t0 + t_to, t_heel_strike_s=t0 + t_hs, t_end_s=self.t,
                                length_m=L, dz_m=dz, heading_rad=yaw1, turn_rad=turn_rad, chord_heading_rad=chi,
                                gait=self.gaits.setdefault(gait, len(self.gaits)),
                                kind=GAIT_CODES.get(gait.name, -1)))
+        return self
+
+    def _toe_move(self, duration_s: float, pos_end: np.ndarray, pitch_end: float, turn_rad: float, gait: Gait,
+                  lift_m: float, pitch_bump: float, roll_bump: float, kind: str, n_knots: int = 8) -> None:
+        """Move from the current rest pose to the next one about the ball of the foot (module doc, crawling).
+
+        The foot origin ends at ``pos_end`` with pitch ``pitch_end`` and yaw + ``turn_rad``; in between the ball
+        follows the ramp S from its start to its end point plus a lift ``lift_m`` H, the pitch the ramp plus
+        ``pitch_bump`` H, the yaw the ramp, the roll ``roll_bump`` H. ``n_knots`` knots sample the exact curves.
+        Records one row of the step table (``kind``: a GAIT_CODES name).
+        """
+        t0, T = self.t, float(duration_s)
+        yaw0, pitch0, pos0 = self.yaw, self.pitch, self.pos.copy()
+        pos_end = np.asarray(pos_end, float)
+        ball0 = pos0 + gait.toe_m * _toe_axis(yaw0, pitch0)
+        ball1 = pos_end + gait.toe_m * _toe_axis(yaw0 + turn_rad, pitch_end)
+        const = np.eye(4)[0]
+        for i in range(1, n_knots + 1):
+            tau = i / n_knots
+            ramp, bump = _jet(_RAMP, tau, T), _jet(_BUMP, tau, T)
+            yaw = yaw0 * const + turn_rad * ramp
+            pitch = pitch0 * const + (pitch_end - pitch0) * ramp + pitch_bump * bump
+            (s_y, c_y), (s_p, c_p) = _jet_sin_cos(yaw), _jet_sin_cos(pitch)
+            axis = (_jet_mul(c_y, c_p), _jet_mul(s_y, c_p), -s_p)
+            k = np.zeros((6, 4))
+            for ch in (X, Y, Z):
+                k[ch] = ball0[ch] * const + (ball1[ch] - ball0[ch]) * ramp - gait.toe_m * axis[ch]
+            k[Z] += lift_m * bump
+            k[YAW], k[PITCH], k[ROLL] = yaw, pitch, roll_bump * bump
+            self._append(t0 + tau * T, k)
+        self.yaw, self.pitch, self.pos = yaw0 + turn_rad, pitch_end, pos_end
+        self._k[-1] = self._rest()  # the exact end pose: no rounding leaks into the next stance
+        self.t = t0 + T
+        d = pos_end - pos0
+        self.steps.append(dict(t_start_s=t0, t_toe_off_s=t0, t_heel_strike_s=self.t, t_end_s=self.t,
+                               length_m=float(np.hypot(d[0], d[1])), dz_m=float(d[2]), heading_rad=self.yaw,
+                               turn_rad=turn_rad, chord_heading_rad=math.atan2(d[1], d[0]),
+                               gait=self.gaits.setdefault(gait, len(self.gaits)), kind=GAIT_CODES[kind]))
+
+    def _crawl_stride(self, length_m: float, dz_m: float, turn_rad: float, gait: Gait, chi: float) -> "PathBuilder":
+        """One crawl stride: rest on the toe, then drag the foot ``length_m`` along ``chi`` (module doc)."""
+        pitch = math.radians(gait.rest_pitch_deg)
+        if abs(self.pitch - pitch) > 1e-12:
+            raise ValueError(f"a {gait.name} stride needs the foot on its toe at {gait.rest_pitch_deg:g} deg: "
+                             "kneel() first")
+        if dz_m:
+            raise ValueError("crawling is on the level: dz must be 0")
+        T = gait.period_s
+        self.stand(gait.still_fraction * T)
+        end = self.pos + np.array([length_m * math.cos(chi), length_m * math.sin(chi), 0.0])
+        self._toe_move((1 - gait.still_fraction) * T, end, pitch, turn_rad, gait, gait.clearance_m,
+                       math.radians(gait.swing_pitch_deg), math.radians(gait.roll_amplitude_deg), gait.name)
+        return self
+
+    def kneel(self, gait: Gait = CRAWL, duration_s: float = 1.2) -> "PathBuilder":
+        """Go down on hands and knees: the flat foot rotates toe-down about the fixed ball to the crawl's rest
+        pitch (the heel rises, the toe stays on the floor)."""
+        if self.pitch or not gait.crawl:
+            raise ValueError("kneel() needs a flat foot and a crawling gait (rest_pitch_deg > 0)")
+        pitch = math.radians(gait.rest_pitch_deg)
+        ball = self.pos + gait.toe_m * _toe_axis(self.yaw, 0.0)
+        self._toe_move(duration_s, ball - gait.toe_m * _toe_axis(self.yaw, pitch), pitch, 0.0, gait, 0.0, 0.0, 0.0,
+                       "kneel")
+        return self
+
+    def stand_up(self, gait: Gait = CRAWL, step_m: float = 0.40, lift_m: float = 0.08,
+                 duration_s: float = 1.0) -> "PathBuilder":
+        """Get up from crawling: the foot leaves its toe and is set down flat with its ball ``step_m`` further
+        ahead (lifting ``lift_m`` on the way), under the body, before the person rises."""
+        if not self.pitch:
+            raise ValueError("stand_up() needs the foot on its toe (crawling)")
+        ball = self.pos + gait.toe_m * _toe_axis(self.yaw, self.pitch)  # on the floor
+        ball_end = ball + step_m * _toe_axis(self.yaw, 0.0)
+        self._toe_move(duration_s, ball_end - gait.toe_m * _toe_axis(self.yaw, 0.0), 0.0, 0.0, gait, lift_m,
+                       0.0, 0.0, "stand_up")
         return self
 
     def walk_to(self, x: float, y: float, gait: Gait = WALK, max_turn_deg: float = 45.0) -> "PathBuilder":
@@ -321,4 +472,5 @@ def gait_dict(g: Gait) -> dict:
     return asdict(g)
 
 
-__all__ = ["Gait", "GAITS", "PathBuilder", "WALK", "SHUFFLE", "RUN", "STAIRS_UP", "STAIRS_DOWN", "TURN", "CHANNELS"]
+__all__ = ["Gait", "GAITS", "PathBuilder", "WALK", "SHUFFLE", "RUN", "STAIRS_UP", "STAIRS_DOWN", "TURN", "CRAWL",
+           "FAST", "CHANNELS"]

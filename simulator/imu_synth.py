@@ -28,38 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.core.rotations import dcm_from_euler_zyx, quat_from_euler_zyx, quat_multiply
 from bootnav.logger.mpu6050 import STANDARD_GRAVITY
 from bootnav.simulator.trajectory import Trajectory
-
-
-def _rot_zyx(yaw, pitch, roll) -> np.ndarray:
-    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
-    R = np.empty(np.shape(yaw) + (3, 3))
-    R[..., 0, 0] = cy * cp
-    R[..., 0, 1] = cy * sp * sr - sy * cr
-    R[..., 0, 2] = cy * sp * cr + sy * sr
-    R[..., 1, 0] = sy * cp
-    R[..., 1, 1] = sy * sp * sr + cy * cr
-    R[..., 1, 2] = sy * sp * cr - cy * sr
-    R[..., 2, 0] = -sp
-    R[..., 2, 1] = cp * sr
-    R[..., 2, 2] = cp * cr
-    return R
-
-
-def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product of wxyz quaternions (broadcasting)."""
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack([pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
-                     pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw], axis=-1)
-
-
-def quat_zyx(yaw, pitch, roll) -> np.ndarray:
-    h = lambda a: (np.cos(np.asarray(a) / 2), np.sin(np.asarray(a) / 2))  # noqa: E731
-    (cy, sy), (cp, sp), (cr, sr) = h(yaw), h(pitch), h(roll)
-    return np.stack([cy * cp * cr + sy * sp * sr, cy * cp * sr - sy * sp * cr,
-                     cy * sp * cr + sy * cp * sr, sy * cp * cr - cy * sp * sr], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -77,13 +48,11 @@ class Mount:
 
     @property
     def R_fs(self) -> np.ndarray:
-        r, p, y = np.radians(self.rpy_deg)
-        return _rot_zyx(y, p, r)
+        return dcm_from_euler_zyx(*np.radians(self.rpy_deg))
 
     @property
     def q_fs(self) -> np.ndarray:
-        r, p, y = np.radians(self.rpy_deg)
-        return quat_zyx(y, p, r)
+        return quat_from_euler_zyx(*np.radians(self.rpy_deg), canonical=False)
 
 
 MOUNTS = {
@@ -124,7 +93,7 @@ def synthesize(traj: Trajectory, t: np.ndarray, mount: Mount = Mount(), g: float
         ddp * cr - dp * sr * dr + ddy * cp * sr - dy * sp * dp * sr + dy * cp * cr * dr,
         -ddp * sr - dp * cr * dr + ddy * cp * cr - dy * sp * dp * cr - dy * cp * sr * dr,
     ], axis=-1)
-    R_nf = _rot_zyx(yaw, pit, rol)
+    R_nf = dcm_from_euler_zyx(rol, pit, yaw)
     r = np.asarray(mount.lever_arm_m, dtype=float)
     wxr = np.cross(w_f, r)
     rel_acc = np.cross(dw_f, r) + np.cross(w_f, wxr)
@@ -133,7 +102,7 @@ def synthesize(traj: Trajectory, t: np.ndarray, mount: Mount = Mount(), g: float
     acc = d2[:, :3] + np.einsum("nij,nj->ni", R_nf, rel_acc)
     R_fs = mount.R_fs
     R_ns = R_nf @ R_fs
-    q_ns = quat_mul(quat_zyx(yaw, pit, rol), mount.q_fs)
+    q_ns = quat_multiply(quat_from_euler_zyx(rol, pit, yaw, canonical=False), mount.q_fs)
     omega_s = w_f @ R_fs  # R_fs^T w_f, row-wise
     f_s = np.einsum("nji,nj->ni", R_ns, acc + np.array([0.0, 0.0, g]))
     return Kinematics(np.asarray(t, float), pos, vel, acc, q_ns, f_s, omega_s, val[:, :3].copy(), still)

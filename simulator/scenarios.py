@@ -11,7 +11,7 @@ from typing import Callable
 
 import numpy as np
 
-from bootnav.simulator.gait import RUN, SHUFFLE, STAIRS_DOWN, STAIRS_UP, WALK, PathBuilder
+from bootnav.simulator.gait import CRAWL, FAST, RUN, SHUFFLE, STAIRS_DOWN, STAIRS_UP, WALK, PathBuilder
 
 
 @dataclass(frozen=True)
@@ -85,6 +85,82 @@ def running(rng, duration=60.0) -> PathBuilder:
     return pb.stand(5.0)
 
 
+CRAWL_SCENARIO = dict(walk_in_m=6.0, first_leg_m=9.0, turn_deg=90.0, turn_strides=6, second_leg_m=8.0,
+                      stride_m=(0.22, 0.38), cadence_spm=(54.0, 66.0), pause_s=3.0, walk_out_m=6.0)
+
+
+def _crawl_leg(pb: PathBuilder, distance_m: float, rng: np.random.Generator, turn_rad: float = 0.0,
+               turn_strides: int = 0) -> None:
+    """Crawl ``distance_m`` in strides of seeded length and cadence (CRAWL_SCENARIO ranges); the first
+    ``turn_strides`` strides share ``turn_rad`` (the path curves through the turn)."""
+    g = CRAWL_SCENARIO
+    n = max(1, round(distance_m / CRAWL.stride_length_m))
+    lengths = rng.uniform(*g["stride_m"], n)
+    lengths *= distance_m / lengths.sum()
+    for i, length in enumerate(lengths):
+        gait = replace(CRAWL, cadence_spm=float(rng.uniform(*g["cadence_spm"])))
+        pb.stride(float(length), 0.0, turn_rad / turn_strides if i < turn_strides else 0.0, gait)
+
+
+def crawl(rng: np.random.Generator, duration=None) -> PathBuilder:
+    """Firefighter search in smoke: walk in, kneel, crawl on hands and knees (two legs with a 90 deg turn of
+    seeded direction and a pause), get up, walk out. The boot rests on its toe while crawling."""
+    g = CRAWL_SCENARIO
+    pb = PathBuilder().stand(5.0).walk(g["walk_in_m"]).stand(2.0).kneel().stand(2.0)
+    _crawl_leg(pb, g["first_leg_m"], rng)
+    pb.stand(g["pause_s"])
+    side = float(rng.choice([-1.0, 1.0]))
+    _crawl_leg(pb, g["second_leg_m"], rng, side * math.radians(g["turn_deg"]), g["turn_strides"])
+    pb.stand(2.0).stand_up().stand(2.0)
+    return pb.walk(g["walk_out_m"]).stand(5.0)
+
+
+FAST_CORRIDOR = dict(corridor_m=40.0, stride_m=(2.1, 2.5), ramp_m=(1.3, 1.9), still_s=(0.10, 0.20))
+
+
+def _fast(stride_m: float, still_s: float):
+    """The FAST gait at ``stride_m``, foot flat and still for ``still_s``; cadence grows with the stride,
+    150 steps/min at 2.5 m (assumption)."""
+    cadence = FAST.cadence_spm * math.sqrt(stride_m / 2.5)
+    return replace(FAST, stride_length_m=stride_m, cadence_spm=cadence, still_fraction=still_s * cadence / 120.0)
+
+
+def fast_corridor(rng: np.random.Generator, duration=120.0) -> PathBuilder:
+    """Fast, near-running walks up and down a straight corridor for ``duration`` s: per length, two strides
+    to speed up, seeded cruising strides of 2.1-2.5 m with a seeded foot-flat of 0.1-0.2 s, two strides to
+    slow down, a 180 deg turn on the spot."""
+    g = FAST_CORRIDOR
+    slow, mid = g["ramp_m"]
+    pb = PathBuilder().stand(5.0)
+    side = 1.0
+    while pb.t < duration - 5.0:
+        still = float(rng.uniform(*g["still_s"]))
+        pb.stride(slow, gait=replace(WALK, stride_length_m=slow)).stride(mid, gait=_fast(mid, still))
+        pb.walk(g["corridor_m"] - 2 * (slow + mid), _fast(float(rng.uniform(*g["stride_m"])), still))
+        pb.stride(mid, gait=_fast(mid, still)).stride(slow, gait=replace(WALK, stride_length_m=slow))
+        pb.turn_in_place(side * math.pi)
+        side = -side
+    return pb.stand(5.0)
+
+
+SHUFFLE_SCENARIO = dict(stride_m=(0.10, 0.30), strides=(4, 15), cadence_spm=(80.0, 110.0), stand_s=(0.5, 3.0),
+                        turn_deg=(45.0, 180.0))
+
+
+def shuffle(rng: np.random.Generator, duration=60.0) -> PathBuilder:
+    """Shuffling search for ``duration`` s: runs of seeded short steps (0.1-0.3 m, 3 cm clearance), a pause,
+    a turn on the spot of seeded size and direction."""
+    g = SHUFFLE_SCENARIO
+    pb = PathBuilder().stand(5.0)
+    while pb.t < duration - 5.0:
+        length = float(rng.uniform(*g["stride_m"]))
+        gait = replace(SHUFFLE, stride_length_m=length, cadence_spm=float(rng.uniform(*g["cadence_spm"])))
+        pb.walk(int(rng.integers(g["strides"][0], g["strides"][1] + 1)) * length, gait)
+        pb.stand(float(rng.uniform(*g["stand_s"])))
+        pb.turn_in_place(float(rng.choice([-1, 1]) * math.radians(rng.uniform(*g["turn_deg"]))))
+    return pb.stand(5.0)
+
+
 def mixed(rng: np.random.Generator, duration=1800.0) -> PathBuilder:
     """Random mix (seeded): walks with turns, standing, shuffling, turning on the spot, stair flights up
     and back down, short runs, walks at different cadences and stride lengths."""
@@ -147,6 +223,11 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("running", "running laps of a 60 m x 30 m rectangle (60 s; 2.6 m strides, 170 steps/min)",
                  running, 60.0),
         Scenario("long", "benchmark: walking laps of a 20 m x 10 m loop with a stair flight, 1 h", long_loop, 3600.0),
+        Scenario("crawl", "firefighter in smoke: walk 6 m, kneel, crawl 17 m on hands and knees (90 deg turn), "
+                 "stand up, walk 6 m", crawl),
+        Scenario("fast-corridor", "fast near-running strides (2.1-2.5 m, 137-150 steps/min, foot flat 0.1-0.2 s) "
+                 "along a 40 m corridor, 180 deg turns on the spot (120 s)", fast_corridor, 120.0),
+        Scenario("shuffle", "shuffling search: 0.1-0.3 m steps, pauses, turns on the spot (60 s)", shuffle, 60.0),
     )
 }
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bootnav.core.runs import runs
 from bootnav.logger.recording import SATURATION_BITS, make_events
 from bootnav.simulator.gait import GAIT_CODES
 from bootnav.simulator.imu_model import ErrorModel, SensorProfile, drop_mask, get_profile, quantize, timestamps
@@ -66,13 +67,6 @@ class SimResult:
 
     def saturation_counts(self) -> dict[str, int]:
         return {name: int(np.count_nonzero(self.saturated & (1 << bit))) for name, bit in SATURATION_BITS.items()}
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start indices and lengths of True runs."""
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
-    return starts, ends - starts
 
 
 def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
@@ -147,8 +141,8 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         events.append(dict(t_s=kept_t[i], sample_index=int(i), kind="gap", count=int(idx[i] - idx[i - 1] - 1),
                            detail="simulated dropped samples (SD write stall)"))
     for axis in range(6):
-        starts, lengths = _runs((saturated >> axis) & 1 == 1)
-        for s, L in zip(starts, lengths):
+        starts, stops = runs((saturated >> axis) & 1)
+        for s, L in zip(starts, stops - starts):
             events.append(dict(t_s=kept_t[s], sample_index=int(s), kind="saturation", count=int(L), axis=axis,
                                detail="at full scale"))
     events.sort(key=lambda e: e["sample_index"])

@@ -28,10 +28,12 @@ TRUTH_UNITS = {
 }
 TRUTH_DESCRIPTION = (
     "Exact truth, row i belongs to /imu row i. pos_n_m/vel_n_mps/q_nb: sensor (body) origin and attitude, ENU, "
-    "pos starts at the origin; foot_pos_n_m: sole origin of the boot; stance: foot flat and exactly still; "
+    "pos starts at the origin; foot_pos_n_m: sole origin of the boot; stance: foot at rest (flat, or on its toe "
+    "while crawling) and exactly still; "
     "f_b_mps2/omega_b_radps: exact specific force and angular rate before sensor errors; *_bias_*: total "
     "bias in the delivered samples (turn-on + random walk); t_s: true sample time (the /imu clock has the "
-    "simulated clock error and jitter). step_*: one row per stride (t_s = foot flat again)."
+    "simulated clock error and jitter). step_*: one row per stride or posture change (kneel, stand_up; "
+    "step_kind), t_s = foot at rest again."
 )
 
 

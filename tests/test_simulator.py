@@ -12,12 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bootnav.core.rotations import dcm_from_euler_zyx, quat_multiply
 from bootnav.logger.crc import crc16_ccitt_false
 from bootnav.logger.mpu6050 import INT16_MAX, INT16_MIN, STANDARD_GRAVITY
 from bootnav.logger.recording import load
 from bootnav.simulator import PROFILES, custom, simulate, write_h5, write_sd_txt
 from bootnav.simulator.imu_model import quantize
-from bootnav.simulator.imu_synth import quat_mul
 from bootnav.simulator.scenarios import PAPER_STAIRS, SCENARIOS, THREE_FLOORS
 from tests.conftest import REPO, reopen_in_fresh_process, sha
 
@@ -85,7 +85,7 @@ def test_noise_free_strapdown_reproduces_truth_over_100m(tmp_path):
     Q, V, P = strapdown_rk4(rec.acc_mps2, rec.gyro_radps, h, *args)
     ref = slice(None, 2 * (len(P) - 1) + 1, 2)
     pos_err = np.linalg.norm(P - tr["pos_n_m"][ref], axis=1)
-    dq = quat_mul(Q * np.array([1, -1, -1, -1]), tr["q_nb"][ref])
+    dq = quat_multiply(Q * np.array([1, -1, -1, -1]), tr["q_nb"][ref])
     att_err = 2 * np.linalg.norm(dq[:, 1:], axis=1)
     print(f"\nstrapdown over 100 m at 4 kHz: max position error {pos_err.max() * 1e3:.3f} mm, "
           f"attitude {att_err.max():.2e} rad")
@@ -103,7 +103,7 @@ def test_truth_is_self_consistent_by_finite_differences():
     v_fd = np.gradient(tr["pos_n_m"], t, axis=0)
     assert np.abs(v_fd - tr["vel_n_mps"])[2:-2].max() < 2e-3  # O(h^2 * jerk)
     q = tr["q_nb"]
-    w_fd = 2 * quat_mul(q * np.array([1, -1, -1, -1]), np.gradient(q, t, axis=0))[:, 1:]
+    w_fd = 2 * quat_multiply(q * np.array([1, -1, -1, -1]), np.gradient(q, t, axis=0))[:, 1:]
     assert np.abs(w_fd - tr["omega_b_radps"])[2:-2].max() < 5e-3
     assert np.allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
 
@@ -118,7 +118,7 @@ def test_stance_is_exactly_still_and_reads_gravity():
     # at rest the specific force is +g along the nav up axis: R_nb f_b = [0, 0, g]
     q = tr["q_nb"][st]
     f = np.concatenate([np.zeros((q.shape[0], 1)), tr["f_b_mps2"][st]], axis=1)
-    f_n = quat_mul(quat_mul(q, f), q * np.array([1, -1, -1, -1]))[:, 1:]
+    f_n = quat_multiply(quat_multiply(q, f), q * np.array([1, -1, -1, -1]))[:, 1:]
     assert np.allclose(f_n, [0.0, 0.0, G], atol=1e-12)
     # every stride starts and ends in stance
     for t0, t1 in zip(res.steps["t_start_s"], res.steps["t_end_s"]):
@@ -295,10 +295,8 @@ def test_cli_lists_scenarios_and_writes_files(tmp_path):
 
 def _sole_heights(res, points=np.linspace(-0.07, 0.15, 12)):
     """(s along +x, z) of sole points between the heel and toe pivots, for every truth sample."""
-    from bootnav.simulator.imu_synth import _rot_zyx
-
     val = res.trajectory.evaluate(res.truth["t_s"])[0]
-    R = _rot_zyx(val[:, 3], val[:, 4], val[:, 5])
+    R = dcm_from_euler_zyx(val[:, 5], val[:, 4], val[:, 3])
     return [val[:, :3] + R @ np.array([sp, 0.0, 0.0]) for sp in points]
 
 
