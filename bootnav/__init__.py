@@ -8,6 +8,10 @@ Conventions used by every package (written into every output file as attributes)
 * Quaternions: scalar first ``[w, x, y, z]``, ``q_nb`` rotates body vectors into the navigation frame.
 * Gravity: ``g_n = [0, 0, -g]``; an accelerometer at rest reads ``+g`` along the up axis
   (specific force). Default ``g = 9.80665`` m/s² unless a latitude/height is given (WGS-84 normal gravity).
+* Heading (direction of travel of a stride or step): two columns, never a bare ``heading_rad`` —
+  ``yaw_enu_rad``, counter-clockwise from east (x), ``atan2(Δy, Δx)`` in (−π, π], the angle of the ENU
+  frame; ``heading_deg_cw_from_north``, the same direction as a compass reads it, clockwise from north (y),
+  in [0, 360) = (90 − degrees(yaw_enu_rad)) mod 360.
 """
 
 __version__ = "0.1.0"
@@ -18,4 +22,7 @@ CONVENTIONS = {
     "body_frame": "sensor axes as printed on the MPU6050 board, right-handed",
     "quaternion_order": "wxyz (scalar first), q_nb rotates body to nav",
     "gravity_model": "g_n = [0, 0, -g]; accelerometer at rest reads +g on the up axis",
+    "heading": ("direction of travel: yaw_enu_rad = counter-clockwise from east (x), atan2(dy, dx), rad in "
+                "(-pi, pi]; heading_deg_cw_from_north = clockwise from north (y), deg in [0, 360) "
+                "= (90 - degrees(yaw_enu_rad)) mod 360"),
 }

@@ -21,7 +21,40 @@ def _floats(text: str) -> tuple[float, ...]:
     return vals
 
 
+class _DetectorNames:
+    """The stance-detector registry's names as argparse ``choices``, imported on first use: building the
+    parser must not import numpy (``bootnav --help`` builds every subcommand's parser)."""
+
+    def _names(self) -> list[str]:
+        from bootnav.postproc.detectors import DETECTORS
+
+        return sorted(DETECTORS)
+
+    def __contains__(self, name) -> bool:
+        return name in self._names()
+
+    def __iter__(self):
+        return iter(self._names())
+
+
+class _ListDetectors(argparse.Action):
+    """``--list-detectors``: print each registered stance detector with its one-line description, exit 0
+    (like ``--version``, before the required arguments are checked)."""
+
+    def __init__(self, option_strings, dest, help=None):
+        super().__init__(option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from bootnav.postproc.detectors import DETECTORS, DetectorSettings
+
+        default = DetectorSettings().method
+        for name in sorted(DETECTORS):
+            print(f"{name:<13} {DETECTORS[name].description()}{'  (default)' if name == default else ''}")
+        parser.exit(0)
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``bootnav process`` (each maps onto a ``ProcessSettings`` field, see ``build_settings``)."""
     p.add_argument("input", metavar="INPUT", nargs="+",
                    help="recording (.h5) or any file `bootnav import` reads (e.g. a canonical imu.csv.gz); "
                         "several inputs are processed in parallel, each into DIR/<name>/")
@@ -30,7 +63,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
     p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
     g = p.add_argument_group("algorithm")
-    g.add_argument("--detector", help="stance detector: adaptive (default), shoe, ared, mv, mag, paper_accmag, xio")
+    g.add_argument("--detector", choices=_DetectorNames(), metavar="NAME",
+                   help="stance detector: %(choices)s (default: adaptive; --list-detectors describes them)")
+    g.add_argument("--list-detectors", action=_ListDetectors, help="list the stance detectors and exit")
     g.add_argument("--threshold", type=float, help="detector threshold (fixed-threshold detectors only)")
     g.add_argument("--mode", choices=("time_varying", "riccati"),
                    help="filter gain: time_varying (Kalman, default) or riccati (the paper's steady-state gain)")
@@ -70,12 +105,7 @@ def build_settings(args):
     if args.detector:
         from bootnav.postproc.detectors import DetectorSettings
 
-        try:
-            s.detector = DetectorSettings(**{**s.detector.to_dict(), "method": args.detector})
-        except ValueError as exc:
-            from bootnav.errors import InputError
-
-            raise InputError(f"--detector: {exc}") from None
+        s.detector = DetectorSettings(**{**s.detector.to_dict(), "method": args.detector})  # argparse checked the name
     if args.threshold is not None:
         s.detector.threshold = args.threshold
     if args.mode:
@@ -137,6 +167,21 @@ class StderrProgress:
 
 
 def format_summary(summary: dict, files: dict) -> str:
+    """The human-readable report printed after one run.
+
+    Parameters
+    ----------
+    summary
+        ``ProcessResult.summary`` (``summary.build_summary``).
+    files
+        What ``outputs.write_outputs`` wrote (name -> path).
+
+    Returns
+    -------
+    str
+        One line per figure (input, stance, strides, closure, height, reference metrics, timings), the
+        warnings, and the files.
+    """
     p = summary.get("path", {})
     lines = [
         f"input        {summary['input']['source']}  ({summary['input']['samples_processed']} samples, "
@@ -214,6 +259,7 @@ def output_names(inputs: list[str]) -> list[str]:
 
 
 def run(args) -> int:
+    """Process one input (report on stdout) or several in parallel (one line each); exit code 1 if any failed."""
     import os
     from pathlib import Path
 

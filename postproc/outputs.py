@@ -2,9 +2,10 @@
 
 * ``trajectory.csv``: ``t_s,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,stance``, one row per processed sample,
   nav frame ENU (x east, y north, z up), origin at the first processed sample; stance 1 = foot at rest.
-* ``steps.csv``: ``t_s,x_m,y_m,z_m,stride_length_m,dz_m,heading_rad``, one row per stride
-  (``bootnav.postproc.strides``): mid time of the stance phase ending the stride, its footprint, horizontal
-  length, height change, and direction ``atan2(Δy, Δx)`` counter-clockwise from x (east).
+* ``steps.csv``: ``t_s,x_m,y_m,z_m,stride_length_m,dz_m,yaw_enu_rad,heading_deg_cw_from_north``, one row
+  per stride (``bootnav.postproc.strides``): mid time of the stance phase ending the stride, its footprint,
+  horizontal length, height change, and direction twice (``heading_columns``, ``bootnav.CONVENTIONS``):
+  ``atan2(Δy, Δx)`` counter-clockwise from x (east), and clockwise from y (north) in degrees.
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
 * ``1_raw_imu.png`` … ``7_height.png`` and ``path.html``: charts 1-7 and the interactive path (``plots``).
@@ -33,8 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from bootnav import CONVENTIONS, __version__
+from bootnav.core.jsonio import to_jsonable
 
-from .strides import STEP_COLUMNS, footprints, stance_phases
+from .strides import STEP_COLUMNS, footprints
 
 TRAJECTORY_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance")
 WGS84_A_M = 6378137.0
@@ -62,9 +64,34 @@ def write_trajectory_csv(path: Path, result) -> Path:
     return path
 
 
+def heading_columns(yaw_enu_rad) -> dict[str, np.ndarray]:
+    """The two heading columns of every output with a direction of travel (``bootnav.CONVENTIONS["heading"]``).
+
+    Parameters
+    ----------
+    yaw_enu_rad : array_like
+        Direction of travel, rad, counter-clockwise from east (x) in the ENU frame.
+
+    Returns
+    -------
+    dict
+        ``yaw_enu_rad`` (as given, float) and ``heading_deg_cw_from_north``, the compass reading of the same
+        direction: clockwise from north (y), degrees in [0, 360).
+    """
+    yaw = np.asarray(yaw_enu_rad, float)
+    deg = np.mod(90.0 - np.degrees(yaw), 360.0)
+    return {"yaw_enu_rad": yaw, "heading_deg_cw_from_north": np.where(deg >= 360.0, 0.0, deg)}
+
+
 def write_steps_csv(path: Path, steps: dict) -> Path:
-    _write_csv(path, STEP_COLUMNS, [np.asarray(steps[c]) for c in STEP_COLUMNS],
-               ["%.6f", "%.4f", "%.4f", "%.4f", "%.4f", "%.4f", "%.5f"])
+    """steps.csv: ``STEP_COLUMNS``, both heading columns and, when present, ``quality_flags`` (bitmask of
+    ``selftune.FLAG_NAMES``; 0 = plausible)."""
+    columns = {**{c: np.asarray(steps[c]) for c in STEP_COLUMNS}, **heading_columns(steps["yaw_enu_rad"])}
+    fmts = ["%.6f", "%.4f", "%.4f", "%.4f", "%.4f", "%.4f", "%.5f", "%.3f"]
+    if "quality_flags" in steps:
+        columns["quality_flags"] = np.asarray(steps["quality_flags"])
+        fmts.append("%d")
+    _write_csv(path, tuple(columns), list(columns.values()), fmts)
     return path
 
 
@@ -85,7 +112,7 @@ def enu_to_wgs84(xyz_m: np.ndarray, anchor) -> np.ndarray:
 
 def geojson_path(result, anchor=None) -> dict:
     """FeatureCollection: the footprint LineString, start and end points (module docstring for frames)."""
-    _, fp = footprints(result.t_s, result.pos_n, stance_phases(result.stance))
+    _, fp = footprints(result.t_s, result.pos_n, result.stance)
     if len(fp) == 0:
         fp = result.pos_n[[0, -1]]
     pts = np.vstack((result.pos_n[:1], fp))  # the path starts at the origin of the nav frame
@@ -178,8 +205,10 @@ def write_hdf5_results(result, out_dir: Path) -> tuple[Path, str, list[str]]:
         **{f"convention_{k}": v for k, v in CONVENTIONS.items()},
     }
     write_group(target, group, arrays, attrs, units)
-    step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m", "heading_rad": "rad"}
-    write_group(target, f"{group}/steps", {k: np.asarray(v) for k, v in result.steps.items()},
+    step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
+                  "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1"}
+    steps = {**{k: np.asarray(v) for k, v in result.steps.items()}, **heading_columns(result.steps["yaw_enu_rad"])}
+    write_group(target, f"{group}/steps", steps,
                 {"description": "one row per stride, see postproc/strides.py"}, step_units)
     return Path(target), group, warnings
 
@@ -217,7 +246,5 @@ def write_outputs(result, out_dir: str | Path) -> dict[str, str]:
     files["summary"] = str(out / "summary.json")
     result.summary["files"] = files
     result.summary["warnings"] = list(result.warnings)
-    from .pipeline import _jsonable
-
-    (out / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=1, allow_nan=False) + "\n")
+    (out / "summary.json").write_text(json.dumps(to_jsonable(result.summary), indent=1, allow_nan=False) + "\n")
     return files

@@ -1,4 +1,4 @@
-"""The paper's charts 1-7 (seed-004 §3 chart list, R18) as PNG files, readable at a glance.
+"""The paper's charts 1-7 [Heidari2019, Charts 1-7] as PNG files, readable at a glance.
 
 1. ``1_raw_imu.png``: raw accelerometer and gyroscope with the stance indicator (Chart 1).
 2. ``2_acc_gravity_free.png``: acceleration in the nav frame with gravity removed, components and
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .strides import floor_levels, floor_signal, footprints, stance_phases
+from .strides import floor_levels, floor_signal, footprints
 
 AXIS_COLORS = ("tab:red", "tab:green", "tab:blue")  # x, y, z (the usual RGB convention)
 FILES = {
@@ -165,7 +165,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
         pos, ref_pts, yaw = align_to_reference(result.reference, result.t_s, result.pos_n)
         if yaw is not None:
             title_ref = f" (estimate rotated {np.degrees(yaw):+.1f}° onto the reference)"
-    _, fp = footprints(result.t_s, pos, stance_phases(result.stance))
+    _, fp = footprints(result.t_s, pos, result.stance)
     summ = result.summary.get("path", {})
     stats = f"distance {summ.get('distance_m', 0):.2f} m"
     m = result.metrics or {}
@@ -223,7 +223,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     z0 = float(fp[0, 2]) if len(fp) else float(result.pos_n[0, 2])
     ax.plot(t, result.pos_n[d, 2] - z0, color="tab:blue", lw=0.9, label="height of the boot")
     if len(fp):
-        t_fp, fp_raw = footprints(result.t_s, result.pos_n, stance_phases(result.stance))
+        t_fp, fp_raw = footprints(result.t_s, result.pos_n, result.stance)
         z_fp = fp_raw[:, 2] - z0
         if floors.stair_min_dz_m is not None:
             ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",

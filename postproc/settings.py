@@ -1,9 +1,13 @@
-"""Every tunable of ``bootnav process`` in one tree of dataclasses, saved with every result (OpenShoe style).
+"""Every tunable of ``bootnav process`` in one tree of dataclasses, saved with every result.
 
-``ProcessSettings`` composes the stage settings (calibration, stance detector, filter) and the pipeline's
-own options. ``to_dict``/``from_dict``/``to_json``/``from_json`` round-trip exactly; ``from_dict`` rejects
-unknown keys with the dotted path of the offending key, so a typo in a settings file never goes unnoticed.
-A partial dict only overrides what it names (everything else keeps its default).
+One settings object per run, written into ``summary.json`` and the HDF5 results group, so a result always
+says how it was made (OpenShoe keeps all its parameters in one settings file for the same reason
+[Nilsson2012]). ``ProcessSettings`` composes the stage settings (calibration, stance detector, filter) and the
+pipeline's own options. ``to_dict``/``from_dict``/``to_json``/``from_json`` round-trip exactly; ``from_dict``
+rejects unknown keys with the dotted path of the offending key, so a typo in a settings file never goes
+unnoticed. A partial dict only overrides what it names (everything else keeps its default).
+
+The experiments behind the defaults are in ``docs/tuning-log.md``.
 """
 
 from __future__ import annotations
@@ -20,23 +24,38 @@ from bootnav.errors import InputError
 from .calibration import CalibrationSettings
 from .detectors import DetectorSettings
 from .ins import FilterSettings
+from .selftune import SelfTuneSettings
 
 
 @dataclass
 class InputChecks:
-    """Sanity limits that turn bad input into a clear error instead of a garbage path.
+    """Limits that turn implausible input or results into a clear message (``checks``) instead of a garbage path.
 
-    min_duration_s: shortest recording worth processing (s): an initial still period plus a few strides.
-    min_stance_phases: fewer stance phases than this means the detector found no walking (no ZUPT, no path).
-    min_stance_fraction / max_stance_fraction: a walking foot rests ~25-60 % of the time (running ~20 %);
-        outside these bounds the detector is mis-tuned or the sensor is not on a foot.
-    max_stance_gyro_radps: median |ω| over the stance samples above this means "stance" is not a resting
-        foot (a foot flat on the ground turns at < 0.1 rad/s; the sensor noise is ~0.01 rad/s).
-    max_stride_length_m: a foot cannot move further than this between two stance phases (sprint strides
-        are ~5 m); longer "strides" mean missed stance phases, i.e. unbounded INS drift in between.
-    max_long_stride_fraction: more than this fraction of such strides is an error (fewer: a warning).
-    gap_factor: an interval longer than ``gap_factor`` × median interval is reported as a gap.
-    max_gap_s: a gap longer than this is an error (the strapdown integration cannot bridge it).
+    Attributes
+    ----------
+    min_duration_s : float, s
+        Shortest input worth processing: an initial still period for the alignment plus a few strides
+        (a walking stride takes about 1 s [Perry2010]).
+    min_stance_phases : int
+        Fewer stance phases mean no stride at all (a stride goes from one stance phase to the next), so no
+        zero-velocity update bounds the drift [Foxlin2005].
+    min_stance_fraction, max_stance_fraction : float, fraction of samples
+        Plausible share of stance samples. The stance phase is about 60 % of a walking gait cycle [Perry2010]
+        and the detected foot-flat part less (running: about 20 %); the bounds are wide, so only a mis-tuned
+        detector or a sensor that is not on a foot falls outside.
+    max_stance_gyro_radps : float, rad/s
+        A median ``|ω|`` over the stance samples above this means the "stance" is not a resting foot: a foot
+        flat on the ground turns at < 0.1 rad/s and MEMS gyro noise is about 0.01 rad/s, so 0.5 leaves a
+        5x margin.
+    max_stride_length_m : float, m (3-D)
+        No foot moves further than this between two stance phases (elite sprint strides are about 5 m);
+        a longer "stride" means missed stance phases, i.e. unaided INS drift in between [Foxlin2005].
+    max_long_stride_fraction : float
+        More than this share of such strides is an error (the detector misses stance systematically);
+        fewer are a warning (an isolated jump or kick).
+    max_gap_s : float, s
+        A longer gap is an error: it can hide a whole stride (about 1 s [Perry2010]), which no strapdown
+        integration recovers.
     """
 
     min_duration_s: float = 3.0
@@ -46,20 +65,29 @@ class InputChecks:
     max_stance_gyro_radps: float = 0.5
     max_stride_length_m: float = 6.0
     max_long_stride_fraction: float = 0.1
-    gap_factor: float = 3.0
     max_gap_s: float = 1.0
 
 
 @dataclass
 class OutputSettings:
-    """What ``bootnav process --out DIR`` writes.
+    """What ``bootnav process --out DIR`` writes (``outputs``).
 
-    results_name: name of the ``/results/<name>`` group in the HDF5 recording.
-    write_hdf5: write the results group (into the input recording, or DIR/results.h5 for a CSV input).
-    plots: write the PNG charts 1-7.
-    geojson: write ``path.geojson`` (local metres, or WGS-84 with ``geo_anchor``).
-    geo_anchor: (lat_deg, lon_deg[, height_m]) of the nav-frame origin for WGS-84 GeoJSON, or None.
-    plot_max_points: longest line drawn per chart (longer signals are decimated for plotting only).
+    Attributes
+    ----------
+    results_name : str
+        Name of the ``/results/<name>`` group in the HDF5 recording (several runs can live side by side).
+    write_hdf5 : bool
+        Write the results group (into the input recording, or ``DIR/results.h5`` for an imported input).
+    plots : bool
+        Write the PNG charts 1-7 [Heidari2019, Charts 1-7] and ``path.html``.
+    geojson : bool
+        Write ``path.geojson``.
+    geo_anchor : tuple of float or None, (deg, deg[, m])
+        WGS-84 latitude, longitude (and ellipsoidal height) of the nav-frame origin; with it GeoJSON is
+        in WGS-84 through a local tangent plane [Groves2013, ch. 2], without it in local metres.
+    plot_max_points : int
+        Longest line drawn per chart; longer signals are decimated for plotting only (20000 points are
+        more than a chart has pixels, so the decimation is invisible).
     """
 
     results_name: str = "default"
@@ -74,18 +102,41 @@ class OutputSettings:
 class ProcessSettings:
     """All settings of one ``process`` run.
 
-    crop_s: (t0, t1) window in recording seconds to process (the paper processes 103-176 s), or None.
-    floor_height_m: storey height for floor counting (m); floor_hysteresis_m, floor_stair_min_dz_m: see
-        ``strides.FloorSettings`` (None = floors from the footprint height; a value = from stair strides
-        only, default 0.1 m: on a simulated 1 h walk the z drift of -16 m counted 8 floors up and 13 down from
-        the height, 0/0 (the truth) from the stair strides; the three-floor climb counts 3 either way).
-    reference: reference file for Table 1 metrics (``bootnav.postproc.reference``), or None.
+    Attributes
+    ----------
+    calibration, detector, filter : CalibrationSettings, DetectorSettings, FilterSettings
+        The stage settings (``calibration``, ``detectors``, ``ins``), documented there.
+    checks : InputChecks
+        Plausibility limits.
+    selftune : SelfTuneSettings
+        The stance fallback, stride quality flags, the minimum stride and the vertical timing calibration
+        (``selftune``, ``navigate``).
+    output : OutputSettings
+        What is written.
+    crop_s : tuple of float or None, (s, s)
+        Window ``(t0, t1)`` in recording seconds to process, or None for all (the paper processes 103-176 s
+        of its stairs recording [Heidari2019]).
+    floor_height_m : float, m
+        Storey height for counting floors (``strides.FloorSettings``); 3 m is a typical storey, set it per
+        building.
+    floor_hysteresis_m : float, m
+        Height beyond the half-storey boundary before a level change counts: a landing halfway or a few
+        centimetres of drift never toggle the count.
+    floor_stair_min_dz_m : float or None, m
+        Count floors from stair strides only (``|Δz| >=`` this per stride), or None to count from the
+        footprint height. A stair stride climbs two risers (about 0.3 m) while the vertical drift of a ZUPT
+        INS adds millimetres per flat stride, so 0.1 m removes the drift and keeps every flight; the price
+        is that a gentle ramp never counts.
+    reference : str or None
+        Reference for the accuracy metrics (``reference``): a file, an inline JSON object, or ``"truth"``
+        (a simulated recording's ``/truth``).
     """
 
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
     detector: DetectorSettings = field(default_factory=DetectorSettings)
     filter: FilterSettings = field(default_factory=FilterSettings)
     checks: InputChecks = field(default_factory=InputChecks)
+    selftune: SelfTuneSettings = field(default_factory=SelfTuneSettings)
     output: OutputSettings = field(default_factory=OutputSettings)
     crop_s: tuple[float, float] | None = None
     floor_height_m: float = 3.0
@@ -109,6 +160,7 @@ class ProcessSettings:
                 raise InputError(f"settings {what}: {exc}") from None
 
     def floor_settings(self):
+        """The floor-counting settings as ``strides.FloorSettings`` (validates them)."""
         from .strides import FloorSettings
 
         return FloorSettings(self.floor_height_m, self.floor_hysteresis_m, self.floor_stair_min_dz_m)
@@ -128,22 +180,42 @@ class ProcessSettings:
             raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90), lon in [-180, 180], got {a}")
 
     def to_dict(self) -> dict:
+        """Plain JSON-able dict of every setting (tuples as lists)."""
         return _to_plain(self)
 
     def to_json(self, indent: int | None = 1) -> str:
+        """``to_dict`` as JSON text."""
         return json.dumps(self.to_dict(), indent=indent, allow_nan=True)
 
     @classmethod
     def from_dict(cls, data: dict | None) -> "ProcessSettings":
+        """Settings from a full or partial dict (missing keys keep their defaults).
+
+        Parameters
+        ----------
+        data
+            As ``to_dict`` writes it, or any subset; None = defaults.
+
+        Returns
+        -------
+        ProcessSettings
+
+        Raises
+        ------
+        InputError
+            An unknown key (named with its dotted path) or a value the dataclass refuses.
+        """
         return _from_plain(cls, data or {}, "")
 
     @classmethod
     def from_json(cls, text: str) -> "ProcessSettings":
+        """``from_dict`` of JSON text."""
         return cls.from_dict(json.loads(text))
 
     @classmethod
     def from_file(cls, path: str | Path) -> "ProcessSettings":
-        from bootnav.jsonfile import read_json_file
+        """``from_dict`` of a JSON file; errors name the file (and the line of a JSON syntax error)."""
+        from bootnav.core.jsonio import read_json_file
 
         path = Path(path)
         data = read_json_file(path, "settings file")
@@ -153,6 +225,7 @@ class ProcessSettings:
             raise InputError(f"{path}: {exc}") from None
 
     def save(self, path: str | Path) -> Path:
+        """Write ``to_json`` to ``path``; returns the path."""
         path = Path(path)
         path.write_text(self.to_json() + "\n")
         return path

@@ -9,17 +9,18 @@ Stride ``k`` (k >= 1) goes from footprint ``k-1`` to footprint ``k``:
 * ``x_m, y_m, z_m``: footprint ``k`` (ENU, origin at the start of the recording);
 * ``stride_length_m``: horizontal distance ``‖(Δx, Δy)‖`` (the convention of the datasets' METRICS.md);
 * ``dz_m``: height change ``Δz`` (stairs: riser height × steps per stride);
-* ``heading_rad``: ``atan2(Δy, Δx)``, direction of the stride counter-clockwise from x (east).
+* ``yaw_enu_rad``: ``atan2(Δy, Δx)``, direction of the stride counter-clockwise from x (east)
+  (``bootnav.CONVENTIONS["heading"]``; files add ``heading_deg_cw_from_north``).
 
 Distance = Σ stride lengths (horizontal; ``distance_3d_m`` also reported). Closure (METRICS.md
 ``closed_loop``): footprint of the last stance phase minus that of the first; ``closure_pct = 100 ·
 closure_3d_m / distance_m``.
 
-Floors (seed-004 R17/R20: stairs without a flat-floor assumption): the footprint height relative to the
-first footprint is turned into an integer floor level with hysteresis. Level ``L`` goes up when
-``z > (L + ½)·h + hyst`` and down when ``z < (L − ½)·h − hyst`` (``h`` = floor height): a landing halfway
-or a few centimetres of vertical drift never toggle the count. Floors climbed = number of up
-transitions, descended = number of down transitions.
+Floors (the paper's stairs walk [Heidari2019, Chart 7], with no flat-floor assumption): the footprint
+height relative to the first footprint is turned into an integer floor level with hysteresis. Level ``L``
+goes up when ``z > (L + ½)·h + hyst`` and down when ``z < (L − ½)·h − hyst`` (``h`` = floor height): a
+landing halfway or a few centimetres of vertical drift never toggle the count. Floors climbed = number of
+up transitions, descended = number of down transitions.
 
 Optional stair gating (``stair_min_dz_m``): the height signal is then the running sum of only those stride
 height changes with |Δz| ≥ ``stair_min_dz_m``. A stair stride climbs two risers (≈ 0.3 m), while the
@@ -33,43 +34,78 @@ from dataclasses import dataclass
 
 import numpy as np
 
-STEP_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "heading_rad")
+from bootnav.core.runs import runs
+
+STEP_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad")
 
 
-def stance_phases(stance: np.ndarray) -> np.ndarray:
-    """(K, 2) int array of [start, stop) sample indices of each run of True."""
-    s = np.asarray(stance, dtype=bool).astype(np.int8)
-    edges = np.diff(np.concatenate(([0], s, [0])))
-    starts = np.flatnonzero(edges == 1)
-    stops = np.flatnonzero(edges == -1)
-    return np.column_stack((starts, stops)).astype(np.int64)
-
-
-def footprints(t_s: np.ndarray, pos_n: np.ndarray, phases: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mid time (K,) and mean position (K, 3) of each stance phase (vectorised with cumulative sums)."""
-    if len(phases) == 0:
+def footprints(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mid time (K,) and mean position (K, 3) of each stance phase, i.e. run of True in ``stance``
+    (vectorised with cumulative sums)."""
+    starts, stops = runs(stance)
+    if starts.size == 0:
         return np.zeros(0), np.zeros((0, 3))
     csum = np.vstack((np.zeros((1, 3)), np.cumsum(pos_n, axis=0)))
-    n = (phases[:, 1] - phases[:, 0])[:, None]
-    mean = (csum[phases[:, 1]] - csum[phases[:, 0]]) / n
-    t_mid = 0.5 * (t_s[phases[:, 0]] + t_s[phases[:, 1] - 1])
+    n = (stops - starts)[:, None]
+    mean = (csum[stops] - csum[starts]) / n
+    t_mid = 0.5 * (t_s[starts] + t_s[stops - 1])
     return t_mid, mean
 
 
-def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> dict[str, np.ndarray]:
-    """One row per stride (dict of equal-length arrays, keys ``STEP_COLUMNS``)."""
-    phases = stance_phases(stance)
-    t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), phases)
-    d = np.diff(fp, axis=0)
-    return {
-        "t_s": t_mid[1:],
-        "x_m": fp[1:, 0],
-        "y_m": fp[1:, 1],
-        "z_m": fp[1:, 2],
+def stride_footprints(fp: np.ndarray, min_stride_m: float) -> np.ndarray:
+    """Indices of the footprints that start or end a stride: the first, then each footprint at least
+    ``min_stride_m`` (3-D) away from the last one kept.
+
+    A weight shift or a foot settling while the walker stands moves the footprint by millimetres to a few
+    centimetres; that is not a stride. Measuring from the last KEPT footprint means a slow shuffle of
+    tiny moves still counts once its moves add up. One Python iteration per stance phase (not per sample).
+    """
+    if len(fp) == 0 or min_stride_m <= 0:
+        return np.arange(len(fp))
+    keep = [0]
+    last = fp[0]
+    for k in range(1, len(fp)):
+        if np.linalg.norm(fp[k] - last) >= min_stride_m:
+            keep.append(k)
+            last = fp[k]
+    return np.asarray(keep, dtype=np.int64)
+
+
+def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_stride_m: float = 0.0,
+                    flags: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """One row per stride (dict of equal-length arrays, keys ``STEP_COLUMNS``, plus ``quality_flags`` when
+    ``flags`` is given).
+
+    Parameters
+    ----------
+    t_s, pos_n, stance
+        Sample times (s), positions (m, ENU) and the stance mask.
+    min_stride_m
+        Moves between stance phases shorter than this (m, 3-D) are not strides (``stride_footprints``).
+    flags
+        Optional per-raw-stride flag words (one per pair of consecutive stance phases,
+        ``selftune.stride_quality``); a kept stride carries the OR of the raw strides it spans.
+    """
+    t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
+    keep = stride_footprints(fp, min_stride_m)
+    t_k, fp_k = t_mid[keep], fp[keep]
+    d = np.diff(fp_k, axis=0)
+    out = {
+        "t_s": t_k[1:],
+        "x_m": fp_k[1:, 0],
+        "y_m": fp_k[1:, 1],
+        "z_m": fp_k[1:, 2],
         "stride_length_m": np.hypot(d[:, 0], d[:, 1]),
         "dz_m": d[:, 2],
-        "heading_rad": np.arctan2(d[:, 1], d[:, 0]),
+        "yaw_enu_rad": np.arctan2(d[:, 1], d[:, 0]),
     }
+    if flags is not None:
+        flags = np.asarray(flags)
+        if len(keep) >= 2 and len(flags) == len(fp) - 1:
+            out["quality_flags"] = np.bitwise_or.reduceat(flags, keep[:-1]).astype(np.uint8)
+        else:
+            out["quality_flags"] = np.zeros(max(len(keep) - 1, 0), np.uint8)
+    return out
 
 
 @dataclass
@@ -136,15 +172,22 @@ def count_floors(z_rel_m: np.ndarray, settings: FloorSettings) -> dict:
     }
 
 
-def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors: FloorSettings) -> dict:
-    """Distance, closure, height and floors from stance phases (all in metres; see module docstring)."""
-    phases = stance_phases(stance)
-    _, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), phases)
-    out: dict = {"stance_phases": int(len(phases)), "strides": max(int(len(phases)) - 1, 0)}
+def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors: FloorSettings,
+                 min_stride_m: float = 0.0) -> dict:
+    """Distance, closure, height and floors from stance phases (all in metres; see module docstring).
+
+    Strides and distance count only moves of at least ``min_stride_m`` (``stride_footprints``); closure and
+    heights use every footprint."""
+    starts, stops = runs(stance)
+    _, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
+    keep = stride_footprints(fp, min_stride_m)
+    out: dict = {"stance_phases": int(len(fp)), "strides": max(int(len(keep)) - 1, 0)}
     if len(fp) < 2:
         out.update(distance_m=0.0, distance_3d_m=0.0)
         return out
-    d = np.diff(fp, axis=0)
+    if len(keep) < 2:
+        keep = np.array([0, len(fp) - 1])
+    d = np.diff(fp[keep], axis=0)
     dist = float(np.hypot(d[:, 0], d[:, 1]).sum())
     closure = fp[-1] - fp[0]
     z_rel = fp[:, 2] - fp[0, 2]
@@ -159,7 +202,7 @@ def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors:
         height_max_m=float(z_rel.max()),
         height_min_m=float(z_rel.min()),
         mean_stride_length_m=float(np.hypot(d[:, 0], d[:, 1]).mean()),
-        duration_walked_s=float(t_s[phases[-1, 0]] - t_s[phases[0, 1] - 1]),
+        duration_walked_s=float(t_s[starts[-1]] - t_s[stops[0] - 1]),
     )
     out.update(count_floors(z_rel, floors))
     return out

@@ -4,6 +4,7 @@ every bad-input case with its message."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import h5py
@@ -57,11 +58,13 @@ def test_real_closed_loop_walk_closes(short_walk_result):
     # ZUPT: velocity ~ 0 in stance (the smoother pins it to the zero-velocity measurement, sigma 1 cm/s)
     v_stance = np.linalg.norm(r.vel_n[r.stance], axis=1)
     assert np.median(v_stance) < 0.03
-    # strides: 20-ish real strides of a walk (~1.0-1.6 m each) plus tiny shuffles at the ends
-    real = r.steps["stride_length_m"] > 0.5
-    assert 12 <= real.sum() <= 30
-    assert 0.8 < np.median(r.steps["stride_length_m"][real]) < 1.8
-    for stage in ("load", "checks", "calibration", "detection", "filter", "strides"):
+    # strides: the walk has 16 strides (~1.0-1.6 m each); the weight shifts while standing at its ends move the
+    # foot by millimetres and are not strides (each counted stride moves >= min_stride_m)
+    assert r.summary["strides"] == len(r.steps["t_s"]) == 16
+    assert np.all(np.hypot(r.steps["stride_length_m"], r.steps["dz_m"]) >= r.settings.selftune.min_stride_m)
+    assert 0.8 < np.median(r.steps["stride_length_m"]) < 1.8
+    assert r.summary["path"]["stance_phases"] > 16  # the standing phases are still there
+    for stage in ("load", "checks", "calibration", "navigation", "strides"):
         assert r.summary["timings_s"][stage] >= 0.0
 
 
@@ -132,6 +135,80 @@ def test_crop_keeps_the_recording_clock(short_walk_rec):
     assert r.index.start == int(np.searchsorted(short_walk_rec[1][:, 0], 10.0))
     with pytest.raises(InputError, match="no samples in that window"):
         process(short_walk_rec[0], ProcessSettings(crop_s=(100.0, 200.0)))
+
+
+# ------------------------------------------------------------------------------------- the stages
+BUNDLED = Path(__file__).resolve().parents[1] / "recordings" / "xio_ngimu_short_walk.h5"
+
+
+def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
+    """The stages of ``process`` called one by one on the bundled x-io walk (a copy: never written to) give
+    bit for bit what ``process`` returns, so the orchestration hides nothing. The crop makes the recording
+    index offset matter (saturation intervals and messages use recording indices)."""
+    from bootnav.postproc.calibration import initial_alignment
+    from bootnav.postproc.checks import (check_path_finite, check_samples, clipping_bits, refuse_fatal,
+                                         saturation_intervals, saturation_warnings, stance_findings,
+                                         stride_findings)
+    from bootnav.postproc.navigate import navigate
+    from bootnav.postproc.selftune import TINY
+    from bootnav.postproc.source import crop, load_source
+    from bootnav.postproc.strides import path_summary, segment_strides
+    from bootnav.postproc.summary import build_summary
+
+    rec_path = tmp_path / "walk.h5"
+    rec_path.write_bytes(BUNDLED.read_bytes())
+    settings = ProcessSettings(crop_s=(1.0, 40.0), reference='{"closed_loop": true}')
+
+    src = load_source(rec_path)
+    assert src.is_hdf5 and src.name == str(rec_path) and src.recording.n > 10_000
+    samples = crop(src.recording, settings.crop_s, src.name)
+    assert samples.index.start > 0 and samples.t_s[0] >= 1.0 and samples.t_s[-1] <= 40.0
+    t_s, acc_b, gyro_b, offset = samples.t_s, samples.acc_b, samples.gyro_b, samples.index.start
+    warnings = check_samples(src.name, t_s, acc_b, gyro_b, offset, settings.checks)
+    sat_bits = samples.saturated | clipping_bits(acc_b, gyro_b)
+    sat_iv = saturation_intervals(t_s, sat_bits, offset)
+    warnings += saturation_warnings(sat_iv)
+    gravity = settings.calibration.gravity()
+    init = initial_alignment(t_s, acc_b, gyro_b, settings.calibration, gravity)
+    warnings += list(init.warnings)
+    navi = navigate(src.name, t_s, acc_b, gyro_b, init, gravity, settings, sat_bits)
+    stance_res, stance, nav = navi.configured, navi.stance, navi.nav
+    # a good walk keeps the configured detector and gets a confident path
+    assert navi.failed is None and navi.choice == f"configured ({stance_res.method})" and navi.confidence > 0.5
+    np.testing.assert_array_equal(stance, stance_res.stance)
+    assert stance_findings(t_s, stance, settings.checks, stance_res.method, gyro_b) == []
+    check_path_finite(src.name, t_s, nav.pos_n, offset)
+    warnings += navi.warnings
+    warnings += [str(w) for w in (nav.info or {}).get("warnings", [])]
+    min_stride = settings.selftune.min_stride_m
+    steps = segment_strides(t_s, nav.pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY))
+    warnings += [f.message for f in stride_findings(steps, settings.checks, navi.choice)]
+    path_stats = path_summary(t_s, nav.pos_n, stance, settings.floor_settings(), min_stride)
+
+    r = process(rec_path, settings)
+    for got, want in ((r.t_s, t_s), (r.acc_b, acc_b), (r.gyro_b, gyro_b), (r.stance, stance),
+                      (r.saturated, sat_bits.astype(bool)), (r.pos_n, nav.pos_n), (r.vel_n, nav.vel_n),
+                      (r.q_nb, nav.q_nb), *((r.steps[k], steps[k]) for k in steps)):
+        np.testing.assert_array_equal(got, want)
+    assert r.index == samples.index and r.saturation_intervals == sat_iv and r.warnings == warnings
+    assert r.summary["path"] == path_stats
+    # the summary layout is a pure function of the result
+    assert json.dumps(build_summary(r, path_stats, r.summary["timings_s"])) == json.dumps(r.summary)
+    assert BUNDLED.read_bytes() == rec_path.read_bytes()  # process wrote nothing
+
+    # findings are returned, not raised: refusing is the caller's choice (today's policy: refuse_fatal)
+    strict = ProcessSettings().checks
+    strict.max_stance_fraction = 0.3
+    found = stance_findings(t_s, stance, strict, stance_res.method, gyro_b)
+    assert [(f.check, f.fatal) for f in found] == [("stance_fraction", True)]
+    with pytest.raises(InputError, match=rf"^{re.escape(src.name)}: stance detector '{stance_res.method}' marks"):
+        refuse_fatal(src.name, found)
+    strict.max_stride_length_m = 1.0  # most strides of this walk are longer: fatal; a few: a warning
+    assert [(f.check, f.fatal) for f in stride_findings(steps, strict, "x")] == [("long_strides", True)]
+    strict.max_long_stride_fraction = 1.0
+    long_ = stride_findings(steps, strict, "x")
+    assert [(f.check, f.fatal) for f in long_] == [("long_strides", False)]
+    assert refuse_fatal(src.name, long_) == [long_[0].message]
 
 
 # ------------------------------------------------------------------------------------- bad input

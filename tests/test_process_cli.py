@@ -49,8 +49,13 @@ def test_every_output_file_with_documented_columns(cli_run):
     assert len(traj) == n_input  # one row per input sample, nothing dropped
     assert np.all(np.diff(traj[:, 0]) >= 0) and set(np.unique(traj[:, 7])) == {0.0, 1.0}
     header, steps = read_csv(out / "steps.csv")
-    assert header == ["t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "heading_rad"]
+    assert header == ["t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad",
+                      "heading_deg_cw_from_north", "quality_flags"]
     assert len(steps) >= 12
+    # quality flags: a bitmask of the implausibility flags (summary "navigation.stride_flag_bits"); kept strides
+    # are never "tiny" (bit 16)
+    flags = steps[:, 8].astype(int)
+    assert np.all(flags >= 0) and np.all(flags & 16 == 0)
     # stride k goes from footprint k-1 to footprint k (4-decimal CSV rounding: 1e-3 m tolerance)
     assert np.allclose(steps[1:, 4], np.hypot(*np.diff(steps[:, 1:3], axis=0).T), atol=1e-3)
     assert np.allclose(steps[1:, 5], np.diff(steps[:, 3]), atol=1e-3)
@@ -76,9 +81,9 @@ def test_summary_json(cli_run):
     assert s["conventions"]["nav_frame"].startswith("ENU")
     # closed loop (truth): closure bound from the paper's best Table 1 error (2.5 % of the distance)
     assert s["metrics"]["closure_pct"] < 2.5
-    assert set(s["timings_s"]) >= {"load", "calibration", "detection", "filter", "strides", "write", "plots"}
+    assert set(s["timings_s"]) >= {"load", "calibration", "navigation", "strides", "write", "plots"}
     assert "closure" in proc.stdout and "distance" in proc.stdout
-    assert "filter done" in proc.stderr  # progress goes to stderr, results to stdout
+    assert "navigation done" in proc.stderr  # progress goes to stderr, results to stdout
 
 
 def test_geojson_local_and_anchored(cli_run, tmp_path):

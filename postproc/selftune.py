@@ -1,0 +1,530 @@
+"""Truth-free choice of the stance detection per recording, per-stride quality flags, and a level-stride
+timing self-calibration of the vertical channel; ``bootnav.postproc.pipeline.process`` calls them (stage
+"navigation").
+
+Why: the best stance detector setting varies between people, gaits and sensors (fast walks and runs have a
+foot-flat of a few tens of milliseconds, or none), and a fixed default either misses the short stances (the
+path between two ZUPTs is unaided drift) or declares stance on a moving foot. The filter runs at over a
+million samples per second, so a few candidate masks can be tried per recording and judged by what the
+data say about them.
+
+Candidates (``select_stance``): the configured detector (default: adaptive, α = 0.3), the adaptive rule
+with α = 0.2 and 0.4, fixed-threshold SHOE [Skog2010], and "cycle minimum": the configured mask plus, in
+every gait cycle it missed, the lowest-energy window of the SHOE statistic (``cycle_minimum_stance``), so
+that every stride gets at least one zero-velocity update even when the foot never rests (running, fast
+walks). The other candidates are scored only when the configured one fails (below): a recording the
+default handles costs one extra forward filter run.
+
+Criterion, computed from the data alone. For candidate c, run the filter (no smoother) and take at each
+zero-velocity-update onset k (the first sample the filter aids, after the onset delay) the velocity the
+unaided strapdown integration predicts there, v_k: it is the ZUPT innovation, z_k = 0 − v̂_k [Foxlin2005].
+A good mask makes it small: a missed stance lets the velocity error grow over two strides, a stance
+declared on a moving foot makes v̂_k the foot's true velocity::
+
+    e_c  = sqrt( mean_k ‖v_k‖² )                                 (m/s; RMS ZUPT innovation at onsets)
+    b_c  = fraction of strides flagged implausible (below)
+    J_c  = e_c + v_pen · b_c,     v_pen = 1 m/s                   (a flagged stride costs like 1 m/s)
+
+The configured detector is kept unless it FAILS: more than ``max_bad_fraction`` (10 %, the pipeline's own
+``max_long_stride_fraction``) of its strides are implausible, or its stance samples turn at a median
+‖ω − b̂‖ above ``fail_stance_rate_radps`` (1.5 rad/s, above the ≈ 1 rad/s of a running foot; the pipeline's
+0.5 rad/s refusal is what turned away the fast walks of issue 11). Then the candidate with the smallest J_c
+is taken. So a recording the default handles is processed exactly as before; J is only trusted for the
+large differences of a real failure (a factor 2-10), not to rank candidates that all work.
+
+A normalised innovation squared ε_k = z_kᵀ S_k⁻¹ z_k against its χ²(3) expectation [Groves2013, §17.3] would
+make e_c comparable between recordings; it needs the innovation covariance S_k = P_vv + R_k, which
+``run_filter`` does not expose yet, so the criterion compares raw innovations between the candidates of ONE
+recording only.
+
+Per-stride plausibility flags (``stride_quality``; bitmask, any set bit = implausible):
+
+* ``FAST`` (1): stride length > ``max_stride_m`` or mean speed > ``max_speed_mps`` (a foot cannot);
+* ``MISSED`` (2): the swing (end of one stance phase to the start of the next) lasts > ``missed_factor``
+  gait cycles while the foot moves > 0.1 m: a stance was missed in between and the path there is unaided
+  drift (a swing takes 0.6-0.9 of a cycle, from walking to running without foot-flat; a missed stance ≈ 2);
+* ``VERTICAL`` (4): |Δz| > ``max_dz_m`` (a stair stride climbs at most two risers, ≈ 0.4 m);
+* ``ROLLING`` (8): the foot turns at a median ‖ω − b̂‖ > ``max_stance_rate_radps`` over the stance phase
+  that ends the stride (a zero-velocity update on a rolling foot: informative, not implausible: a running
+  foot rolls at ≈ 1 rad/s through its short stance, pyshoe_vicon's running trials, and the filter's
+  rolling-foot ZUPT noise accounts for it);
+* ``TINY`` (16): horizontal length < ``min_stride_m`` (shuffling or standing, not a stride; informative).
+
+Confidence of the chosen mask, in [0, 1]: (1 − b) · exp(−e / v_scale), v_scale = 0.5 m/s.
+
+Gait cycle (``gait_period``): the lag of the highest autocorrelation peak of ‖ω‖ between 0.4 and 3 s (one
+foot's stride period); no peak above 0.2 means no periodic gait (the confidence is then 0).
+
+Vertical channel (``level_timing_offset``): the height error of a ZUPT-aided path behaves like a small
+timing offset τ between the specific force and the attitude it is rotated with (sensor-specific filter delays,
+the half-sample lead of a first-order strapdown step; about 0.1 m of vertical closure per ms over a 60-80 m
+loop on the developer data). The rotation of f_b by −ω τ, f_b' = exp(−[ω_b×] τ) f_b (first order
+f_b − τ ω_b × f_b, the rotation-compensation term of [Savage1998]), shifts it; τ is chosen so that the
+median height change of the level strides (|Δz| < 0.1 m, length > 0.3 m) is zero, assuming most walking is on
+level floors: m(τ) is nearly linear, so two filter runs at ±δ give its zero crossing, clipped to ±τ_max.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.ndimage import label
+from scipy.signal import find_peaks
+
+from bootnav.core.runs import runs
+from bootnav.postproc.strides import footprints
+
+FAST, MISSED, VERTICAL, ROLLING, TINY = 1, 2, 4, 8, 16
+IMPLAUSIBLE = FAST | MISSED | VERTICAL
+FLAG_NAMES = {FAST: "fast", MISSED: "missed_stance", VERTICAL: "vertical", ROLLING: "rolling", TINY: "tiny"}
+
+
+@dataclass
+class SelfTuneSettings:
+    """Tunables of the self-tuning (physical bounds, not fitted to data, except where said).
+
+    alphas: extra adaptive α candidates; shoe_threshold: fixed SHOE γ candidate (None = no SHOE candidate).
+    max_bad_fraction, fail_stance_rate_radps: when the configured detector counts as failed (module docstring).
+    v_pen_mps, v_scale_mps: criterion and confidence scales (module docstring).
+    max_stride_m, max_speed_mps, missed_factor, max_dz_m, max_stance_rate_radps, min_stride_m: stride flags.
+    cycle_window_fraction: half-width of a cycle-minimum stance window, as a fraction of the gait period.
+    cycle_depth_decades: a cycle-minimum window covers the samples within this many decades of the minimum.
+    fallback: when the configured detector fails (a fatal stance finding of ``checks.stance_findings``, or
+        more than ``max_bad_fraction`` implausible strides), choose among the candidates instead of
+        refusing the recording (``bootnav process`` refuses only what cannot be a walking foot).
+    timing_calibration: estimate the specific-force/attitude timing offset τ from the level strides
+        (``level_timing_offset``) and rotate f_b by it before the final run.
+    timing_probe_s, timing_max_abs_s: the probe offsets ±δ and the bound of τ, s. The bound was chosen by
+        leave-one-dataset-out validation among ±1.5 / 3 / 5 ms (docs/tuning-log.md).
+    timing_min_level_strides: fewer level strides than this: τ = 0 (no calibration).
+    """
+
+    alphas: tuple[float, ...] = (0.2, 0.4)
+    shoe_threshold: float | None = 3e5
+    max_bad_fraction: float = 0.10
+    fail_stance_rate_radps: float = 1.5
+    v_pen_mps: float = 1.0
+    v_scale_mps: float = 0.5
+    max_stride_m: float = 6.0
+    max_speed_mps: float = 8.0
+    missed_factor: float = 1.4
+    max_dz_m: float = 0.5
+    max_stance_rate_radps: float = 1.0
+    min_stride_m: float = 0.05
+    cycle_window_fraction: float = 0.06
+    cycle_depth_decades: float = 0.5
+    fallback: bool = True
+    timing_calibration: bool = True
+    timing_probe_s: float = 0.002
+    timing_max_abs_s: float = 0.003
+    timing_min_level_strides: int = 10
+
+
+@dataclass
+class StrideQuality:
+    """Per stride (rows of ``segment_strides``): flags bitmask; and the share of implausible strides."""
+
+    flags: np.ndarray
+    duration_s: np.ndarray  # footprint to footprint (mid-stance to mid-stance)
+    swing_s: np.ndarray  # end of the previous stance phase to the start of this one (unaided interval)
+    stance_rate_radps: np.ndarray
+    bad_fraction: float
+
+
+@dataclass
+class SelfTuneResult:
+    """Outcome of ``select_stance``: the chosen mask and why."""
+
+    stance: np.ndarray
+    choice: str
+    confidence: float
+    gait_period_s: float
+    quality: StrideQuality
+    candidates: list[dict] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    failed: str | None = None  # why the configured detector was not kept (None: it was)
+
+
+# --------------------------------------------------------------------------------------------- gait cycle
+def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: float = 3.0) -> float:
+    """One foot's stride period (s) from the autocorrelation of ‖ω‖, or NaN without a periodic gait.
+
+    Parameters
+    ----------
+    t_s : (N,) sample times, s.
+    gyro_b : (N, 3) angular rate, rad/s.
+    min_s, max_s : lag range searched (s).
+
+    Returns
+    -------
+    The lag of the highest autocorrelation peak in [min_s, max_s] whose normalised value is >= 0.2; NaN
+    when there is none (no motion, or motion without a rhythm).
+    """
+    dt = float(np.median(np.diff(t_s)[np.diff(t_s) > 0]))
+    w = np.linalg.norm(gyro_b, axis=1)
+    w = w - w.mean()
+    n = len(w)
+    if n < 4 or not np.any(w):
+        return float("nan")
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    m = next_fast_len(2 * n, real=True)  # zero padding >= n: the circular correlation is the linear one
+    f = rfft(w, m)
+    ac = irfft(f * np.conj(f), m)[:n]
+    ac = ac / ac[0]
+    lo, hi = int(min_s / dt), min(int(max_s / dt), n - 1)
+    if hi <= lo + 2:
+        return float("nan")
+    peaks, props = find_peaks(ac[lo:hi], height=0.2)
+    if peaks.size == 0:
+        return float("nan")
+    return float((lo + peaks[np.argmax(props["peak_heights"])]) * dt)
+
+
+def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, detector_settings,
+                         settings: SelfTuneSettings | None = None, bad: np.ndarray | None = None) -> np.ndarray:
+    """Stance windows at the lowest-energy instant of every gait cycle.
+
+    The SHOE statistic (window ``adaptive_window_s``, σ's of ``detector_settings``) is taken in log10; its
+    minima at least 0.6 gait periods apart and at least one decade below their neighbouring swing peaks are
+    the moments the foot moves least; each gets the samples within ``cycle_depth_decades`` of the minimum
+    and within ± ``cycle_window_fraction`` × period of it. Such a window exists in every stride, resting or
+    rolling, so a ZUPT (with the rolling-foot noise of the filter) aids every stride.
+
+    Parameters
+    ----------
+    t_s, acc_b, gyro_b : samples (s, m/s², rad/s).
+    gravity : m/s².
+    period_s : gait period (``gait_period``); NaN gives an empty mask.
+    detector_settings : ``DetectorSettings`` (window and σ's of the SHOE statistic).
+    settings : ``SelfTuneSettings``.
+    bad : optional (N,) mask of samples that may never be stance (saturated).
+
+    Returns
+    -------
+    (N,) bool stance mask.
+    """
+    from bootnav.postproc.detectors.shoe import shoe_statistic
+
+    s = settings or SelfTuneSettings()
+    n = len(t_s)
+    if not np.isfinite(period_s):
+        return np.zeros(n, bool)
+    dt = float(np.median(np.diff(t_s)[np.diff(t_s) > 0]))
+    win = max(3, int(round(detector_settings.adaptive_window_s / dt)))
+    T = shoe_statistic(acc_b, gyro_b, win, detector_settings.sigma_acc_mps2, detector_settings.sigma_gyro_radps,
+                       gravity)
+    L = np.log10(np.maximum(T, 1e-300))
+    minima, _ = find_peaks(-L, distance=max(1, int(0.6 * period_s / dt)), prominence=1.0)
+    if minima.size == 0:
+        return np.zeros(n, bool)
+    # nearest minimum of every sample (midpoints between consecutive minima split the record)
+    edges = (minima[1:] + minima[:-1]) // 2
+    nearest = minima[np.searchsorted(edges, np.arange(n), side="right")]
+    near = np.abs(t_s - t_s[nearest]) <= s.cycle_window_fraction * period_s
+    low = (L <= L[nearest] + s.cycle_depth_decades) & near
+    if bad is not None:
+        low &= ~bad
+    lab, _ = label(low)
+    keep = np.zeros(lab.max() + 1, bool)
+    keep[lab[minima]] = True
+    keep[0] = False
+    return keep[lab]
+
+
+def _uncovered(windows: np.ndarray, stance: np.ndarray, t_s: np.ndarray, half_s: float) -> np.ndarray:
+    """The runs of ``windows`` with no ``stance`` sample within ± half_s of them (cycles the mask missed)."""
+    if not windows.any() or not np.isfinite(half_s):
+        return np.zeros_like(windows)
+    st_t = t_s[stance]
+    lab, n = label(windows)
+    idx = np.flatnonzero(windows)
+    first = np.full(n + 1, np.inf)
+    last = np.full(n + 1, -np.inf)
+    np.minimum.at(first, lab[idx], t_s[idx])
+    np.maximum.at(last, lab[idx], t_s[idx])
+    if st_t.size == 0:
+        return windows.copy()
+    # any stance sample in [first - half, last + half]? count via searchsorted on the sorted stance times
+    hit = np.searchsorted(st_t, last[1:] + half_s, side="right") - np.searchsorted(st_t, first[1:] - half_s)
+    keep = np.concatenate(([False], hit == 0))
+    return keep[lab]
+
+
+# ---------------------------------------------------------------------------------------- stride quality
+def stride_quality(t_s, pos_n, stance, gyro_b, gyro_bias_b, period_s: float,
+                   settings: SelfTuneSettings | None = None) -> StrideQuality:
+    """Per-stride plausibility flags (module docstring) for the strides of ``segment_strides``.
+
+    Parameters
+    ----------
+    t_s, pos_n, stance : the path and its stance mask.
+    gyro_b : (N, 3) rad/s; gyro_bias_b : (3,) or (N, 3) estimated bias, rad/s.
+    period_s : gait period (NaN: the MISSED flag is not evaluated).
+    settings : ``SelfTuneSettings``.
+
+    Returns
+    -------
+    ``StrideQuality`` with one flag word per stride.
+    """
+    s = settings or SelfTuneSettings()
+    stance = np.asarray(stance, bool)
+    starts, stops = runs(stance)
+    if starts.size < 2:
+        return StrideQuality(np.zeros(0, np.uint8), np.zeros(0), np.zeros(0), np.zeros(0), 1.0)
+    t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
+    d = np.diff(fp, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    dur = np.diff(t_mid)
+    swing = t_s[starts[1:]] - t_s[stops[:-1] - 1]
+    rate = np.linalg.norm(gyro_b - gyro_bias_b, axis=1)
+    # median turning rate over each stance phase (sorted per phase via a lexsort on (phase, rate))
+    ph = np.zeros(len(stance), np.int64)
+    ph[starts[1:]] = 1
+    ph = np.cumsum(ph)
+    sel = stance
+    order = np.lexsort((rate[sel], ph[sel]))
+    r_sorted = rate[sel][order]
+    counts = stops - starts
+    offs = np.concatenate(([0], np.cumsum(counts)))
+    med = 0.5 * (r_sorted[offs[:-1] + (counts - 1) // 2] + r_sorted[offs[:-1] + counts // 2])
+    flags = np.zeros(len(length), np.uint8)
+    flags[(length > s.max_stride_m) | (length > s.max_speed_mps * np.maximum(dur, 1e-9))] |= FAST
+    if np.isfinite(period_s):
+        flags[(swing > s.missed_factor * period_s) & (length > 0.1)] |= MISSED
+    flags[np.abs(d[:, 2]) > s.max_dz_m] |= VERTICAL
+    flags[med[1:] > s.max_stance_rate_radps] |= ROLLING
+    flags[length < s.min_stride_m] |= TINY
+    bad = float(np.mean((flags & IMPLAUSIBLE) > 0)) if len(flags) else 1.0
+    return StrideQuality(flags, dur, swing, med[1:], bad)
+
+
+# ---------------------------------------------------------------------------------------------- criterion
+def onset_innovations(t_s, vel_n, stance, filter_settings) -> np.ndarray:
+    """Predicted velocity at each zero-velocity-update onset after a swing (the ZUPT innovation, negated).
+
+    The onset is the first aided sample after the onset delay (``ins.filter.delay_zupt_onsets``), and the
+    value is the unaided prediction one sample before it. The initial still period (a phase starting at
+    sample 0) has no swing before it and is skipped.
+
+    Parameters
+    ----------
+    t_s : (N,) sample times, s.
+    vel_n : (N, 3) velocity of a filter run WITHOUT smoother, m/s.
+    stance : (N,) bool stance mask given to that run.
+    filter_settings : its ``FilterSettings`` (onset delay and cap).
+
+    Returns
+    -------
+    (K, 3) velocities, one per update onset, m/s.
+    """
+    from bootnav.postproc.ins.filter import delay_zupt_onsets
+
+    aided = delay_zupt_onsets(t_s, stance, filter_settings.zupt_onset_delay_s,
+                              filter_settings.zupt_onset_max_fraction)
+    k0, _ = runs(aided)
+    k0 = k0[k0 > 0]
+    return np.asarray(vel_n)[k0 - 1]
+
+
+def innovation_rms(t_s, acc_b, gyro_b, stance, init, gravity: float, filter_settings, saturated=None) -> float:
+    """RMS ZUPT-onset innovation (m/s) of one forward filter run (no smoother): e_c of the module docstring."""
+    from bootnav.postproc.ins import run_filter
+
+    nav = run_filter(t_s, acc_b, gyro_b, stance, init, gravity, replace(filter_settings, smoother="none"),
+                     saturated=saturated)
+    v = onset_innovations(t_s, nav.vel_n, stance, filter_settings)
+    return float(np.sqrt(np.mean(np.sum(v**2, axis=1)))) if len(v) else float("inf")
+
+
+def _score(t_s, acc_b, gyro_b, stance, init, gravity, fsettings, saturated, period_s, s):
+    from bootnav.postproc.ins import run_filter
+
+    nav = run_filter(t_s, acc_b, gyro_b, stance, init, gravity, replace(fsettings, smoother="none"),
+                     saturated=saturated)
+    v = onset_innovations(t_s, nav.vel_n, stance, fsettings)
+    e = float(np.sqrt(np.mean(np.sum(v**2, axis=1)))) if len(v) else float("inf")
+    bias = nav.gyro_bias_b if nav.gyro_bias_b is not None else np.asarray(init.gyro_bias_b)
+    q = stride_quality(t_s, np.asarray(nav.pos_n), stance, gyro_b, bias, period_s, s)
+    if not np.all(np.isfinite(nav.pos_n)):
+        e = float("inf")
+    return e, q
+
+
+def _row(name, mask, t_s, acc_b, gyro_b, init, gravity, fsettings, saturated, period, s) -> dict:
+    """Criterion of one candidate mask (a mask without a stance-to-swing edge cannot be scored: J = inf)."""
+    if runs(mask)[0].size < 2:
+        return {"name": name, "innovation_rms_mps": float("inf"), "bad_fraction": 1.0, "J": float("inf"),
+                "stance_fraction": float(mask.mean())}
+    e, q = _score(t_s, acc_b, gyro_b, mask, init, gravity, fsettings, saturated, period, s)
+    return {"name": name, "innovation_rms_mps": e, "bad_fraction": q.bad_fraction,
+            "J": e + s.v_pen_mps * q.bad_fraction, "stance_fraction": float(mask.mean()), "_q": q}
+
+
+def select_stance(t_s, acc_b, gyro_b, init, gravity: float, detector_settings, filter_settings, *,
+                  saturated=None, settings: SelfTuneSettings | None = None, configured=None,
+                  failed: str | None = None, period_s: float | None = None) -> SelfTuneResult:
+    """Choose the stance mask of one recording among the candidates (module docstring); never raises on a
+    recording with samples.
+
+    Parameters
+    ----------
+    t_s, acc_b, gyro_b : calibrated samples (s, m/s², rad/s), as ``process`` passes them to the detector.
+    init : ``calibration.InitialState``; gravity : m/s².
+    detector_settings : the configured ``DetectorSettings`` (candidate "configured", and the σ's/windows
+        of the others).
+    filter_settings : ``FilterSettings`` used to score the candidates (the smoother is switched off).
+    saturated : optional saturation mask/bitmask (as ``detect_stance`` and ``run_filter`` take it).
+    settings : ``SelfTuneSettings``.
+    configured : the configured detector's ``StanceResult`` when the caller already has it (else detected).
+    failed : the reason the caller already found the configured mask to fail (a fatal stance or stride
+        finding); the other candidates are then always tried.
+    period_s : the gait period when the caller already has it (else ``gait_period``).
+
+    Returns
+    -------
+    ``SelfTuneResult``: stance mask, the candidate chosen, a confidence in [0, 1], the gait period, the
+    per-stride quality flags of the chosen mask, every candidate's criterion and warnings.
+    """
+    from bootnav.postproc.detectors import detect_stance
+
+    s = settings or SelfTuneSettings()
+    t_s = np.asarray(t_s, float)
+    period = gait_period(t_s, gyro_b) if period_s is None else period_s
+    warnings = []
+    if not np.isfinite(period):
+        warnings.append("no periodic gait found (autocorrelation of |ω| below 0.2 at 0.4-3 s)")
+    if configured is None:
+        configured = detect_stance(t_s, acc_b, gyro_b, detector_settings, gravity, saturated=saturated)
+    name0 = f"configured ({configured.method})"
+    masks: dict[str, np.ndarray] = {name0: np.asarray(configured.stance, bool)}
+    rows = [_row(name0, masks[name0], t_s, acc_b, gyro_b, init, gravity, filter_settings, saturated, period, s)]
+    rate0 = np.linalg.norm(gyro_b[masks[name0]] - np.asarray(init.gyro_bias_b), axis=1)
+    if failed is None and not np.isfinite(rows[0]["J"]):
+        failed = "no stride to score"
+    if failed is None and rows[0]["bad_fraction"] > s.max_bad_fraction:
+        failed = f"{rows[0]['bad_fraction']:.0%} implausible strides"
+    if failed is None and rate0.size > 0 and float(np.median(rate0)) > s.fail_stance_rate_radps:
+        failed = f"its stance turns at a median {float(np.median(rate0)):.2f} rad/s"
+    if failed:  # only then are the other candidates worth their filter runs
+        for a in s.alphas:
+            ds = replace(detector_settings, method="adaptive", adaptive_alpha=a)
+            masks[f"adaptive alpha={a:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_b, ds, gravity,
+                                                                      saturated=saturated).stance, bool)
+        if s.shoe_threshold:
+            ds = replace(detector_settings, method="shoe", threshold=s.shoe_threshold)
+            masks[f"shoe {s.shoe_threshold:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_b, ds, gravity,
+                                                                           saturated=saturated).stance, bool)
+        bad = np.zeros(len(t_s), bool)
+        if saturated is not None:
+            sat = np.asarray(saturated)
+            bad = sat.astype(bool) if sat.ndim == 1 else sat.any(axis=1)
+        cyc = cycle_minimum_stance(t_s, acc_b, gyro_b, gravity, period, detector_settings, s, bad)
+        cyc = _uncovered(cyc, masks[name0], t_s, 0.5 * period)
+        if cyc.any():
+            masks["cycle minimum"] = masks[name0] | cyc
+        rows += [_row(n, m, t_s, acc_b, gyro_b, init, gravity, filter_settings, saturated, period, s)
+                 for n, m in list(masks.items())[1:]]
+    best = int(np.argmin([r["J"] for r in rows])) if failed else 0
+    chosen = rows[best]
+    q = chosen.get("_q") or StrideQuality(np.zeros(0, np.uint8), np.zeros(0), np.zeros(0), np.zeros(0), 1.0)
+    e = chosen["innovation_rms_mps"]
+    conf = confidence(e, q.bad_fraction, period, s)
+    if failed:
+        warnings.append(f"stance detection: the configured detector fails ({failed}); fallback '{chosen['name']}' "
+                        f"chosen (criterion {chosen['J']:.3f} m/s vs {rows[0]['J']:.3f} m/s)")
+    for r in rows:
+        r.pop("_q", None)
+    return SelfTuneResult(masks[chosen["name"]], chosen["name"], conf, period, q,
+                          rows, warnings, failed)
+
+
+def confidence(innovation_rms_mps: float, bad_fraction: float, period_s: float,
+               settings: SelfTuneSettings | None = None) -> float:
+    """Confidence in [0, 1] of a path: (1 − b) · exp(−e / v_scale); 0 without a periodic gait (module docstring)."""
+    s = settings or SelfTuneSettings()
+    if not (np.isfinite(period_s) and np.isfinite(innovation_rms_mps)):
+        return 0.0
+    return float(np.clip((1.0 - bad_fraction) * np.exp(-innovation_rms_mps / s.v_scale_mps), 0.0, 1.0))
+
+
+# --------------------------------------------------------------------------------------- vertical channel
+def rotate_specific_force(acc_b: np.ndarray, gyro_b: np.ndarray, tau_s: float) -> np.ndarray:
+    """f_b' = exp(−[ω_b×] τ) f_b per sample: the specific force as seen at the attitude of time t − τ.
+
+    Parameters
+    ----------
+    acc_b : (N, 3) specific force, m/s²; gyro_b : (N, 3) angular rate, rad/s; tau_s : offset τ, s.
+
+    Returns
+    -------
+    (N, 3) rotated specific force (exact rotation by the angle ‖ω‖ τ, Rodrigues' formula).
+    """
+    th = -np.asarray(gyro_b, float) * tau_s
+    a = np.linalg.norm(th, axis=1)
+    u = th / np.where(a > 0, a, 1.0)[:, None]
+    c, sn = np.cos(a)[:, None], np.sin(a)[:, None]
+    f = np.asarray(acc_b, float)
+    return f * c + np.cross(u, f) * sn + u * np.sum(u * f, axis=1)[:, None] * (1.0 - c)
+
+
+def level_stride_dz(t_s, pos_n, stance, max_dz_m: float = 0.1, min_length_m: float = 0.3) -> tuple[float, int]:
+    """Median height change of the level strides (|Δz| < max_dz_m, length > min_length_m) and their count.
+
+    Parameters
+    ----------
+    t_s, pos_n, stance : a path and its stance mask (``segment_strides`` gives the strides).
+    max_dz_m, min_length_m : what counts as a level stride (m).
+
+    Returns
+    -------
+    (median Δz in m, NaN without level strides; number of level strides).
+    """
+    from bootnav.postproc.strides import segment_strides
+
+    st = segment_strides(t_s, pos_n, stance)
+    lev = (np.abs(st["dz_m"]) < max_dz_m) & (st["stride_length_m"] > min_length_m)
+    return (float(np.median(st["dz_m"][lev])) if lev.sum() else float("nan")), int(lev.sum())
+
+
+def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter_settings, *, saturated=None,
+                        delta_s: float = 0.002, max_abs_s: float = 0.003, min_level_strides: int = 10) -> dict:
+    """Timing offset τ (s) that zeroes the median height change of the level strides (module docstring).
+
+    Two forward filter runs (no smoother: it moves τ* by < 0.3 ms and triples the cost) at τ = ±``delta_s``
+    give the line m(τ); τ* is its zero crossing, clipped to ±``max_abs_s``. Apply it with
+    ``rotate_specific_force(acc_b, gyro_b, tau_s)`` before the final filter run.
+
+    Parameters
+    ----------
+    t_s, acc_b, gyro_b : calibrated samples (s, m/s², rad/s).
+    stance : (N,) bool stance mask; init : ``calibration.InitialState``; gravity : m/s².
+    filter_settings : ``FilterSettings`` (the smoother is switched off for the two runs).
+    saturated : optional saturation mask (as ``run_filter`` takes it).
+    delta_s : the two probe offsets ±δ, s; max_abs_s : bound of τ*, s.
+    min_level_strides : fewer level strides than this: no calibration (τ* = 0).
+
+    Returns
+    -------
+    dict with ``tau_s`` (τ*), ``m_minus`` / ``m_plus`` (median level-stride Δz at −δ / +δ, m), ``n_level``,
+    ``innovation_rms_mps`` (RMS ZUPT-onset innovation of the two runs, for ``confidence``) and ``applied`` (False when τ* = 0 for lack of level strides or a flat m(τ)).
+    """
+    from bootnav.postproc.ins import run_filter
+
+    out = {}
+    e2 = []
+    for sign, key in ((-1, "m_minus"), (1, "m_plus")):
+        f = rotate_specific_force(acc_b, gyro_b, sign * delta_s)
+        nav = run_filter(t_s, f, gyro_b, stance, init, gravity, replace(filter_settings, smoother="none"),
+                         saturated=saturated)
+        out[key], out["n_level"] = level_stride_dz(t_s, np.asarray(nav.pos_n), stance)
+        v = onset_innovations(t_s, nav.vel_n, stance, filter_settings)
+        e2.append(float(np.mean(np.sum(v**2, axis=1))) if len(v) else float("inf"))
+    out["innovation_rms_mps"] = float(np.sqrt(np.mean(e2)))
+    slope = (out["m_plus"] - out["m_minus"]) / (2 * delta_s)
+    ok = out["n_level"] >= min_level_strides and np.isfinite(slope) and abs(slope) > 0
+    m0 = 0.5 * (out["m_plus"] + out["m_minus"])
+    out["tau_s"] = float(np.clip(-m0 / slope, -max_abs_s, max_abs_s)) if ok else 0.0
+    out["applied"] = bool(ok)
+    return out

@@ -1,0 +1,139 @@
+"""Self-tuning of the stance detection, stride quality flags and the level-stride timing calibration
+(``bootnav.postproc.selftune``) on simulated recordings, where the truth is exact."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bootnav.postproc import selftune as S
+from bootnav.postproc.calibration import CalibrationSettings, initial_alignment
+from bootnav.postproc.detectors import DetectorSettings, detect_stance
+from bootnav.postproc.ins import FilterSettings, run_filter
+
+sim = pytest.importorskip("bootnav.simulator.simulate")
+gait = pytest.importorskip("bootnav.simulator.gait")
+scenarios = pytest.importorskip("bootnav.simulator.scenarios")
+
+G = CalibrationSettings().gravity()
+# a fast run whose foot never rests: the heel rocker rolls straight into the toe-off (no foot-flat)
+RUN_NO_FLAT = replace(gait.RUN, name="run_no_flat", still_fraction=0.0)
+
+
+def _corridor(g, leg_m: float = 40.0):
+    return scenarios.custom(g.name, lambda pb: pb.stand(5.0).walk(3.0).walk(leg_m, g).walk(3.0).stand(5.0))
+
+
+def _arrays(res):
+    return res.t_s, np.asarray(res.acc_mps2, float), np.asarray(res.gyro_radps, float)
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return sim.simulate(_corridor(gait.WALK), seed=3)
+
+
+@pytest.fixture(scope="module")
+def run_no_flat():
+    return sim.simulate(_corridor(RUN_NO_FLAT), seed=4)
+
+
+def test_gait_period_is_the_simulated_stride_period(walk, run_no_flat):
+    # stride period = 120 / cadence (both feet's steps per minute); resolution of the lag: one sample (5 ms)
+    for res, g in ((walk, gait.WALK), (run_no_flat, RUN_NO_FLAT)):
+        t, _, w = _arrays(res)
+        assert S.gait_period(t, w) == pytest.approx(120.0 / g.cadence_spm, abs=0.01)
+
+
+def test_no_gait_in_a_standing_recording():
+    res = sim.simulate(scenarios.custom("stand", lambda pb: pb.stand(20.0)), seed=5)
+    t, a, w = _arrays(res)
+    assert np.isnan(S.gait_period(t, w))
+    init = initial_alignment(t, a, w, CalibrationSettings(), G)
+    out = S.select_stance(t, a, w, init, G, DetectorSettings(), FilterSettings())  # must not raise
+    assert out.stance.shape == t.shape and out.confidence == 0.0 and out.warnings
+
+
+def test_walking_keeps_the_configured_detector(walk):
+    t, a, w = _arrays(walk)
+    init = initial_alignment(t, a, w, CalibrationSettings(), G)
+    out = S.select_stance(t, a, w, init, G, DetectorSettings(), FilterSettings())
+    assert out.choice.startswith("configured")
+    configured = detect_stance(t, a, w, DetectorSettings(), G).stance
+    assert np.array_equal(out.stance, configured)
+    assert out.quality.bad_fraction == 0.0 and 0.5 < out.confidence <= 1.0
+
+
+def test_cycle_minimum_finds_the_slowest_instant_of_every_stride(run_no_flat):
+    t, a, w = _arrays(run_no_flat)
+    period = S.gait_period(t, w)
+    windows = S.cycle_minimum_stance(t, a, w, G, period, DetectorSettings())
+    steps = run_no_flat.steps
+    speed = np.linalg.norm(run_no_flat.truth["vel_n_mps"], axis=1)
+    running = steps["length_m"] > 2.0
+    between = np.flatnonzero(running[:-1] & running[1:])  # a running stride followed by another: no rest between
+    assert between.size >= 10
+    centres = []
+    for k in between:
+        # the truth's slowest instant between the mid-swings around this stride's end (the would-be stance)
+        t0, t1 = steps["t_start_s"][k], steps["t_end_s"][k]
+        inside = (t > t1 - 0.3 * (t1 - t0)) & (t < t1 + 0.3 * (t1 - t0))
+        centres.append(t[inside][np.argmin(speed[inside])])
+    starts = np.flatnonzero(np.diff(windows.astype(int)) == 1) + 1
+    stops = np.flatnonzero(np.diff(windows.astype(int)) == -1) + 1
+    mids = 0.5 * (t[starts] + t[stops - 1])
+    for c in centres:  # one window per stride, centred on the truth's slowest instant within one window length
+        assert np.min(np.abs(mids - c)) < 0.06 * period + 0.01
+
+
+def test_running_without_foot_flat_gets_one_update_per_stride(run_no_flat):
+    from bootnav.postproc.strides import segment_strides
+
+    t, a, w = _arrays(run_no_flat)
+    init = initial_alignment(t, a, w, CalibrationSettings(), G)
+    out = S.select_stance(t, a, w, init, G, DetectorSettings(), FilterSettings())
+    assert out.candidates[0]["bad_fraction"] > 0.1  # the default misses stances here (what got refused)
+    assert not out.choice.startswith("configured") and out.quality.bad_fraction == 0.0
+    nav = run_filter(t, a, w, out.stance, init, G, FilterSettings())
+    est = segment_strides(t, nav.pos_n, out.stance)
+    steps = run_no_flat.steps
+    running = steps["length_m"] > 2.0
+    k = np.flatnonzero(running[:-1] & running[1:])[1:]  # strides that start and end inside the run
+    j = np.abs(est["t_s"][None, :] - steps["t_end_s"][k][:, None]).argmin(axis=1)
+    # a footprint at every true stride end (within one cycle-minimum window, 0.06 of the 0.71 s cycle), and
+    # each stride's length within 5 cm of the truth's 2.5 m (one ZUPT-aided 0.7 s swing of a MEMS INS)
+    assert np.all(np.abs(est["t_s"][j] - steps["t_end_s"][k]) < 0.045)
+    assert np.all(np.abs(est["stride_length_m"][j] - steps["length_m"][k]) < 0.05)
+
+
+def test_stride_quality_flags_each_kind():
+    t = np.arange(0.0, 8.0, 0.01)
+    stance = np.zeros(t.size, bool)
+    for a in (0.0, 1.0, 2.0, 4.5, 5.5, 6.5):  # 1 s strides (0.7 s swings), one missed stance: a 2.2 s swing
+        stance[(t >= a) & (t < a + 0.3)] = True
+    pos = np.zeros((t.size, 3))
+    fp = {1.0: (1.4, 0.0), 2.0: (2.8, 0.0), 4.5: (5.6, 0.0), 5.5: (15.0, 0.0), 6.5: (16.4, 0.7)}
+    for a, (x, z) in fp.items():
+        pos[t >= a, 0] = x
+        pos[t >= a, 2] = z
+    gyro = np.zeros((t.size, 3))
+    q = S.stride_quality(t, pos, stance, gyro, np.zeros(3), period_s=1.0)
+    assert list(q.flags) == [0, 0, S.MISSED, S.FAST, S.VERTICAL]
+    assert q.bad_fraction == pytest.approx(3 / 5)
+
+
+def test_level_timing_offset_finds_the_half_sample_lead_and_an_injected_delay():
+    # exact (ideal) samples of a level loop: the first-order strapdown step rotates f_n with the attitude at
+    # the END of its interval, half a sample ahead; the level-stride criterion must see that Δt/2 lead, and an
+    # injected delay τ0 on top of it, to within the criterion's resolution (0.3 ms)
+    res = sim.simulate("rectangle", seed=1, profile="ideal", rate_hz=400.0)
+    t, a, w = _arrays(res)
+    init = initial_alignment(t, a, w, CalibrationSettings(), G)
+    stance = detect_stance(t, a, w, DetectorSettings(), G).stance
+    clean = S.level_timing_offset(t, a, w, stance, init, G, FilterSettings())
+    assert clean["applied"] and clean["tau_s"] == pytest.approx(0.5 / 400.0, abs=3e-4)
+    tau0 = 1e-3
+    shifted = S.level_timing_offset(t, S.rotate_specific_force(a, w, tau0), w, stance, init, G, FilterSettings())
+    assert clean["tau_s"] - shifted["tau_s"] == pytest.approx(tau0, abs=3e-4)
