@@ -42,6 +42,9 @@ import numpy as np
 
 from bootnav.core.rotations import quat_from_euler_zyx
 from bootnav.core.runs import runs
+from bootnav.core.timebase import sample_period
+
+from .detectors._common import moving_mean
 
 # WGS-84 constants [NIMA2000, tables 3.1-3.4]
 WGS84_A_M = 6378137.0
@@ -130,20 +133,6 @@ class AccelCalibration:
     source: str = ""
 
 
-def _median_dt(t_s: np.ndarray) -> float:
-    dt = np.diff(np.asarray(t_s, dtype=np.float64))
-    dt = dt[np.isfinite(dt) & (dt > 0)]
-    if dt.size == 0:
-        raise ValueError("timestamps have no positive interval; cannot derive the sample rate")
-    return float(np.median(dt))
-
-
-def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
-    from scipy.ndimage import uniform_filter1d
-
-    return uniform_filter1d(np.asarray(x, dtype=np.float64), size=n, axis=0, mode="nearest")
-
-
 def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None, gravity: float = 9.80665) -> np.ndarray:
     """Samples whose centred window (``still_window_s``) passes every still test (bool (N,))."""
     from scipy.ndimage import maximum_filter1d
@@ -151,12 +140,12 @@ def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None, 
     s = settings or CalibrationSettings()
     acc_b = np.asarray(acc_b, dtype=np.float64)
     gyro_b = np.asarray(gyro_b, dtype=np.float64)
-    n = max(3, int(round(s.still_window_s / _median_dt(t_s))))
+    n = max(3, int(round(s.still_window_s / sample_period(t_s))))
     amag = np.linalg.norm(acc_b, axis=1)
-    a_mean = _moving_mean(amag, n)
-    a_std = np.sqrt(np.maximum(_moving_mean(amag**2, n) - a_mean**2, 0.0))
-    g_mean = _moving_mean(gyro_b, n)
-    g_std = np.sqrt(np.maximum(_moving_mean(gyro_b**2, n) - g_mean**2, 0.0)).max(axis=1)
+    a_mean = moving_mean(amag, n)
+    a_std = np.sqrt(np.maximum(moving_mean(amag**2, n) - a_mean**2, 0.0))
+    g_mean = moving_mean(gyro_b, n)
+    g_std = np.sqrt(np.maximum(moving_mean(gyro_b**2, n) - g_mean**2, 0.0)).max(axis=1)
     # peak deviation of the rate from the window mean (window max of |ω - local mean|)
     g_dev = maximum_filter1d(np.linalg.norm(gyro_b - g_mean, axis=1), size=n, mode="nearest")
     ok = (
@@ -178,7 +167,7 @@ def find_still_period(t_s, acc_b, gyro_b, *, min_duration_s: float = 0.5, settin
     if not ok.any():
         return None
     starts, stops = runs(ok)  # stops exclusive
-    dt = _median_dt(t_s)
+    dt = sample_period(t_s)
     dur = t_s[stops - 1] - t_s[starts] + dt
     good = (dur >= min_duration_s) & (t_s[starts] - t_s[0] <= s.still_search_s)
     if not good.any():
@@ -196,9 +185,9 @@ def quiet_core(t_s, gyro_b, still: slice, settings: CalibrationSettings | None =
     g = np.asarray(gyro_b, dtype=np.float64)[still]
     if s.still_quiet_ratio <= 0 or g.shape[0] < 3:
         return np.ones(g.shape[0], dtype=bool)
-    n = max(3, int(round(s.still_window_s / _median_dt(t_s))))
-    m = _moving_mean(g, n)
-    var = np.maximum(_moving_mean(g**2, n) - m**2, 0.0).sum(axis=1)
+    n = max(3, int(round(s.still_window_s / sample_period(t_s))))
+    m = moving_mean(g, n)
+    var = np.maximum(moving_mean(g**2, n) - m**2, 0.0).sum(axis=1)
     return var <= s.still_quiet_ratio * var.min()
 
 

@@ -73,6 +73,7 @@ from scipy.ndimage import label
 from scipy.signal import find_peaks
 
 from bootnav.core.runs import runs
+from bootnav.core.timebase import sample_period
 from bootnav.postproc.strides import footprints
 
 FAST, MISSED, VERTICAL, ROLLING, TINY = 1, 2, 4, 8, 16
@@ -161,7 +162,7 @@ def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: 
     The lag of the highest autocorrelation peak in [min_s, max_s] whose normalised value is >= 0.2; NaN
     when there is none (no motion, or motion without a rhythm).
     """
-    dt = float(np.median(np.diff(t_s)[np.diff(t_s) > 0]))
+    dt = sample_period(t_s)
     w = np.linalg.norm(gyro_b, axis=1)
     w = w - w.mean()
     n = len(w)
@@ -211,7 +212,7 @@ def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, de
     n = len(t_s)
     if not np.isfinite(period_s):
         return np.zeros(n, bool)
-    dt = float(np.median(np.diff(t_s)[np.diff(t_s) > 0]))
+    dt = sample_period(t_s)
     win = max(3, int(round(detector_settings.adaptive_window_s / dt)))
     T = shoe_statistic(acc_b, gyro_b, win, detector_settings.sigma_acc_mps2, detector_settings.sigma_gyro_radps,
                        gravity)

@@ -245,11 +245,17 @@ def _to_plain(obj: Any) -> Any:
     return obj
 
 
+# Keys of settings files written by earlier versions whose setting no longer exists: ignored when read, so
+# every saved summary.json still loads (the one gap rule of ``bootnav.core.timebase`` replaced both).
+RETIRED_KEYS = {".filter.gap_factor", ".checks.gap_factor"}
+
+
 def _from_plain(cls, data: Any, where: str):
     if not isinstance(data, dict):
         raise InputError(f"settings{where}: expected an object for {cls.__name__}, got {type(data).__name__}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    data = {k: v for k, v in data.items() if f"{where}.{k}" not in RETIRED_KEYS}
     unknown = sorted(set(data) - set(fields))
     if unknown:
         raise InputError(f"settings{where}: unknown key(s) {unknown} for {cls.__name__}; known: {sorted(fields)}")

@@ -211,9 +211,9 @@ def long_loop(rng: np.random.Generator, duration=3600.0) -> PathBuilder:
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
-        Scenario("paper-straight", "seed-004 straight walk: 9 m, 7 strides, 10 s still at start and end",
+        Scenario("paper-straight", "[Heidari2019] straight walk: 9 m, 7 strides, 10 s still at start and end",
                  paper_straight),
-        Scenario("paper-stairs", "seed-004 stairs path: 11 m horizontal (3 m walk, 10 risers x 0.17 m, 5 m walk), "
+        Scenario("paper-stairs", "[Heidari2019] stairs path: 11 m horizontal (3 m walk, 10 risers x 0.17 m, 5 m walk), "
                  "1.70 m climb", paper_stairs),
         Scenario("rectangle", "closed 10 m x 6 m loop (32 m), ends where it started", rectangle),
         Scenario("three-floors", "U-shaped stairwell, 3 floors x 3 m (54 risers x 1/6 m), turning landings",

@@ -54,6 +54,15 @@ def nominal_period(dt_s: np.ndarray) -> float:
     return float(np.median(pos)) if pos.size else float("nan")
 
 
+def sample_period(t_s: np.ndarray) -> float:
+    """Robust sample period of a time axis (s): ``nominal_period`` of its steps (duplicates and gaps do not
+    move a median); ValueError when the axis has no positive step."""
+    dt = nominal_period(np.diff(np.asarray(t_s, dtype=np.float64)))
+    if not np.isfinite(dt):
+        raise ValueError("timestamps have no positive interval; cannot derive the sample rate")
+    return dt
+
+
 def gap_mask(dt_s: np.ndarray, nominal_dt_s: float) -> np.ndarray:
     """True where a step is a gap: ``dt > GAP_FACTOR * nominal_dt_s`` (module docstring).
 

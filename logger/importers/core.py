@@ -90,7 +90,7 @@ def _whole_numbers(table: TextTable, n_rows: int = 50) -> bool:
 
 
 def _default_roles(n_fields: int, has_rate: bool) -> list[str] | None:
-    """Headerless generic files: seed-004 R2 default column map ``t, ax, ay, az, gx, gy, gz[, temp]``."""
+    """Headerless generic files: the default column map of [Heidari2019] ``t, ax, ay, az, gx, gy, gz[, temp]``."""
     return {
         4: ["t", "ax", "ay", "az"],
         7: ["t", "ax", "ay", "az", "gx", "gy", "gz"],

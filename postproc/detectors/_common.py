@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from bootnav.core.timebase import sample_period
+
 
 def as_imu_arrays(t_s, acc_b, gyro_b) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """float64 arrays t_s (N,), acc_b (N, 3), gyro_b (N, 3); ValueError naming the shapes otherwise."""
@@ -18,13 +20,7 @@ def as_imu_arrays(t_s, acc_b, gyro_b) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return t_s, acc_b, gyro_b
 
 
-def median_dt(t_s: np.ndarray) -> float:
-    """Robust sample period (s): median of the positive intervals (duplicates and gaps ignored)."""
-    dt = np.diff(np.asarray(t_s, dtype=np.float64))
-    dt = dt[np.isfinite(dt) & (dt > 0)]
-    if dt.size == 0:
-        raise ValueError("timestamps have no positive interval; cannot derive the sample rate")
-    return float(np.median(dt))
+median_dt = sample_period  # the one definition lives in bootnav.core.timebase
 
 
 def window_samples(window_s: float, dt: float, minimum: int = 1) -> int:

@@ -29,7 +29,7 @@ post-processing (``base.StanceDetector.detect``): swing gaps < ``min_swing_s`` a
 unless they are alone between two swings of ≥ ``isolation_s`` and last ≥ ``isolated_min_stance_s``
 (``postprocess.remove_short_fragments``): the brief foot-flat of a running stride.
 
-The defaults were chosen on the developer recordings with ``benchmarks/tune_detectors.py`` (pre-LODO);
+The defaults were chosen on all developer recordings at once (pre-LODO);
 the figures, the sensitivity of each parameter and the variants tried and not kept are in
 docs/tuning-log.md. α is the sensitive one: a larger α turns high stance valleys (near-running) into
 stance at a rotating foot, so a change of α or of the statistic must be checked per trial, not on set means.
