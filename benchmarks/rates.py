@@ -84,11 +84,12 @@ def decimate_fir(t_s: np.ndarray, x: np.ndarray, k: int) -> tuple[np.ndarray, np
 
 
 def read_imu(path: Path) -> np.ndarray:
-    with gzip.open(path, "rt") as fh:
-        header = fh.readline().strip()
-        if header != IMU_COLUMNS:
-            raise ValueError(f"{path}: unexpected header {header!r}")
-        return np.loadtxt(fh, delimiter=",", ndmin=2)
+    """(N, 1 + 3 [+ 3]) array t, acc[, gyro] of a canonical IMU file (the one reader, ``read_imu_csv``)."""
+    from bootnav.core.csvio import read_imu_csv
+
+    d = read_imu_csv(path)
+    cols = [d.t_s[:, None], d.acc_mps2] + ([d.gyro_radps] if d.gyro_radps is not None else [])
+    return np.hstack(cols)
 
 
 def make_tree(root: Path, trials: list[dict], k: int, method: str, work: Path) -> tuple[Path, list[dict]]:

@@ -12,17 +12,22 @@ Conventions used by every package (written into every output file as attributes)
   ``yaw_enu_rad``, counter-clockwise from east (x), ``atan2(Δy, Δx)`` in (−π, π], the angle of the ENU
   frame; ``heading_deg_cw_from_north``, the same direction as a compass reads it, clockwise from north (y),
   in [0, 360) = (90 − degrees(yaw_enu_rad)) mod 360.
+
+Python API (``bootnav.api``, imported on first use so that ``import bootnav`` stays light):
+``bootnav.load(path)``, ``bootnav.process(path | recording | t_s, acc_mps2, gyro_radps, **settings)``,
+``bootnav.pdr(...)``; results hold numpy arrays and convert with ``.to_dataframe()`` (pandas optional).
 """
 
-__version__ = "0.1.0"
+from .core.conventions import CONVENTIONS, __version__
 
-CONVENTIONS = {
-    "units": "SI: m, s, m/s^2, rad/s, degC",
-    "nav_frame": "ENU (x east, y north, z up), right-handed, origin at start",
-    "body_frame": "sensor axes as printed on the MPU6050 board, right-handed",
-    "quaternion_order": "wxyz (scalar first), q_nb rotates body to nav",
-    "gravity_model": "g_n = [0, 0, -g]; accelerometer at rest reads +g on the up axis",
-    "heading": ("direction of travel: yaw_enu_rad = counter-clockwise from east (x), atan2(dy, dx), rad in "
-                "(-pi, pi]; heading_deg_cw_from_north = clockwise from north (y), deg in [0, 360) "
-                "= (90 - degrees(yaw_enu_rad)) mod 360"),
-}
+_API = ("load", "process", "pdr", "PathResult", "StepResult")
+__all__ = ["CONVENTIONS", "__version__", *_API]
+
+
+def __getattr__(name: str):
+    """Resolve the API names on first use (PEP 562): ``import bootnav`` imports no numpy."""
+    if name in _API:
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'bootnav' has no attribute {name!r}")

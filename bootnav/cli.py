@@ -8,10 +8,14 @@ building the parser stays fast.
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
+import os
 import sys
+import time
+import traceback
 
-from bootnav import __version__
+from bootnav.core.conventions import __version__
 from bootnav.errors import BootnavError
 
 # name -> (module, one-line help)
@@ -27,9 +31,30 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+def _add_global_options(parser: argparse.ArgumentParser, *, top: bool) -> None:
+    """``--verbose``/``--quiet`` on the top parser and on every subcommand that lacks its own.
+
+    Subcommand copies default to SUPPRESS so they never overwrite a flag given before the subcommand.
+    """
+    default = False if top else argparse.SUPPRESS
+    have = parser._option_string_actions
+    if "--verbose" not in have:
+        parser.add_argument("--verbose", action="store_true", default=default,
+                            help="show the Python traceback of an unexpected error")
+    if "--quiet" not in have:
+        parser.add_argument("--quiet", action="store_true", default=default,
+                            help="print only results and errors (no progress)")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="bootnav", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="bootnav",
+        description="Indoor path of a pedestrian from an inertial sensor on the boot: record or import the "
+                    "sensor data, check it, and reconstruct the 3-D path. `bootnav COMMAND --help` for each command.",
+        epilog="Exit status: 0 ok, 1 error (one line on stderr; --verbose adds the traceback of an unexpected "
+               "one), 2 usage, 130 interrupted, 141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"bootnav {__version__}")
+    _add_global_options(parser, top=True)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module_name, help_text) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
@@ -42,26 +67,139 @@ def build_parser() -> argparse.ArgumentParser:
                 continue
             raise
         module.add_arguments(p)
+        _add_global_options(p, top=False)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one subcommand; every failure becomes one line on stderr and a non-zero exit code.
+
+    Exit codes: 0 ok, 1 error (bad input, I/O), 2 usage, 130 Ctrl-C, 141 output pipe closed
+    (``bootnav info X | head``). An unexpected exception prints one line and a pointer to
+    ``--verbose``, which adds the traceback.
+    """
+    raw = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(raw)
+    # a global flag given before the subcommand is seen by subcommands defining their own copy too
+    args.verbose = bool(getattr(args, "verbose", False) or "--verbose" in raw)
+    args.quiet = bool(getattr(args, "quiet", False) or "--quiet" in raw)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
     if getattr(args, "_missing", None):
         print(f"bootnav: {args._missing}", file=sys.stderr)
         return 2
-    module = importlib.import_module(args._module)
+    prefix = f"bootnav {args.command}"
     try:
-        return int(module.run(args) or 0)
+        module = importlib.import_module(args._module)
+        code = int(module.run(args) or 0)
+        sys.stdout.flush()
+        return code
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        _silence_stdout()
+        return 141
     except BootnavError as exc:
-        print(f"bootnav {args.command}: error: {exc}", file=sys.stderr)
-        return 1
+        return _fail(prefix, str(exc), args.verbose)
+    except OSError as exc:
+        return _fail(prefix, _os_message(exc), args.verbose)
+    except MemoryError:
+        return _fail(prefix, "out of memory (try a shorter recording or fewer --jobs)", args.verbose)
+    except Exception as exc:  # noqa: BLE001 - the one place that turns any bug into a clean message
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        return _fail(prefix, f"unexpected {type(exc).__name__}: {text} (run with --verbose for the traceback)",
+                     args.verbose)
+
+
+def _fail(prefix: str, message: str, verbose: bool) -> int:
+    if verbose:
+        traceback.print_exc(file=sys.stderr)
+    try:
+        print(f"{prefix}: error: {message}", file=sys.stderr)
+    except (BrokenPipeError, OSError):
+        pass
+    _silence_stdout()  # stdout may be a closed pipe; do not let the interpreter's final flush raise
+    return 1
+
+
+def _os_message(exc: OSError) -> str:
+    """``PATH: reason`` for an OS error, with the fix for the common ones."""
+    where = exc.filename if exc.filename is not None else ""
+    reason = exc.strerror or str(exc)
+    hint = {
+        errno.ENOSPC: "free some space or write elsewhere",
+        errno.EDQUOT: "free some space or write elsewhere",
+        errno.EFBIG: "the file-size limit was reached (ulimit -f)",
+        errno.EACCES: "check the permissions",
+        errno.EROFS: "choose a writable place",
+        errno.EISDIR: "give a file, not a directory",
+        errno.ENOENT: "check the path",
+    }.get(exc.errno or 0)
+    text = f"{where}: {reason}" if where else reason
+    return f"{text}; {hint}" if hint else text
+
+
+def _silence_stdout() -> None:
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+class Progress:
+    """Progress lines that suit the terminal: a rewritten carriage-return line on a tty, plain lines in a log.
+
+    On a tty the line is refreshed at most every ``tty_interval_s``; otherwise one plain line is
+    written at most every ``log_interval_s``, so a redirected log holds a few readable lines and no
+    carriage returns. ``quiet`` silences it.
+
+    Parameters
+    ----------
+    stream : text stream, default ``sys.stderr``
+    quiet : bool
+    tty_interval_s, log_interval_s : float
+    """
+
+    def __init__(self, stream=None, *, quiet: bool = False, tty_interval_s: float = 0.5,
+                 log_interval_s: float = 5.0):
+        self.stream = stream if stream is not None else sys.stderr
+        self.quiet = quiet
+        try:
+            self.tty = bool(self.stream.isatty())
+        except (AttributeError, ValueError):
+            self.tty = False
+        self.interval_s = tty_interval_s if self.tty else log_interval_s
+        self._last = -float("inf")
+        self._width = 0
+
+    def update(self, text: str, *, force: bool = False) -> None:
+        """Show ``text`` if the interval has passed (or ``force``)."""
+        if self.quiet:
+            return
+        now = time.monotonic()
+        if not force and now - self._last < self.interval_s:
+            return
+        self._last = now
+        if self.tty:
+            pad = max(self._width - len(text), 0)
+            self._width = len(text)
+            print("\r" + text + " " * pad, end="", file=self.stream, flush=True)
+        else:
+            print(text, file=self.stream, flush=True)
+
+    def done(self, text: str | None = None) -> None:
+        """End the progress display, optionally with a final line."""
+        if self.quiet:
+            return
+        if self.tty and self._width:
+            print("\r" + " " * self._width + "\r", end="", file=self.stream, flush=True)
+            self._width = 0
+        if text:
+            print(text, file=self.stream, flush=True)
 
 
 if __name__ == "__main__":

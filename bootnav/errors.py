@@ -7,3 +7,7 @@ class BootnavError(Exception):
 
 class InputError(BootnavError):
     """Bad input data: unreadable, wrong units, non-monotonic time, no stance, ..."""
+
+
+class DiskFullError(BootnavError):
+    """The disk (or the file-size limit) is full: the message says what was safely written and where."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 
@@ -34,6 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="stream at once instead of waiting for the host's first byte")
     parser.add_argument("--host-timeout", type=float, default=30.0, metavar="S",
                         help="give up if no host opens the port within S seconds (default 30)")
+    parser.add_argument("--write-timeout", type=float, default=5.0, metavar="S",
+                        help="give up if the host reads nothing for S seconds (default 5)")
     parser.add_argument("--linger", type=float, default=1.0, metavar="S",
                         help="keep the port open S seconds after the last frame")
     parser.add_argument("--seq0", type=int, default=0, help="first sequence number (0..65535)")
@@ -58,17 +61,25 @@ def run(args) -> int:
         raise BootnavError(f"--corrupt-kinds: unknown {bad}; choose from {','.join(FAULT_KINDS)}")
     if not 0.0 <= args.corrupt <= 1.0:
         raise BootnavError(f"--corrupt must be a probability in [0, 1], got {args.corrupt}")
+    for flag, value, zero_ok in (("--rate", args.rate, False), ("--duration", args.duration, False),
+                                 ("--disconnect-at", args.disconnect_at, True),
+                                 ("--disconnect-pause", args.disconnect_pause, True),
+                                 ("--host-timeout", args.host_timeout, False),
+                                 ("--write-timeout", args.write_timeout, False), ("--linger", args.linger, True)):
+        if value is not None and not (math.isfinite(value) and (value >= 0 if zero_ok else value > 0)):
+            raise BootnavError(f"{flag} {value}: must be a {'non-negative' if zero_ok else 'positive'} number")
     settings = EmulatorSettings(
         out_link=args.out_link, source=args.source, duration_s=args.duration, rate_hz=args.rate,
         corrupt_rate=args.corrupt, corrupt_kinds=kinds, disconnect_at_s=args.disconnect_at,
         disconnect_pause_s=args.disconnect_pause, restart_on_reconnect=args.restart_on_reconnect,
         replay_timing=args.replay_timing,
         wait_for_host=not args.no_wait,
-        host_timeout_s=args.host_timeout, linger_s=args.linger, seq0=args.seq0 % 65536,
+        host_timeout_s=args.host_timeout, write_timeout_s=args.write_timeout, linger_s=args.linger, seq0=args.seq0 % 65536,
         t0_us=args.t0_us % 2**32, accel_fs=args.accel_fs, gyro_fs=args.gyro_fs, seed=args.seed,
     )
+    progress = None if args.quiet else _progress()
     try:
-        emulator = Emulator(settings, progress=None if args.quiet else _progress())
+        emulator = Emulator(settings, progress=progress)
     except (OSError, ValueError) as exc:
         raise BootnavError(f"--source {args.source}: {exc}") from exc
     for sig in (signal.SIGTERM, signal.SIGINT):
@@ -83,22 +94,20 @@ def run(args) -> int:
     finally:
         if args.report:
             emulator.report.write(args.report)
-    if not args.quiet:
-        print(f"\nsent {report.frames_sent} frames ({report.frames_corrupted} corrupted, {report.frames_dropped} "
+    if progress is not None:
+        progress.done()
+        print(f"sent {report.frames_sent} frames ({report.frames_corrupted} corrupted, {report.frames_dropped} "
               f"dropped, {report.garbage_bytes} garbage bytes, {report.disconnects} disconnects)", file=sys.stderr)
     return 0
 
 
 def _progress():
-    import time
+    from bootnav.cli import Progress
 
-    last = [0.0]
+    shown = Progress()
 
     def show(k, n, rep):
-        now = time.monotonic()
-        if now - last[0] >= 0.5 and sys.stderr.isatty():
-            last[0] = now
-            print(f"\r{k}/{n} frames, {rep.frames_corrupted} corrupted, {rep.frames_dropped} dropped",
-                  end="", file=sys.stderr, flush=True)
+        shown.update(f"{k}/{n} frames, {rep.frames_corrupted} corrupted, {rep.frames_dropped} dropped")
 
+    show.done = shown.done
     return show

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
+
+#: Serial rates a UART/USB adapter can plausibly run (the CH340/FT232 of a Nano tops out at 3-4 Mbaud).
+MIN_BAUD, MAX_BAUD = 300, 4_000_000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,6 +40,15 @@ def run(args) -> int:
     from bootnav.logger.serial_recorder import RecorderSettings, SerialRecorder
 
     out = Path(args.out)
+    if not MIN_BAUD <= args.baud <= MAX_BAUD:
+        raise BootnavError(f"--baud {args.baud}: outside {MIN_BAUD}..{MAX_BAUD}; the sensor's rate is 500000 "
+                           "(see firmware-protocol/PROTOCOL.md)")
+    for flag, value in (("--flush-interval", args.flush_interval), ("--header-wait", args.header_wait),
+                        ("--connect-timeout", args.connect_timeout), ("--duration", args.duration)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise BootnavError(f"{flag} {value}: must be a positive number of seconds")
+    if out.is_dir():
+        raise BootnavError(f"--out {out}: is a directory; give a file name such as {out / 'walk.h5'}")
     if out.exists() and not args.force:  # never lose a session by re-running a command
         raise BootnavError(f"{out} exists; choose another --out or add --force to overwrite it")
     if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
@@ -52,7 +65,12 @@ def run(args) -> int:
     signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
     signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
     stats = recorder.run()
+    if recorder.disk_full is not None:
+        raise recorder.disk_full
     if not recorder.wrote_file:
+        if stats.bytes_in:
+            raise BootnavError(f"no valid frame in {stats.bytes_in} bytes from {args.port} (wrong --baud, or not "
+                               f"a bootnav sensor?); {args.out} not written")
         raise BootnavError(f"no data received from {args.port} ({stats.stop_reason}); {args.out} not written")
     print(f"{args.out}: {stats.frames} frames, {stats.dropped} dropped, {stats.crc_errors} CRC errors, "
           f"{stats.resyncs} resyncs, {stats.disconnects} disconnects ({stats.stop_reason})", file=sys.stderr)

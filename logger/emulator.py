@@ -62,6 +62,7 @@ class EmulatorSettings:
     replay_timing: bool = False  # send the source's own seq/t_device (its gaps and jitter), paced by them
     wait_for_host: bool = True  # start streaming on the host's first byte
     host_timeout_s: float = 30.0  # give up if no host connects
+    write_timeout_s: float = 5.0  # give up if the host reads nothing for this long (it is gone)
     linger_s: float = 1.0  # keep the port open after the last frame
     seq0: int = 0  # first seq (set near 65535 to exercise the u16 wrap)
     t0_us: int = 0  # first device time (set near 2**32 to exercise the t_us wrap)
@@ -191,14 +192,23 @@ class PtyPort:
         os.symlink(self.slave_name, tmp)
         os.replace(tmp, self.link)  # atomic: the path never points at a dead pty
 
-    def write_all(self, data: bytes, stopped=lambda: False) -> int:
-        """Write everything: a slow host makes us wait (like USB flow control), never lose bytes."""
+    def write_all(self, data: bytes, stopped=lambda: False, timeout_s: float = float("inf")) -> int:
+        """Write everything: a slow host makes us wait (like USB flow control), never lose bytes.
+
+        Raises ``TimeoutError`` when not one byte could be written for ``timeout_s``: the host has
+        stopped reading (closed the port or died), and waiting longer would hang the emulator.
+        """
         view = memoryview(data)
         sent = 0
+        last_progress = time.monotonic()
         while sent < len(data) and not stopped():
             try:
                 sent += os.write(self.master, view[sent:])
+                last_progress = time.monotonic()
             except BlockingIOError:
+                if time.monotonic() - last_progress > timeout_s:
+                    raise TimeoutError(f"the host stopped reading {self.link} for {timeout_s:g} s "
+                                       f"({len(data) - sent} bytes unsent); is the recorder still running?") from None
                 select.select([], [self.master], [], 0.01)
         return sent
 
@@ -385,7 +395,7 @@ class Emulator:
         return rep
 
     def _send(self, port: PtyPort, data: bytes, rep: EmulatorReport, header=False) -> None:
-        rep.bytes_sent += port.write_all(data, lambda: self._stop)
+        rep.bytes_sent += port.write_all(data, lambda: self._stop, self.settings.write_timeout_s)
         if header:
             rep.headers_sent += 1
 
@@ -402,7 +412,7 @@ class Emulator:
             rep.valid_seqs.extend(seq.tolist())
             rep.valid_index.extend(idx.tolist())
             rep.frames_sent += idx.size
-            rep.bytes_sent += port.write_all(data.tobytes(), lambda: self._stop)
+            rep.bytes_sent += port.write_all(data.tobytes(), lambda: self._stop, s.write_timeout_s)
             return
         out = bytearray()
         dropped_run = 0
@@ -432,4 +442,4 @@ class Emulator:
                 rep.valid_index.append(int(idx[i]))
             out += frame.tobytes()
             rep.frames_sent += 1
-        rep.bytes_sent += port.write_all(bytes(out), lambda: self._stop)
+        rep.bytes_sent += port.write_all(bytes(out), lambda: self._stop, s.write_timeout_s)

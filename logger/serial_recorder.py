@@ -25,10 +25,10 @@ import numpy as np
 
 from bootnav.core.runs import runs
 from bootnav.core.timebase import StreamClock, timing_summary
-from bootnav.errors import BootnavError
+from bootnav.errors import BootnavError, DiskFullError
 from bootnav.logger import mpu6050
 from bootnav.logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
-from bootnav.logger.recording import RecordingWriter, counts_channel, make_events
+from bootnav.logger.recording import LIBVER, RecordingWriter, counts_channel, make_events
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS = 3, 3  # ±16 g, ±2000 °/s: what a boot needs (see PROTOCOL.md)
@@ -78,6 +78,7 @@ class SerialRecorder:
         self.status_stream = status_stream
         self._stop = False
         self._writer: RecordingWriter | None = None
+        self.disk_full: DiskFullError | None = None  # set when a write hit a full disk; the recording stops
         self._header: HeaderFrame | None = None
         self._config_source = ""
         self._parser = FrameParser()
@@ -367,6 +368,17 @@ class SerialRecorder:
         )
 
     def _flush(self, final: bool = False) -> None:
+        """Write the pending block; a full disk stops the recording (``disk_full`` says what is safe)."""
+        if self.disk_full is not None:
+            return
+        try:
+            self._write_pending(final)
+        except DiskFullError as exc:
+            self.disk_full = exc
+            self._writer = self._writer if self._writer is not None and self._writer.n_safe else None
+            self.stop("disk full")
+
+    def _write_pending(self, final: bool) -> None:
         if self._writer is None:
             waited = (time.monotonic() - self._first_sample_mono) if self._first_sample_mono else 0.0
             if self._header is None and not final and waited < self.s.header_wait_s:
@@ -374,6 +386,12 @@ class SerialRecorder:
             if not self._pending and not self._pending_events and not final:
                 return
             self._create_writer()
+        n_rows = sum(len(p["t_s"]) for p in self._pending)
+        if not self._writer.room_for(n_rows, len(self._pending_events)):
+            # stop before the disk fills: the file stays whole and readable up to the last flush
+            exc = self._writer.disk_full_error()
+            self._writer.close()
+            raise exc
         if self._pending:
             block = {k: np.concatenate([p[k] for p in self._pending]) for k in self._pending[0]}
             self._writer.append(block.pop("t_s"), block.pop("acc"), block.pop("gyro"), **block)
@@ -392,9 +410,12 @@ class SerialRecorder:
             self.stats.skipped_bytes += ev.count
             self._event("resync", byte_offset=ev.byte_offset, count=ev.count,
                         detail=f"{ev.count} bytes left at the end ({ev.detail})")
-        if self._writer is None and self.stats.bytes_in == 0:
+        if self.disk_full is not None:
+            return  # the writer is closed with everything up to its last flush; nothing more can be written
+        if self._writer is None and self.stats.frames == 0:
+            # nothing usable came in: no file rather than an empty one
             self.stats.stop_reason = self.stats.stop_reason or "no data received"
-            return  # nothing came in: no file rather than an empty one
+            return
         self._flush(final=True)
         if self._status_line_shown:
             print(file=self.status_stream)
@@ -416,7 +437,7 @@ class SerialRecorder:
         """Counts are stored raw, so a late header only changes the factor to SI (lossless)."""
         import h5py
 
-        with h5py.File(self.s.out, "r+") as f:
+        with h5py.File(self.s.out, "r+", libver=LIBVER) as f:
             f["imu/acc"].attrs["scale_to_si"] = mpu6050.accel_scale_mps2(h.accel_fs)
             f["imu/gyro"].attrs["scale_to_si"] = mpu6050.gyro_scale_radps(h.gyro_fs)
 

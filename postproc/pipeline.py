@@ -16,9 +16,9 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    per-recording timing calibration of the vertical channel; the ZUPT error-state Kalman filter + RTS
    smoother (``ins.run_filter``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking foot is
    refused.
-5. **strides** (``strides``, ``checks.stride_findings``, ``reference``): strides (moves shorter than
-   ``selftune.min_stride_m`` are not strides), distance, closure, floors; reference metrics when a reference
-   is given.
+5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
+   ``selftune.min_stride_m`` are not strides), distance, closure, floors.
+6. **reference** (``reference``), when a reference is given: its metrics [Heidari2019, Table 1].
 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
@@ -171,9 +171,11 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     findings = stride_findings(steps, settings.checks, navi.choice)
     warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
     path_stats = path_summary(t_s, pos_n, stance, settings.floor_settings(), min_stride)
-    metrics = (compute_metrics(ref, t_s, pos_n, stance, src.recording.meta.get("mount"), min_stride)
-               if ref is not None else None)
     lap("strides")
+    metrics = None
+    if ref is not None:
+        metrics = compute_metrics(ref, t_s, pos_n, stance, src.recording.meta.get("mount"), min_stride)
+        lap("reference")
 
     timings["total_process"] = float(sum(timings.values()))
     result = ProcessResult(

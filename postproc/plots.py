@@ -4,10 +4,10 @@
 2. ``2_acc_gravity_free.png``: acceleration in the nav frame with gravity removed, components and
    magnitude: a_n = C_nb f_b + g_n, g_n = [0, 0, −g] (Chart 2).
 3. ``3_velocity.png``: velocity in the nav frame; zero in stance thanks to ZUPT (Chart 3).
-4. ``4_position.png``: position vs time, x/y/z (Charts 4 and 6).
+4. ``4_position.png``: position vs time, x/y/z (Charts 4 and 6), the reference dotted when given.
 5. ``5_path_2d.png``: the path seen from above, equal axes, reference dotted when given (Charts 5 and 7).
 6. ``6_path_3d.png``: the 3-D path with equal scales (Chart 7, stairs).
-7. ``7_height.png``: height vs time with the floor lines used for counting floors.
+7. ``7_height.png``: height vs time with the floor lines used for counting floors, and the reference's.
 
 Plus ``path.html`` (``make_html``): the path from above as a small self-contained interactive SVG page.
 
@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .strides import floor_levels, floor_signal, footprints
+from .summary import endpoint_label
 
 AXIS_COLORS = ("tab:red", "tab:green", "tab:blue")  # x, y, z (the usual RGB convention)
 FILES = {
@@ -133,12 +134,14 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {result.summary['stance']['method']}")
     save(fig, "raw_imu")
 
-    def time_chart(key, values, labels, ylabel, title, loc, extra=None):
+    def time_chart(key, values, labels, ylabel, title, loc, extra=None, reference=None):
         """Charts 2-4: three nav-frame components against time, stance and saturation shaded."""
         fig, ax = plt.subplots(figsize=(10, 4.5))
         _lines(ax, t, values, labels)
         if extra is not None:
             ax.plot(t, extra, color="k", lw=0.6, alpha=0.6, label="|a|")
+        if reference is not None:
+            reference(ax)
         _time_axes(ax, t, stance, sat, ylabel, first=True)
         ax.set_xlabel("time (s)")
         ax.set_title(title)
@@ -152,12 +155,9 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
                extra=np.linalg.norm(acc_n, axis=1))
     time_chart("velocity", result.vel_n[d], ["v east", "v north", "v up"], "velocity (m/s)",
                "Velocity of the boot (zero in stance: ZUPT)", "upper right")
-    time_chart("position", result.pos_n[d], ["x (east)", "y (north)", "z (up)"], "position (m)",
-               "Position vs time", "upper left")
-
-    # aligned path + reference (when given) for charts 5 and 6
+    # aligned path + reference (when given) for charts 4-7
     pos = result.pos_n
-    ref_pts = None
+    ref_pts = ref_t = ref_est = None
     title_ref = ""
     if result.reference is not None and len(result.reference.points_n):
         from .reference import align_to_reference
@@ -165,6 +165,28 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
         pos, ref_pts, yaw = align_to_reference(result.reference, result.t_s, result.pos_n)
         if yaw is not None:
             title_ref = f" (estimate rotated {np.degrees(yaw):+.1f}° onto the reference)"
+        ref_est = reference_in_estimate_frame(ref_pts, yaw, result.pos_n[0])
+        ref_t = result.reference.t_s
+
+    def reference_vs_time(ax, offset=np.zeros(3), axes=(0, 1, 2)):
+        """The reference on a time chart, in the estimate's frame: its curves when it has times, else its
+        end point at the end of the recording."""
+        if ref_est is None:
+            return
+        for k in axes:
+            name = "reference" if k == axes[0] else None
+            if ref_t is not None:
+                inside = (ref_t >= t[0]) & (ref_t <= t[-1])
+                ax.plot(ref_t[inside], ref_est[inside, k] - offset[k], ":", color=AXIS_COLORS[k] if len(axes) > 1
+                        else "k", lw=1.6, label=name)
+            else:
+                ax.plot([t[-1]], [ref_est[-1, k] - offset[k]], "*", ms=11, mec="k",
+                        color=AXIS_COLORS[k] if len(axes) > 1 else "k", label=name and "reference end")
+
+    time_chart("position", result.pos_n[d], ["x (east)", "y (north)", "z (up)"], "position (m)",
+               "Position vs time" + ("" if ref_est is None else " (dotted: reference)" if ref_t is not None
+                                     else " (stars: the reference's end point)"), "upper left",
+               reference=reference_vs_time)
     _, fp = footprints(result.t_s, pos, result.stance)
     summ = result.summary.get("path", {})
     stats = f"distance {summ.get('distance_m', 0):.2f} m"
@@ -172,7 +194,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     if "final_error_m" in m:
         stats += f", end-point error {m['final_error_m']:.2f} m"
     elif "closure_3d_m" in summ:
-        stats += f", closure {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
+        stats += f", {endpoint_label(result.summary)} {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
     if "deviation_error_pct" in m:
         stats += (f"\ndistance err {m['distance_error_pct']:.1f} %, deviation {m['deviation_error_pct']:.1f} %, "
                   f"height err {m['height_error_pct']:.1f} %")
@@ -239,6 +261,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
         ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
         ax.text(t[-1], k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
                 ha="right", fontsize=8, color="grey")
+    reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
     _time_axes(ax, t, stance, sat, "height above start (m)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
@@ -248,11 +271,50 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     return paths
 
 
-def make_html(result, out_dir: str | Path) -> Path:
-    """``path.html``: the path from above as a self-contained SVG page (no network, no library).
+def reference_in_estimate_frame(ref_pts: np.ndarray, yaw_rad: float | None, start_n: np.ndarray) -> np.ndarray:
+    """Reference points (from ``reference.align_to_reference``: its frame, origin at the start) in the
+    estimate's nav frame: rotated by −yaw about z, moved to the estimate's start.
 
-    Mouse wheel zooms, drag pans; hovering a footprint shows its stride number, time, height and stride
-    length. Equal axes (1 m east = 1 m north), north up.
+    Parameters
+    ----------
+    ref_pts : (M, 3) array
+    yaw_rad : float or None
+        The rotation that took the estimate onto the reference (None: none).
+    start_n : (3,) array
+        The estimate's first position.
+
+    Returns
+    -------
+    (M, 3) array
+    """
+    c, s = (np.cos(yaw_rad), np.sin(yaw_rad)) if yaw_rad is not None else (1.0, 0.0)
+    out = np.column_stack((c * ref_pts[:, 0] + s * ref_pts[:, 1], -s * ref_pts[:, 0] + c * ref_pts[:, 1],
+                           ref_pts[:, 2]))
+    return out + np.asarray(start_n, float)
+
+
+FLOOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+
+
+def _html_floors(result, step: int) -> np.ndarray:
+    """Counted floor level (0 = start floor, as chart 7 and the summary count them) of every drawn sample:
+    the level of the last footprint at or before it."""
+    t_fp, fp = footprints(result.t_s, result.pos_n, result.stance)
+    t = result.t_s[::step]
+    if len(fp) == 0:
+        return np.zeros(len(t), dtype=np.int64)
+    floors = result.settings.floor_settings()
+    levels = floor_levels(floor_signal(fp[:, 2] - fp[0, 2], floors), floors)
+    return levels[np.clip(np.searchsorted(t_fp, t, side="right") - 1, 0, len(levels) - 1)]
+
+
+def make_html(result, out_dir: str | Path) -> Path:
+    """``path.html``: the path from above as a self-contained SVG page (no network, no library), for a trainer.
+
+    Metre grid with labels and a scale bar that follow the zoom; the reference (when given, in the estimate's
+    frame) dotted; one colour per counted floor with a floor selector on multi-storey walks; start, end and
+    a marker per stride (hover: stride number, time, height, length); wheel zooms, drag pans, "fit" (or a
+    window resize) fits the whole path to the window. Equal axes (1 m east = 1 m north), north up.
     """
     import html
     import json
@@ -261,40 +323,95 @@ def make_html(result, out_dir: str | Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     step = max(1, int(np.ceil(len(result.t_s) / max(result.settings.output.plot_max_points, 100))))
     xy = result.pos_n[::step, :2]
-    lo, hi = np.minimum(xy.min(axis=0), 0), np.maximum(xy.max(axis=0), 0)
+    ref = None
+    if result.reference is not None and len(result.reference.points_n):
+        from .reference import align_to_reference
+
+        _, ref_pts, yaw = align_to_reference(result.reference, result.t_s, result.pos_n)
+        ref = reference_in_estimate_frame(ref_pts, yaw, result.pos_n[0])[:, :2]
+    every = np.vstack([xy, np.zeros((1, 2))] + ([ref] if ref is not None else []))
+    lo, hi = every.min(axis=0), every.max(axis=0)
     pad = 0.05 * max(float((hi - lo).max()), 1.0)
     lo, hi = lo - pad, hi + pad
-    pts = " ".join(f"{x:.3f},{-y:.3f}" for x, y in xy)  # SVG y grows downwards: plot -y so north is up
-    st = result.steps
     r_dot = 0.006 * float((hi - lo).max())
+
+    def points(a):  # SVG y grows downwards: plot -y so that north is up
+        return " ".join(f"{x:.3f},{-y:.3f}" for x, y in a)
+
+    level = _html_floors(result, step)
+    floor_ids = sorted(set(level.tolist()))
+    cuts = np.flatnonzero(np.diff(level)) + 1
+    lines = []
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(xy)]):  # one polyline per run on one floor (joined)
+        k = int(level[a])
+        color = FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
+        lines.append(f'<polyline class="path" data-floor="{k}" style="stroke:{color}" '
+                     f'points="{points(xy[max(a - 1, 0):b])}"/>')
+    st = result.steps
+    st_floor = level[np.minimum(np.searchsorted(result.t_s[::step], st["t_s"]), len(level) - 1)]
     dots = "".join(
-        f'<circle cx="{x:.3f}" cy="{-y:.3f}" r="{r_dot:.3f}"><title>stride {i + 1}: t = {t:.2f} s, '
-        f'z = {z:+.2f} m, length {L:.2f} m</title></circle>'
-        for i, (t, x, y, z, L) in enumerate(zip(st["t_s"], st["x_m"], st["y_m"], st["z_m"], st["stride_length_m"])))
+        f'<circle class="stride" data-floor="{k}" cx="{x:.3f}" cy="{-y:.3f}" r="{r_dot:.3f}"><title>stride {i + 1}: '
+        f't = {t:.2f} s, z = {z:+.2f} m, length {L:.2f} m</title></circle>'
+        for i, (t, x, y, z, L, k) in enumerate(zip(st["t_s"], st["x_m"], st["y_m"], st["z_m"], st["stride_length_m"],
+                                                   st_floor)))
+    ref_svg = (f'<polyline id="reference" points="{points(ref)}"><title>reference</title></polyline>'
+               if ref is not None else "")
     p = result.summary.get("path", {})
     title = html.escape(f"{Path(str(result.summary['input']['source'])).name}: {p.get('distance_m', 0):.2f} m, "
-                        f"closure {p.get('closure_3d_m', float('nan')):.2f} m")
+                        f"{endpoint_label(result.summary)} {p.get('closure_3d_m', float('nan')):.2f} m")
+    floor_ui = ""
+    if len(floor_ids) > 1:
+        opts = "".join(f'<option value="{k}">floor {k:+d}</option>' for k in floor_ids)
+        floor_ui = f'<label>floor <select id="floor"><option value="all">all floors</option>{opts}</select></label>'
+    legend = ("blue line = path" if len(floor_ids) == 1 else "one colour per floor")
+    legend += ", dots = strides, green = start, red = end" + (", dotted = reference" if ref is not None else "")
     vb = [float(lo[0]), float(-hi[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])]
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{title}</title>
-<style>body{{font-family:sans-serif;margin:1em}} svg{{border:1px solid #ccc;width:90vmin;height:90vmin;cursor:grab}}
-polyline{{fill:none;stroke:#1f77b4;vector-effect:non-scaling-stroke;stroke-width:1.5}}
-circle{{fill:#1f77b4}} circle:hover{{fill:#d62728}}</style></head><body>
-<h3>{title}</h3><p>ENU metres, north up; wheel = zoom, drag = pan, hover a footprint for details.
-Green = start, red = end.</p>
-<svg id="v" viewBox="{' '.join(f'{v:.3f}' for v in vb)}" preserveAspectRatio="xMidYMid meet">
-<polyline points="{pts}"/>{dots}
-<circle cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:#2ca02c"><title>start</title></circle>
-<circle cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:#d62728"><title>end</title></circle>
-</svg>
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<style>html,body{{height:100%;margin:0;font-family:sans-serif}} body{{display:flex;flex-direction:column;overflow:hidden}}
+header{{padding:.4em .8em}} h3{{margin:.2em 0}} header p{{margin:.2em 0;font-size:90%}}
+#wrap{{position:relative;flex:1;min-height:200px}} svg#v{{position:absolute;inset:0;width:100%;height:100%;cursor:grab;
+border-top:1px solid #ccc}} polyline{{fill:none;vector-effect:non-scaling-stroke}} .path{{stroke-width:2}}
+#reference{{stroke:#000;stroke-width:2;stroke-dasharray:2 4}} circle.stride{{fill:#1f77b4;opacity:.8}}
+circle.stride:hover{{fill:#d62728}} #grid line{{stroke:#ddd;vector-effect:non-scaling-stroke;stroke-width:1}}
+#grid text{{fill:#888}} #scale{{position:absolute;left:12px;bottom:12px;background:#fffc;padding:2px 6px;font-size:13px}}
+#bar{{height:6px;border:2px solid #000;border-top:none}} button{{margin-left:1em}}</style></head><body>
+<header><h3>{title}</h3><p>Metres, north up (x east, y north); {legend}. Wheel = zoom, drag = pan, hover a stride
+for details. {floor_ui}<button id="fit">fit</button></p></header>
+<div id="wrap"><svg id="v" viewBox="{' '.join(f'{v:.3f}' for v in vb)}" preserveAspectRatio="xMidYMid meet">
+<g id="grid"></g>{ref_svg}{''.join(lines)}{dots}
+<circle id="start" cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:#2ca02c"><title>start</title></circle>
+<circle id="end" cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:#d62728"><title>end</title></circle>
+</svg><div id="scale"><div id="bar"></div><span id="scalelabel"></span></div></div>
 <script>
-const s=document.getElementById('v');let b={json.dumps(vb)},d=null;
-const set=()=>s.setAttribute('viewBox',b.join(' '));
-s.addEventListener('wheel',e=>{{e.preventDefault();const r=s.getBoundingClientRect(),k=e.deltaY>0?1.2:1/1.2,
- px=b[0]+(e.clientX-r.left)/r.width*b[2],py=b[1]+(e.clientY-r.top)/r.height*b[3];
- b=[px-(px-b[0])*k,py-(py-b[1])*k,b[2]*k,b[3]*k];set();}});
+const s=document.getElementById('v'),home={json.dumps(vb)},NS='http://www.w3.org/2000/svg';let b=home.slice(),d=null;
+function nice(x){{const e=Math.pow(10,Math.floor(Math.log10(x))),m=x/e;return (m<1.5?1:m<3.5?2:m<7.5?5:10)*e;}}
+function view(){{  // the part of the viewBox actually shown (meet: the wider side is padded)
+ const r=s.getBoundingClientRect(),k=Math.max(b[2]/r.width,b[3]/r.height),w=r.width*k,h=r.height*k;
+ return [b[0]-(w-b[2])/2,b[1]-(h-b[3])/2,w,h,k];}}
+function draw(){{
+ s.setAttribute('viewBox',b.join(' '));const [x0,y0,w,h,k]=view(),g=document.getElementById('grid');
+ g.replaceChildren();const st=nice(Math.max(w,h)/8),fs=12*k;
+ for(let x=Math.ceil(x0/st)*st;x<=x0+w;x+=st){{const l=document.createElementNS(NS,'line');
+  l.setAttribute('x1',x);l.setAttribute('x2',x);l.setAttribute('y1',y0);l.setAttribute('y2',y0+h);g.appendChild(l);
+  const t=document.createElementNS(NS,'text');t.setAttribute('x',x+fs/4);t.setAttribute('y',y0+h-fs/3);
+  t.setAttribute('font-size',fs);t.textContent=+x.toFixed(6)+' m';g.appendChild(t);}}
+ for(let y=Math.ceil(y0/st)*st;y<=y0+h;y+=st){{const l=document.createElementNS(NS,'line');
+  l.setAttribute('x1',x0);l.setAttribute('x2',x0+w);l.setAttribute('y1',y);l.setAttribute('y2',y);g.appendChild(l);
+  const t=document.createElementNS(NS,'text');t.setAttribute('x',x0+fs/4);t.setAttribute('y',y-fs/4);
+  t.setAttribute('font-size',fs);t.textContent=+(-y).toFixed(6)+' m';g.appendChild(t);}}
+ const m=nice(100*k);document.getElementById('bar').style.width=(m/k)+'px';
+ document.getElementById('scalelabel').textContent=(m>=1?+m.toFixed(3)+' m':+(100*m).toFixed(3)+' cm');}}
+s.addEventListener('wheel',e=>{{e.preventDefault();const r=s.getBoundingClientRect(),[x0,y0,w,h]=view(),
+ f=e.deltaY>0?1.2:1/1.2,px=x0+(e.clientX-r.left)/r.width*w,py=y0+(e.clientY-r.top)/r.height*h;
+ b=[px-(px-b[0])*f,py-(py-b[1])*f,b[2]*f,b[3]*f];draw();}});
 s.addEventListener('mousedown',e=>d=[e.clientX,e.clientY]);window.addEventListener('mouseup',()=>d=null);
-window.addEventListener('mousemove',e=>{{if(!d)return;const r=s.getBoundingClientRect();
- b[0]-=(e.clientX-d[0])/r.width*b[2];b[1]-=(e.clientY-d[1])/r.height*b[3];d=[e.clientX,e.clientY];set();}});
+window.addEventListener('mousemove',e=>{{if(!d)return;const k=view()[4];
+ b[0]-=(e.clientX-d[0])*k;b[1]-=(e.clientY-d[1])*k;d=[e.clientX,e.clientY];draw();}});
+document.getElementById('fit').onclick=()=>{{b=home.slice();draw();}};window.addEventListener('resize',draw);
+const fl=document.getElementById('floor');if(fl)fl.onchange=()=>{{for(const el of s.querySelectorAll('[data-floor]'))
+ el.style.display=(fl.value==='all'||el.dataset.floor===fl.value)?'':'none';}};
+draw();
 </script></body></html>
 """
     path = out / "path.html"

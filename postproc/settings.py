@@ -14,6 +14,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import re
+import types
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,14 +80,15 @@ class OutputSettings:
     results_name : str
         Name of the ``/results/<name>`` group in the HDF5 recording (several runs can live side by side).
     write_hdf5 : bool
-        Write the results group (into the input recording, or ``DIR/results.h5`` for an imported input).
+        Write the results group into ``OUT/results.h5`` (a copy of the recording plus ``/results/<name>``;
+        into the input recording itself only with ``bootnav process --into-recording``, atomically).
     plots : bool
         Write the PNG charts 1-7 [Heidari2019, Charts 1-7] and ``path.html``.
     geojson : bool
-        Write ``path.geojson``.
+        Write ``path.geojson`` (only with a ``geo_anchor``: GIS tools read GeoJSON as WGS-84).
     geo_anchor : tuple of float or None, (deg, deg[, m])
         WGS-84 latitude, longitude (and ellipsoidal height) of the nav-frame origin; with it GeoJSON is
-        in WGS-84 through a local tangent plane [Groves2013, ch. 2], without it in local metres.
+        in WGS-84 through a local tangent plane [Groves2013, ch. 2]; without it no GeoJSON is written.
     plot_max_points : int
         Longest line drawn per chart; longer signals are decimated for plotting only (20000 points are
         more than a chart has pixels, so the decimation is invisible).
@@ -152,6 +156,7 @@ class ProcessSettings:
             ("filter", lambda: getattr(self.filter, "validate", lambda: None)()),
             ("crop_s", self._check_crop),
             ("output.geo_anchor", self._check_anchor),
+            ("output.results_name", self._check_results_name),
         ]
         for what, check in checks:
             try:
@@ -178,6 +183,12 @@ class ProcessSettings:
         a = self.output.geo_anchor
         if a is not None and not (len(a) in (2, 3) and -90 < float(a[0]) < 90 and -180 <= float(a[1]) <= 180):
             raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90), lon in [-180, 180], got {a}")
+
+    def _check_results_name(self):
+        # an HDF5 group name, and a folder-like name in outputs: no path separators, no '.'/'..'
+        name = self.output.results_name
+        if not (isinstance(name, str) and re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}", name)):
+            raise ValueError(f"{name!r} is not a plain name (letters, digits, _ . -, up to 64, no '/' or '..')")
 
     def to_dict(self) -> dict:
         """Plain JSON-able dict of every setting (tuples as lists)."""
@@ -218,7 +229,13 @@ class ProcessSettings:
         from bootnav.core.jsonio import read_json_file
 
         path = Path(path)
-        data = read_json_file(path, "settings file")
+        try:
+            data = read_json_file(path, "settings file")
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{path}: settings file is not UTF-8 text (byte {exc.start}: "
+                             f"{exc.object[exc.start:exc.start + 1]!r}); save it as UTF-8 JSON") from None
+        except IsADirectoryError:
+            raise InputError(f"{path}: is a directory, expected a settings JSON file") from None
         try:
             return cls.from_dict(data)
         except InputError as exc:
@@ -267,11 +284,39 @@ def _from_plain(cls, data: Any, where: str):
         elif isinstance(value, list) and _is_tuple_hint(hint):
             kwargs[name] = tuple(value)
         else:
+            _check_value(hint, value, f"{where}.{name}")
             kwargs[name] = value
     try:
         return cls(**kwargs)
     except (TypeError, ValueError) as exc:
         raise InputError(f"settings{where}: {exc}") from None
+
+
+def _check_value(hint, value, where: str) -> None:
+    """Refuse a value of the wrong JSON type for a scalar setting, a non-finite number, a negative duration.
+
+    JSON ``true`` is not a number here (Python would take it as 1), and every ``*_s`` setting is a
+    duration, so a negative one is a typo that would silently change the result.
+    """
+    args = typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType) else (hint,)
+    if value is None:
+        if type(None) not in args:
+            raise InputError(f"settings{where}: null is not allowed here")
+        return
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if float in args:
+        if not number or not math.isfinite(value):
+            raise InputError(f"settings{where}: expected a finite number, got {json.dumps(value)}")
+        if where.endswith("_s") and value < 0:
+            raise InputError(f"settings{where}: a duration cannot be negative, got {value}")
+    elif int in args:
+        if not (number and isinstance(value, int)):
+            raise InputError(f"settings{where}: expected an integer, got {json.dumps(value)}")
+    elif bool in args:
+        if not isinstance(value, bool):
+            raise InputError(f"settings{where}: expected true or false, got {json.dumps(value)}")
+    elif str in args and not isinstance(value, str):
+        raise InputError(f"settings{where}: expected a string, got {json.dumps(value)}")
 
 
 def _is_tuple_hint(hint) -> bool:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav import CONVENTIONS
+from bootnav.core.conventions import CONVENTIONS
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording, load, make_events
 

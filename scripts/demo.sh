@@ -9,19 +9,17 @@ BOOTNAV="${BOOTNAV:-$HERE/.venv/bin/bootnav}"
 
 # Prefer a recording shipped in recordings/ (the x-io closed loop, else any recording with a
 # <name>.reference.json); otherwise the x-io NGIMU short closed-loop walk (MIT licence,
-# xioTechnologies/Gait-Tracking) from the shared datasets. `bootnav process` writes its results into the
-# HDF5 recording it reads, so a recording from recordings/ is processed as a copy inside OUTDIR.
+# xioTechnologies/Gait-Tracking) from the shared datasets. `bootnav process` never modifies its input (the
+# results go to OUTDIR/results.h5); --force lets the demo be run again into the same OUTDIR.
 INPUT=""
 REF_ARGS=()
-mkdir -p "$OUT"
 if [ -d "$HERE/recordings" ]; then
     for cand in "$HERE/recordings/xio_ngimu_short_walk.h5" "$HERE"/recordings/*.h5; do
         ref="${cand%.h5}.reference.json"
         if [ -f "$cand" ] && [ -f "$ref" ]; then
-            cp "$cand" "$OUT/recording.h5"
-            INPUT="$OUT/recording.h5"
+            INPUT="$cand"
             REF_ARGS=(--reference "$ref")
-            echo "demo: $(basename "$cand") from recordings/ (copied to $INPUT)"
+            echo "demo: $(basename "$cand") from recordings/"
             break
         fi
     done
@@ -38,7 +36,7 @@ if [ -z "$INPUT" ]; then
 fi
 
 echo "demo: processing $INPUT -> $OUT"
-"$BOOTNAV" process "$INPUT" --out "$OUT" "${REF_ARGS[@]}"
+"$BOOTNAV" process "$INPUT" --out "$OUT" --force "${REF_ARGS[@]}"
 echo
 echo "demo: plots (PNG):"
 ls -1 "$OUT"/*.png

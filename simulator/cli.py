@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -56,21 +57,30 @@ def run(args) -> int:
         raise InputError(f"unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
     fmt = args.format or ("sd-txt" if str(args.out).lower().endswith(".txt") else "h5")
     t0 = time.perf_counter()
-    last = [0.0]
+    from bootnav.cli import Progress
+
+    shown = Progress(quiet=getattr(args, "quiet", False))
 
     def progress(frac: float) -> None:
-        if sys.stderr.isatty() and time.perf_counter() - last[0] > 0.5:
-            last[0] = time.perf_counter()
-            print(f"\rsimulating {args.scenario}: {100 * frac:5.1f} %", end="", file=sys.stderr)
+        shown.update(f"simulating {args.scenario}: {100 * frac:5.1f} %")
 
     try:
         res = simulate(args.scenario, seed=args.seed, profile=args.sensor_profile, rate_hz=args.rate,
                        duration_s=args.duration, mount=args.mount, progress=progress)
     except ValueError as exc:
         raise InputError(str(exc)) from exc
-    if sys.stderr.isatty():
-        print("\r" + " " * 40 + "\r", end="", file=sys.stderr)
-    path = write_sd_txt(res, args.out) if fmt == "sd-txt" else write_h5(res, args.out)
+    shown.done()
+    path = Path(args.out)
+    if fmt == "sd-txt":
+        write_sd_txt(res, path)
+    else:  # crash-safe: written beside the target, then renamed over it, so no half-written HDF5 file is left
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            write_h5(res, tmp)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
     if args.plot:
         from bootnav.simulator.plot import plot_result
 

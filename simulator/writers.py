@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav import __version__
+from bootnav.core.conventions import __version__
 from bootnav.errors import InputError
 from bootnav.logger.crc import crc16_ccitt_false_rows
 from bootnav.logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code

@@ -26,7 +26,16 @@ def base_lines():
 junk = st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\n\r\x00"), max_size=40)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def _is_data_row(text: str) -> bool:
+    """A line the importer may keep as a sample: 7 comma-separated numbers."""
+    fields = text.split(",")
+    try:
+        return len(fields) == 7 and all(np.isfinite(float(f)) for f in fields)
+    except ValueError:
+        return False
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(damage=st.dictionaries(st.integers(0, N - 1), junk, max_size=12), cut=st.integers(0, 30))
 def test_damaged_lines_reported_good_lines_kept(tmp_path_factory, damage, cut):
     header, rows = base_lines()
@@ -40,7 +49,9 @@ def test_damaged_lines_reported_good_lines_kept(tmp_path_factory, damage, cut):
     path.write_text(body, encoding="utf-8")
     try:
         r = read_any(path)
-    except InputError:
+    except InputError as exc:  # a refusal names the file, on one line
+        assert str(path) in str(exc) or path.name in str(exc)
+        assert "\n" not in str(exc)
         return
     # every undamaged, complete line is present with its exact time
     after = body.split("\n")
@@ -50,6 +61,12 @@ def test_damaged_lines_reported_good_lines_kept(tmp_path_factory, damage, cut):
     assert intact_t <= got_t
     assert r.n <= N
     skipped = {int(e["line"]) for e in r.events if e["kind"] == "skipped_line"}
-    for k, text in damage.items():  # a damaged line is either skipped with its number or (rarely) still valid
-        t_k = round(float(rows[k].split(",")[0]), 5)
-        assert (k + 2) in skipped or not text.strip() or t_k not in got_t or text == rows[k]
+    # a damaged line that is still in the file is a comment/blank line, kept as data, or reported by number:
+    # it never vanishes silently
+    for k, text in damage.items():
+        if k + 1 >= len(after) or after[k + 1] != text:
+            continue  # removed or cut by the power loss (a cut line is reported as truncated or lost)
+        stripped = text.strip()
+        if not stripped or stripped.startswith(("#", "%", "//")):
+            continue
+        assert (k + 2) in skipped or _is_data_row(text), f"line {k + 2} {text!r} dropped without a skipped_line event"

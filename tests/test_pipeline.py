@@ -69,13 +69,13 @@ def test_real_closed_loop_walk_closes(short_walk_result):
 
 
 def test_outputs_and_hdf5_results_reopened_in_fresh_process(short_walk_rec, short_walk_result, tmp_path):
-    rec_path = tmp_path / "copy.h5"
-    rec_path.write_bytes(Path(short_walk_rec[0]).read_bytes())
     r = short_walk_result
-    r.source = rec_path  # write into this copy, not the shared fixture file
+    before = Path(short_walk_rec[0]).read_bytes()
     r.settings.output.plots = False
     files = write_outputs(r, tmp_path / "out")
+    rec_path = tmp_path / "out" / "results.h5"  # a copy of the recording + /results; the input is untouched
     assert files["hdf5"] == f"{rec_path}:/results/default"
+    assert Path(short_walk_rec[0]).read_bytes() == before
     code = (
         "import sys, json, h5py, numpy as np\n"
         "from bootnav.logger.recording import load\n"
@@ -444,3 +444,14 @@ def test_reference_truth_of_a_simulated_recording(tmp_path, walk_arrays):
     assert r.metrics["height_ref_m"] == pytest.approx(res.truth["pos_n_m"][-1, 2] - res.truth["pos_n_m"][0, 2])
     with pytest.raises(InputError, match="needs a /truth group"):
         process(_write(tmp_path, *walk_arrays, name="no_truth.h5"), ProcessSettings(reference="truth"))
+
+
+def test_settings_saved_by_the_previous_release_still_load():
+    """summary.json of 2026-11 carried filter.gap_factor and checks.gap_factor (replaced by the one gap rule of
+    bootnav.core.timebase): such a file must still load, and a real typo must still be refused."""
+    old = {"filter": {"gap_factor": 5.0, "n_states": 15, "sigma_gyro_radps": 0.0104719755},
+           "checks": {"gap_factor": 3.0, "max_gap_s": 1.0}, "floor_height_m": 3.0}
+    s = ProcessSettings.from_dict(old)
+    assert s.filter.n_states == 15 and s.checks.max_gap_s == 1.0
+    with pytest.raises(InputError, match=r"settings\.filter: unknown key\(s\) \['gap_factr'\]"):
+        ProcessSettings.from_dict({"filter": {"gap_factr": 5.0}})

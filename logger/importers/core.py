@@ -29,6 +29,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,9 +40,10 @@ import numpy as np
 from bootnav.core import csvio
 from bootnav.core.timebase import (TIME_SCALE, is_u32_counter, spread_coarse_seconds, time_events, timing_summary,
                                    unwrap_counter)
-from bootnav.errors import InputError
+from bootnav.errors import DiskFullError, InputError
 from bootnav.logger import mpu6050
-from bootnav.logger.recording import Channel, counts_channel, make_events, si_channel, write_group, write_recording
+from bootnav.logger.recording import (Channel, counts_channel, is_disk_full, make_events, si_channel, write_group,
+                                      write_recording)
 
 from . import checks, columns as colmod, sdlog
 from .profiles import Profile, all_profiles, load_profile, matches
@@ -206,9 +208,15 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
     if unknown:
         raise TypeError(f"unknown override(s) {sorted(unknown)}; known: {sorted(OVERRIDE_KEYS)}")
     overrides = {k: v for k, v in overrides.items() if v is not None}
+    for key, flag in (("rate_hz", "--rate"), ("acc_range_g", "--acc-range"), ("gyro_range_dps", "--gyro-range")):
+        value = overrides.get(key)
+        if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise InputError(f"{flag} {value}: must be a positive number")
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory; give the log file to import")
     text, raw, damage = read_text(path)
     if sdlog.looks_like_sd_log(text) and profile in (None, "bootnav_sd"):
         result = sdlog.read_sd_log(path, text, raw, **overrides)  # a line cut by the damage fails its CRC
@@ -220,10 +228,49 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         units = _check_units(src, t)
         saturated = _sample_events(src, t, units)
         result = _build_result(src, t, time_unit, units, saturated, raw)
+    _check_physical(result, path, overrides.get("check_units", True))
     if damage:
         result.events.append(dict(kind="note", detail=f"{damage}: the lines after it are lost"[:200]))
         result.messages.append(f"WARNING: {path.name}: {damage}; every complete line before it was read")
     return result
+
+
+#: Physical bounds of a body-worn IMU: beyond them a value is a damaged line or a wrong unit, not motion.
+MAX_ACC_MPS2 = 200.0  # ~20 g: a heel strike peaks near 10 g
+MAX_GYRO_RADPS = 50.0  # ~2900 deg/s: above the ±2000 deg/s of MEMS gyros
+RATE_BOUNDS_HZ = (1.0, 10_000.0)
+
+
+def _check_physical(result: ImportResult, path: Path, strict: bool) -> None:
+    """Refuse a result whose values are physically impossible: a non-finite time, a rate outside
+    1 Hz-10 kHz, |acc| above 200 m/s^2 or |gyro| above 50 rad/s, each named with its sample index and
+    the likely fix. ``strict=False`` (``--no-unit-check``) turns the value bounds into note events; a
+    non-finite time is always an error."""
+    t = np.asarray(result.t_s, dtype=np.float64)
+    bad_t = np.flatnonzero(~np.isfinite(t))
+    if bad_t.size:
+        raise InputError(f"{path}: time of sample {int(bad_t[0])} is not finite ({t[bad_t[0]]}); check --time-unit "
+                         "and the time column")
+    problems = []
+    rate = timing_summary(t)["rate_measured_hz"] if t.size > 1 else float("nan")
+    if math.isfinite(rate) and not RATE_BOUNDS_HZ[0] <= rate <= RATE_BOUNDS_HZ[1]:
+        problems.append(f"sample rate {rate:.4g} Hz is outside {RATE_BOUNDS_HZ[0]:g} Hz-{RATE_BOUNDS_HZ[1]:g} Hz; "
+                        "check --time-unit (s, ms, us) or --rate")
+    for kind, arr, ch, bound, unit, flag in (
+            ("acc", result.acc, result.acc_channel, MAX_ACC_MPS2, "m/s^2", "--acc-unit"),
+            ("gyro", result.gyro, result.gyro_channel, MAX_GYRO_RADPS, "rad/s", "--gyro-unit")):
+        with np.errstate(invalid="ignore", over="ignore"):
+            si = np.abs(np.asarray(arr, dtype=np.float64) * ch.scale_to_si + ch.offset_to_si)
+        over = np.flatnonzero(np.any(si > bound, axis=1)) if si.size else np.zeros(0, int)
+        if over.size:
+            i = int(over[0])
+            problems.append(f"{kind} of sample {i} (t = {t[i]:.6g} s) is {np.max(si[i]):.4g} {unit}, beyond the "
+                            f"physical bound {bound:g} {unit} ({over.size} samples); a damaged line or a wrong {flag}")
+    for p in problems:
+        if strict:
+            raise InputError(f"{path}: {p}")
+        result.events.append(dict(kind="note", detail=("bound check overridden: " + p)[:200]))
+        result.messages.append("WARNING (bound check overridden): " + p)
 
 
 def _detect(path: Path, text: str, profile, overrides: dict, damage: str | None) -> _Source:
@@ -632,12 +679,32 @@ def write_result(result: ImportResult, out) -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
     opt = dict(result.optional)
-    write_recording(out, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
-                    gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
-                    saturated=result.saturated, **opt)
-    if result.aux:
-        write_group(out, "aux", result.aux, attrs={"description": "extra input columns, one per dataset, row-aligned "
-                    "with /imu/t_s"}, units=result.aux_units)
+    # crash-safe: the whole file is written beside the target, synced, then renamed over it, so a crash or a
+    # full disk leaves either the old file or the complete new one, never a half-written recording
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+    try:
+        write_recording(tmp, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
+                        gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
+                        saturated=result.saturated, **opt)
+        if result.aux:
+            write_group(tmp, "aux", result.aux, attrs={"description": "extra input columns, one per dataset, "
+                        "row-aligned with /imu/t_s"}, units=result.aux_units)
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, out)
+    except (DiskFullError, OSError) as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, DiskFullError) or is_disk_full(exc):
+            state = "left as it was" if out.exists() else "not created"
+            raise DiskFullError(f"disk full at {out}: 0 frames written ({state}; an import writes all or nothing)") \
+                from exc
+        # not writable, vanished directory, I/O error: h5py's long text cut to its reason
+        reason = re.search(r"error message = '([^']*)'", str(exc))
+        raise InputError(f"{out}: cannot write ({reason.group(1) if reason else exc}); choose a writable place") \
+            from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return out
 
 

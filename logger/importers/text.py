@@ -211,8 +211,11 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
                 break
         if header is True and hdr is None:
             raise InputError(f"{path}: a header line with {n_fields} fields was expected before line {first_line_no}")
+    stray: list[tuple[int, str]] = []  # non-data lines between the header and the data: reported, not hidden
     for k, (ln_no, ln) in enumerate(candidates[:first_data]):
-        if k != header_k:
+        if header_k >= 0 and k > header_k:
+            stray.append((ln_no, f"not a data line (between the header and the data): {ln[:60]!r}"))
+        elif k != header_k:
             preamble.append((ln_no, ln))
     decimal_comma = False
     if delim != "," or quoted:
@@ -230,7 +233,7 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
                                      give_up_fraction=0.5)
         if parsed is not None:
             matrix, lines_no, bad = parsed
-            return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, bad_lines=bad, **common)
+            return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, bad_lines=stray + list(bad), **common)
 
     # Careful path: line by line, every malformed line reported with its number.
     good_rows, good_lines, bad = [], [], []
@@ -253,4 +256,5 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
     finally:
         if gc_was:
             gc.enable()
-    return TextTable(rows=good_rows, line_numbers=np.asarray(good_lines, dtype=np.int64), bad_lines=bad, **common)
+    return TextTable(rows=good_rows, line_numbers=np.asarray(good_lines, dtype=np.int64), bad_lines=stray + bad,
+                     **common)

@@ -42,9 +42,15 @@ def run(args) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
 
+    from bootnav.cli import Progress
+
+    shown = Progress(quiet=getattr(args, "quiet", False))
+
     def progress(done, total, result):
         status = "ok" if result.status == "ok" else f"FAILED ({result.reason})"
-        print(f"\r[{done}/{total}] {result.id}: {status}".ljust(100), file=sys.stderr, end="\n" if done == total else "")
+        shown.update(f"[{done}/{total}] {result.id}: {status}", force=done == total or result.status != "ok")
+        if done == total:
+            shown.done()
 
     results = evaluate_all(args.root, trials, jobs=args.jobs, progress=progress)
     elapsed = time.perf_counter() - t0

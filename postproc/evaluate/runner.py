@@ -75,13 +75,11 @@ def read_csv_columns(path: Path) -> dict[str, np.ndarray]:
 
 
 def read_imu(path: Path):
-    cols = read_csv_columns(path)
-    t = cols["t_s"]
-    acc = np.column_stack([cols["ax_mps2"], cols["ay_mps2"], cols["az_mps2"]])
-    gyro = (
-        np.column_stack([cols["gx_radps"], cols["gy_radps"], cols["gz_radps"]]) if "gx_radps" in cols else None
-    )
-    return t, acc, gyro
+    """(t_s, acc_mps2, gyro_radps or None) of a canonical IMU file (``bootnav.core.csvio.read_imu_csv``)."""
+    from bootnav.core.csvio import read_imu_csv
+
+    d = read_imu_csv(path)
+    return d.t_s, d.acc_mps2, d.gyro_radps
 
 
 # ----------------------------------------------------------------------------------------- estimate

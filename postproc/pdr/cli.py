@@ -207,6 +207,7 @@ def run(args) -> int:
     if args.save_settings:
         settings.save(args.save_settings)
     inp = load_input(args.input)
+    _check_finite(args.input, inp.t_s, inp.acc_b, inp.gyro_b)
     res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg,
                   gps=inp.gps)
     out = Path(args.out)
@@ -247,3 +248,20 @@ def run(args) -> int:
         msg += f", {res.gps['mean_m']:.1f} m mean / {res.gps['final_m']:.1f} m final from GPS"
     print(f"{msg} -> {out}")
     return 0
+
+
+def _check_finite(name, t_s, acc_b, gyro_b) -> None:
+    """Refuse NaN/inf samples (they would turn into NaN steps), naming the first one; a gyro that is NaN
+    throughout means "no gyroscope" and is allowed (the heading then comes from elsewhere)."""
+    import numpy as np
+
+    from bootnav.errors import InputError
+
+    gyro_absent = gyro_b is None or not np.isfinite(gyro_b).any()
+    channels = [("time", np.asarray(t_s)[:, None]), ("acc", acc_b)] + ([] if gyro_absent else [("gyro", gyro_b)])
+    for what, arr in channels:
+        bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f"{name}: {what} of sample {i} (t = {t_s[i]:.6g} s) is not finite ({bad.size} samples); "
+                             "repair or crop the file")

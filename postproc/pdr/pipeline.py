@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav import CONVENTIONS
+from bootnav.core.conventions import CONVENTIONS
 from bootnav.errors import InputError
 
 
