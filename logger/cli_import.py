@@ -6,12 +6,15 @@ Prints what it detected (profile, delimiter, header, columns, units, ranges) and
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", type=Path, help="input log: bootnav SD-card .txt, CSV/TXT (optionally .gz)")
+    parser.add_argument("file", type=Path, nargs="?",
+                        help="input log: bootnav SD-card .txt, CSV/TXT (optionally .gz); "
+                             "not needed with --profile list")
     parser.add_argument("--out", type=Path, help="output recording (default: FILE's name with .h5, in the cwd)")
     parser.add_argument("--profile", help="shipped profile NAME or a FILE.toml (default: auto-detect); "
                         "'--profile list' shows the shipped ones")
@@ -28,7 +31,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--delimiter", help="force the delimiter: ',' ';' 'tab' 'whitespace'")
     parser.add_argument("--no-unit-check", action="store_true",
                         help="record a failed gravity/gyro unit check as a note instead of an error")
+    parser.add_argument("--force", action="store_true", help="replace --out if it is an existing HDF5 file")
     parser.add_argument("--quiet", action="store_true", help="print only errors")
+
+
+def check_out(src: Path, out: Path, force: bool) -> None:
+    """Refuse an ``--out`` that would destroy something: the input, a directory, a non-HDF5 file, or
+    (without ``force``) an existing recording.
+
+    Raises
+    ------
+    BootnavError
+        Naming the path and the fix.
+    """
+    import h5py
+
+    from bootnav.errors import BootnavError
+
+    if src.is_dir():
+        raise BootnavError(f"{src}: is a directory; give the log file to import")
+    if out.is_dir():
+        raise BootnavError(f"--out {out}: is a directory; give a file name such as {out / (src.stem + '.h5')}")
+    parent = out.parent if str(out.parent) else Path(".")
+    if parent.is_dir() and not os.access(parent, os.W_OK):
+        raise BootnavError(f"--out {out}: {parent} is not writable; choose a writable place")
+    if not out.exists():
+        return
+    if src.exists() and os.path.samefile(src, out):
+        raise BootnavError(f"--out {out} is the input file; choose another name (the input is never overwritten)")
+    if not h5py.is_hdf5(out):
+        raise BootnavError(f"--out {out} exists and is not an HDF5 file; bootnav does not overwrite it, "
+                           "choose another name")
+    if not force:
+        raise BootnavError(f"--out {out} exists; choose another name or add --force to replace it")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -38,13 +73,17 @@ def run(args: argparse.Namespace) -> int:
         for name in builtin_names():
             print(f"{name:32s} {load_profile(name).get('description', '')}")
         return 0
+    if args.file is None:  # a usage error, like a missing required argument
+        print("bootnav import: error: the input file is required (except with --profile list)", file=sys.stderr)
+        return 2
+    name = args.file.name[:-3] if args.file.name.endswith(".gz") else args.file.name
+    out = args.out or Path.cwd() / (Path(name).stem + ".h5")
+    check_out(args.file, out, args.force)
     delimiter = {"tab": "\t", "comma": ",", "semicolon": ";"}.get(args.delimiter, args.delimiter)
     result = read_any(args.file, args.profile, columns=args.columns, acc_unit=args.acc_unit,
                       gyro_unit=args.gyro_unit, time_unit=args.time_unit, acc_range_g=args.acc_range,
                       gyro_range_dps=args.gyro_range, rate_hz=args.rate, mount=args.mount, sensor=args.sensor,
                       delimiter=delimiter, check_units=not args.no_unit_check)
-    name = args.file.name[:-3] if args.file.name.endswith(".gz") else args.file.name
-    out = args.out or Path.cwd() / (Path(name).stem + ".h5")
     write_result(result, out)
     if not args.quiet:
         for line in result.messages:

@@ -1,8 +1,9 @@
-"""``bootnav info FILE.h5 [--json]``: what is in a recording and how healthy it is.
+"""``bootnav info FILE [--json]``: what is in a recording and how healthy it is.
 
 Everything is computed from the data and the events table (not only from ``/meta``), so it also
 works for a file whose recorder was killed before writing its final metadata, and for imported or
-simulated recordings.
+simulated recordings. ``FILE`` is what ``bootnav process`` reads: a recording, or any file ``bootnav
+import`` reads (e.g. a canonical ``imu.csv.gz``), summarised as the recording ``import`` would write.
 """
 
 from __future__ import annotations
@@ -16,18 +17,61 @@ AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", metavar="FILE.h5")
+    parser.add_argument("file", metavar="FILE",
+                        help="recording (.h5) or any file `bootnav import` reads (e.g. a canonical imu.csv.gz)")
     parser.add_argument("--json", action="store_true", help="print a machine-readable summary")
 
 
+def load_any(path):
+    """A recording, or any other file through ``bootnav import``'s reader, as the ``Recording`` that
+    ``import`` would store (written to a temporary file and loaded back, so ``info FILE`` and ``info`` of
+    the imported recording agree). A ``.h5``/``.hdf5`` name is always read as a recording, so a damaged
+    recording is reported as such rather than as an unreadable CSV.
+
+    Parameters
+    ----------
+    path
+        The file ``bootnav info`` was given.
+
+    Returns
+    -------
+    Recording
+        Without ``/truth``.
+    """
+    import tempfile
+    from pathlib import Path
+
+    import h5py
+
+    from bootnav.logger.recording import load
+
+    p = Path(path)
+    if p.is_file() and p.suffix.lower() not in (".h5", ".hdf5") and not h5py.is_hdf5(p):
+        from bootnav.logger.importers import read_any, write_result
+
+        with tempfile.TemporaryDirectory(prefix="bootnav-info-") as tmp:
+            return load(write_result(read_any(p), Path(tmp) / "imported.h5"), with_truth=False)
+    return load(p, with_truth=False)
+
+
 def summarize(path) -> dict:
-    """The summary ``bootnav info`` prints (also used by tests and other tools)."""
+    """The summary ``bootnav info`` prints (also used by tests and other tools).
+
+    Parameters
+    ----------
+    path
+        A recording or any file ``bootnav import`` reads (``load_any``).
+
+    Returns
+    -------
+    dict
+        Timing, gaps, link errors, saturation, ranges, events, device metadata and data warnings.
+    """
     import numpy as np
 
     from bootnav.core.timebase import gap_mask, missing_samples, nominal_period, timing_summary
-    from bootnav.logger.recording import load
 
-    rec = load(path, with_truth=False)
+    rec = load_any(path)
     t = rec.t_s
     dt = np.diff(t)
     good = dt[np.isfinite(dt) & (dt > 0)]
@@ -88,9 +132,39 @@ def summarize(path) -> dict:
         "mount": meta.get("mount", ""),
         "start_utc": meta.get("start_utc", ""),
         "complete": "stop_reason" in meta or "rate_measured_hz" in meta,
+        "data_warnings": data_warnings(rec),
         "gap_list": gaps[:100],
     }
     return summary
+
+
+#: Below these the sensor did not move at all (a still boot still shows > 0.3 rad/s peaks when walking).
+STILL_GYRO_RADPS = 0.05
+STILL_ACC_STD_MPS2 = 0.05
+
+
+def data_warnings(rec) -> list[str]:
+    """What makes a recording useless or suspicious though it opens: non-finite samples, all-zero
+    channels, no motion at all. Empty when nothing is wrong."""
+    import numpy as np
+
+    out = []
+    gyro_present = str(rec.meta.get("gyro_present", 1)) not in ("0", "False")
+    channels = {"acc": rec.acc_mps2} | ({"gyro": rec.gyro_radps} if gyro_present else {})
+    for name, arr in channels.items():
+        bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+        if bad.size:
+            out.append(f"{name}: {bad.size} non-finite samples (first at sample {int(bad[0])})")
+        finite = arr[np.isfinite(arr)]
+        if finite.size and np.all(finite == 0):
+            out.append(f"{name}: all zero (sensor not delivering data?)")
+    if rec.n > 1 and not out:
+        still = np.nanstd(rec.acc_mps2, axis=0).max() < STILL_ACC_STD_MPS2
+        if gyro_present:
+            still = still and np.nanmax(np.abs(rec.gyro_radps)) < STILL_GYRO_RADPS
+        if still:
+            out.append("no motion: the sensor stayed still for the whole recording")
+    return out
 
 
 def _fmt(value) -> str:
@@ -132,6 +206,8 @@ def run(args) -> int:
         f"  saturation  {sat}",
         f"  events      {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}",
     ]
+    for w in s["data_warnings"]:
+        lines.append(f"  WARNING     {w}")
     if not s["complete"]:
         lines.append("  note        no final metadata: the writer did not close (crash or still recording)")
     print("\n".join(lines), file=out)

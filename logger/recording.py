@@ -12,6 +12,7 @@ so a reader (or a crash) always sees a consistent file up to the last ``flush``.
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import json
 import os
 from dataclasses import dataclass, field
@@ -21,13 +22,16 @@ from typing import Any, Iterable, Mapping
 import h5py
 import numpy as np
 
-from bootnav import CONVENTIONS, __version__
+from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.timebase import timing_summary
-from bootnav.errors import InputError
+from bootnav.errors import DiskFullError, InputError
 
 FORMAT_VERSION = 1
 CHUNK_ROWS = 4096
 _COMPRESSION = dict(compression="gzip", compression_opts=4, shuffle=True)
+#: HDF5 file-format bounds of every file bootnav writes: the 1.10 format keeps SWMR and is read by the HDF5
+#: 1.10 tools of Debian/Ubuntu (h5dump, h5ls) and by MATLAB; "latest" would pick HDF5 2.0 formats they reject.
+LIBVER = ("v110", "v110")
 
 #: Event kinds: every anomaly seen while recording or importing is kept as one row.
 EVENT_KINDS = (
@@ -120,6 +124,34 @@ def si_channel(kind: str, full_scale_si: float = float("nan")) -> Channel:
     return Channel(si, si, 1.0, 0.0, full_scale_si, "<f8")
 
 
+def is_disk_full(exc: BaseException) -> bool:
+    """True for a full disk, quota or file-size limit (``ENOSPC``, ``EDQUOT``, ``EFBIG``), also when h5py
+    reports it only inside its message (``errno = 28``)."""
+    codes = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+    if getattr(exc, "errno", None) in codes:
+        return True
+    return any(f"errno = {c}," in str(exc) for c in codes)
+
+
+#: Space a new recording needs before its first block (superblock, groups, dataset headers, first chunks).
+MIN_FREE_BYTES = 256 << 10
+
+
+def free_bytes(path: Path) -> int:
+    """Bytes that can still be written to ``path``: free space of its file system for this user, capped by
+    the process's file-size limit (``ulimit -f``) less the file's current size."""
+    import resource
+
+    path = Path(path)
+    st = os.statvfs(path.parent if path.parent.exists() else ".")
+    # a pseudo file system (/proc, /sys) reports no blocks at all: no space figure, let the write say why it fails
+    free = st.f_bavail * st.f_frsize if st.f_blocks else 1 << 62
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY:
+        free = min(free, soft - (path.stat().st_size if path.exists() else 0))
+    return int(free)
+
+
 def _utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
@@ -159,7 +191,22 @@ class RecordingWriter:
         chunk_rows: int = CHUNK_ROWS,
     ):
         self.path = Path(path)
-        self._file = h5py.File(self.path, "w", libver="latest")
+        self._closed = True
+        if free_bytes(self.path) < MIN_FREE_BYTES:  # HDF5 cannot recover from a failed create: do not start one
+            raise DiskFullError(f"disk full at {self.path}: 0 frames written (no space for a new file)")
+        try:
+            self._file = h5py.File(self.path, "w", libver=LIBVER)
+            self._closed = False
+            self._create(acc, gyro, temp, device_time, host_time, seq, meta, swmr, chunk_rows)
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            if is_disk_full(exc):
+                self.path.unlink(missing_ok=True)  # nothing of value in it: no 0-byte or header-only file
+                raise DiskFullError(f"disk full at {self.path}: 0 frames written (no space for a new file)") from exc
+            raise
+
+    def _create(self, acc, gyro, temp, device_time, host_time, seq, meta, swmr, chunk_rows) -> None:
+        """Create every dataset (before SWMR mode, which forbids creating objects later)."""
         f = self._file
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["producer"] = f"bootnav {__version__}"
@@ -224,16 +271,20 @@ class RecordingWriter:
         self._events.attrs["units"] = "t_s: s; count: samples or bytes; byte_offset: bytes; line: 1-based"
         self._events.attrs["kinds"] = ",".join(EVENT_KINDS)
         self.n = 0
+        self.n_safe, self.t_safe = 0, float("nan")  # rows on disk at the last flush, and their last time
         if swmr:
             f.swmr_mode = True
-        self._closed = False
 
     @property
     def enabled(self) -> tuple[str, ...]:
         return tuple(self._arrays)
 
     def append(self, t_s, acc, gyro, *, saturated=None, **optional) -> None:
-        """Append a block of samples. ``optional`` takes temp, t_device, t_host, seq."""
+        """Append a block of samples. ``optional`` takes temp, t_device, t_host, seq.
+
+        The whole block is checked before any dataset grows; if a write fails (disk full), every
+        dataset is shrunk back to its rows at the last ``flush``, so no zero-filled row is left behind.
+        """
         t_s = np.asarray(t_s, dtype=np.float64).reshape(-1)
         n_new = t_s.shape[0]
         if n_new == 0:
@@ -251,12 +302,15 @@ class RecordingWriter:
         missing = set(self._arrays) - set(block)
         if missing:
             raise KeyError(f"append() is missing {sorted(missing)}")
-        for name, ds in self._arrays.items():
-            value = block[name]
-            if value.shape[0] != n_new:
-                raise ValueError(f"{name}: {value.shape[0]} rows, expected {n_new}")
-            ds.resize(self.n + n_new, axis=0)
-            ds[self.n :] = value
+        for name in self._arrays:
+            if block[name].shape[0] != n_new:
+                raise ValueError(f"{name}: {block[name].shape[0]} rows, expected {n_new}")
+        try:
+            for name, ds in self._arrays.items():
+                ds.resize(self.n + n_new, axis=0)
+                ds[self.n :] = block[name]
+        except (OSError, RuntimeError) as exc:
+            self._fail(exc)
         self.n += n_new
 
     def add_events(self, events: np.ndarray | Iterable[Mapping[str, Any]]) -> None:
@@ -265,22 +319,88 @@ class RecordingWriter:
         if len(events) == 0:
             return
         n0 = self._events.shape[0]
-        self._events.resize(n0 + len(events), axis=0)
-        self._events[n0:] = events
+        try:
+            self._events.resize(n0 + len(events), axis=0)
+            self._events[n0:] = events
+        except (OSError, RuntimeError) as exc:
+            self._fail(exc, n_events=n0)
 
     def flush(self) -> None:
-        self._file.flush()
+        """Write everything appended so far to disk (a reader or a crash sees it from now on)."""
+        try:
+            self._file.flush()
+        except (OSError, RuntimeError) as exc:
+            self._fail(exc)
+        self.n_safe = self.n
+        self.t_safe = float(self._t[self.n - 1]) if self.n else float("nan")
+
+    def room_for(self, n_rows: int, n_events: int = 0) -> bool:
+        """Whether the disk (and the process's file-size limit) has room for ``n_rows`` more samples and
+        ``n_events`` events, with a margin for a rewritten partial chunk per dataset and the metadata.
+
+        Checked before a write so a recording stops cleanly, readable, instead of failing half-way
+        through a flush: HDF5 cannot undo a half-written flush and would leave a file it rejects.
+        """
+        row = sum(ds.dtype.itemsize * (ds.shape[1] if ds.ndim == 2 else 1) for ds in self._arrays.values())
+        chunk = sum(ds.chunks[0] * ds.dtype.itemsize * (ds.shape[1] if ds.ndim == 2 else 1)
+                    for ds in self._arrays.values())
+        need = n_rows * row + n_events * EVENT_DTYPE.itemsize + 2 * chunk + (64 << 10)
+        return need <= free_bytes(self.path)
+
+    def disk_full_error(self) -> DiskFullError:
+        """The message of a full disk: how many frames are safe on disk, up to which time."""
+        safe = f"up to t = {self.t_safe:.3f} s" if np.isfinite(self.t_safe) else "(no sample yet)"
+        return DiskFullError(f"disk full at {self.path}: {self.n_safe} frames safely written {safe}")
+
+    def _fail(self, exc: BaseException, n_events: int | None = None) -> None:
+        """A write failed: shrink every dataset back to its rows at the last flush, close, raise.
+
+        A full disk raises ``DiskFullError`` saying how much was safely written (up to the last
+        ``flush``); any other I/O error is re-raised after the same clean-up.
+        """
+        for ds in self._arrays.values():
+            try:
+                ds.resize(self.n_safe, axis=0)
+            except (OSError, ValueError):
+                pass
+        if n_events is not None:
+            try:
+                self._events.resize(n_events, axis=0)
+            except (OSError, ValueError):
+                pass
+        self.abort()
+        if is_disk_full(exc):
+            raise self.disk_full_error() from exc
+        raise exc
+
+    def abort(self) -> None:
+        """Close after a failed write without raising (the file keeps what the last flush wrote)."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._file.close()
+        except (OSError, RuntimeError, ValueError):
+            pass
 
     def close(self, final_meta: Mapping[str, Any] | None = None) -> None:
         if self._closed:
             return
-        self._file.flush()
-        self._file.close()
+        self.flush()
+        try:
+            self._file.close()
+        except (OSError, RuntimeError) as exc:
+            self._fail(exc)
         self._closed = True
         if final_meta:
-            with h5py.File(self.path, "r+") as f:
-                for key, value in final_meta.items():
-                    f["meta"].attrs[key] = _clean_attr(value)
+            try:
+                with h5py.File(self.path, "r+", libver=LIBVER) as f:
+                    for key, value in final_meta.items():
+                        f["meta"].attrs[key] = _clean_attr(value)
+            except (OSError, RuntimeError) as exc:
+                if is_disk_full(exc):
+                    raise DiskFullError(f"{self.disk_full_error()} (final metadata not written)") from exc
+                raise
 
     def __enter__(self):
         return self
@@ -319,13 +439,17 @@ def write_recording(
         meta=meta,
         swmr=False,
     )
-    writer.append(t_s, acc, gyro, **optional)
-    if events is not None:
-        writer.add_events(events)
-    final = {}
-    if measured_rate:
-        final = timing_summary(np.asarray(t_s, dtype=float))
-    writer.close(final_meta=final)
+    try:
+        writer.append(t_s, acc, gyro, **optional)
+        if events is not None:
+            writer.add_events(events)
+        final = {}
+        if measured_rate:
+            final = timing_summary(np.asarray(t_s, dtype=float))
+        writer.close(final_meta=final)
+    except BaseException:
+        writer.abort()  # never leave an open HDF5 handle to be flushed again at exit
+        raise
     return Path(path)
 
 
@@ -361,10 +485,20 @@ class Recording:
 
 
 def _open_for_read(path: Path) -> h5py.File:
+    """Open read-only; a file left with SWMR/consistency flags (writer running or killed) in SWMR mode.
+
+    The SWMR retry is attempted only for those flags: on a truncated or damaged file HDF5's SWMR
+    metadata retries would spin for minutes, so such a file fails at once with its size.
+    """
     try:
         return h5py.File(path, "r")
     except OSError as first:
-        # A writer still running (or killed) leaves SWMR flags set; SWMR read mode accepts that.
+        text = str(first)
+        if "truncated file" in text:
+            raise InputError(f"{path}: the file is cut short ({text.split('(', 1)[-1].rstrip(')')}); "
+                             "it was not completely copied or written") from first
+        if not any(k in text for k in ("h5clear", "consistency flags", "already open", "lock")):
+            raise InputError(f"{path}: cannot open as an HDF5 recording ({first})") from first
         try:
             return h5py.File(path, "r", libver="latest", swmr=True)
         except OSError:
@@ -381,50 +515,112 @@ def _decode(value):
     return value
 
 
+def _finite_number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
+        and bool(np.isfinite(value))
+
+
+def _check_layout(f: h5py.File, path: Path) -> None:
+    """Reject a file whose layout ``load`` cannot trust, naming the dataset path and what is wrong."""
+    version = f.attrs.get("format_version")
+    if version is None or "imu" not in f:
+        raise InputError(f"{path}: not a bootnav recording (no format_version or /imu)")
+    if isinstance(version, np.ndarray) and version.size == 1:
+        version = version.reshape(()).item()
+    if isinstance(version, (bool, np.bool_)) or not isinstance(version, (int, np.integer)):
+        raise InputError(f"{path}: attribute /format_version is {_decode(version)!r}, expected an integer "
+                         "(not written by bootnav, or damaged)")
+    if int(version) > FORMAT_VERSION:
+        raise InputError(f"{path}: format_version {version} is newer than this bootnav reads ({FORMAT_VERSION})")
+    if not isinstance(f["imu"], h5py.Group):
+        raise InputError(f"{path}: /imu is a dataset, expected a group holding t_s, acc and gyro")
+    imu = f["imu"]
+    for name, ndim in (("t_s", 1), ("acc", 2), ("gyro", 2)):
+        if name not in imu:
+            raise InputError(f"{path}: /imu/{name} is missing; a recording needs /imu/t_s, /imu/acc and /imu/gyro")
+    for name in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq"):
+        if name not in imu:
+            continue
+        ds = imu[name]
+        ndim = 2 if name in ("acc", "gyro") else 1
+        if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "iuf" or ds.ndim != ndim \
+                or (ndim == 2 and ds.shape[1] != 3):
+            want = "an (N, 3) numeric dataset" if ndim == 2 else "a 1-D numeric dataset"
+            got = f"{ds.dtype} {ds.shape}" if isinstance(ds, h5py.Dataset) else "a group"
+            raise InputError(f"{path}: /imu/{name} is {got}, expected {want}")
+        for key in ("scale_to_si", "offset_to_si"):
+            value = ds.attrs.get(key, 0.0)
+            if isinstance(value, np.ndarray) and value.size == 1:
+                value = value.reshape(()).item()
+            if not _finite_number(value):
+                raise InputError(f"{path}: attribute {key} of /imu/{name} is {_decode(value)!r}, expected a finite number")
+    if "events" in f:
+        ev = f["events"]
+        if not isinstance(ev, h5py.Dataset) or ev.dtype.names is None \
+                or not {"t_s", "sample_index", "kind"} <= set(ev.dtype.names):
+            raise InputError(f"{path}: /events is not an event table (a compound dataset with t_s, sample_index, "
+                             "kind, ...); delete it with h5py to read the samples")
+
+
 def load(path: str | os.PathLike, *, with_truth: bool = True) -> Recording:
-    """Open a recording and return it in SI units (the one function every consumer uses)."""
+    """Open a recording and return it in SI units (the one function every consumer uses).
+
+    Raises
+    ------
+    InputError
+        The file is missing, cut short, unreadable, or its layout is not a recording's; the message
+        names the file and the dataset path.
+    """
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a recording file")
     with _open_for_read(path) as f:
-        version = f.attrs.get("format_version")
-        if version is None or "imu" not in f:
-            raise InputError(f"{path}: not a bootnav recording (no format_version or /imu)")
-        if int(version) > FORMAT_VERSION:
-            raise InputError(f"{path}: format_version {version} is newer than this bootnav reads ({FORMAT_VERSION})")
-        imu = f["imu"]
-        # A killed writer may leave datasets of unequal length; keep the common prefix.
-        names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
-        n = min(imu[k].shape[0] for k in names)
-        get = lambda k: imu[k][:n] if k in imu else None  # noqa: E731
-        scale = lambda k: (  # noqa: E731
-            imu[k][:n].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
-            + float(imu[k].attrs.get("offset_to_si", 0.0))
-        )
-        rec = Recording(
-            path=path,
-            t_s=get("t_s").astype(np.float64),
-            acc_mps2=scale("acc"),
-            gyro_radps=scale("gyro"),
-            saturated=get("saturated"),
-            events=f["events"][()] if "events" in f else np.zeros(0, EVENT_DTYPE),
-            meta={k: _decode(v) for k, v in f["meta"].attrs.items()} if "meta" in f else {},
-            attrs={k: _decode(v) for k, v in f.attrs.items()},
-            temp_degc=scale("temp") if "temp" in imu else None,
-            t_device=get("t_device"),
-            t_host=get("t_host"),
-            seq=get("seq"),
-            raw={
-                "acc": get("acc"),
-                "gyro": get("gyro"),
-                "acc_attrs": dict(imu["acc"].attrs),
-                "gyro_attrs": dict(imu["gyro"].attrs),
-            },
-        )
-        if with_truth and "truth" in f:
-            g = f["truth"]
-            rec.truth = {k: g[k][()] for k in g if isinstance(g[k], h5py.Dataset)}
-            rec.truth["attrs"] = {k: _decode(v) for k, v in g.attrs.items()}
+        try:
+            _check_layout(f, path)
+            return _read(f, path, with_truth)
+        except (OSError, RuntimeError) as exc:  # a damaged chunk ("filter returned failure") or header
+            text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
+                from exc
+
+
+def _read(f: h5py.File, path: Path, with_truth: bool) -> Recording:
+    imu = f["imu"]
+    # A killed writer may leave datasets of unequal length; keep the common prefix.
+    names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
+    n = min(imu[k].shape[0] for k in names)
+    get = lambda k: imu[k][:n] if k in imu else None  # noqa: E731
+    scale = lambda k: (  # noqa: E731
+        imu[k][:n].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
+        + float(imu[k].attrs.get("offset_to_si", 0.0))
+    )
+    saturated = get("saturated")
+    rec = Recording(
+        path=path,
+        t_s=get("t_s").astype(np.float64),
+        acc_mps2=scale("acc"),
+        gyro_radps=scale("gyro"),
+        saturated=np.zeros(n, np.uint8) if saturated is None else saturated,
+        events=f["events"][()] if "events" in f else np.zeros(0, EVENT_DTYPE),
+        meta={k: _decode(v) for k, v in f["meta"].attrs.items()} if "meta" in f else {},
+        attrs={k: _decode(v) for k, v in f.attrs.items()},
+        temp_degc=scale("temp") if "temp" in imu else None,
+        t_device=get("t_device"),
+        t_host=get("t_host"),
+        seq=get("seq"),
+        raw={
+            "acc": get("acc"),
+            "gyro": get("gyro"),
+            "acc_attrs": dict(imu["acc"].attrs),
+            "gyro_attrs": dict(imu["gyro"].attrs),
+        },
+    )
+    if with_truth and "truth" in f:
+        g = f["truth"]
+        rec.truth = {k: g[k][()] for k in g if isinstance(g[k], h5py.Dataset)}
+        rec.truth["attrs"] = {k: _decode(v) for k, v in g.attrs.items()}
     return rec
 
 
@@ -435,7 +631,7 @@ def write_group(path, group: str, arrays: Mapping[str, Any], attrs: Mapping[str,
     Every array gets a ``units`` attribute (from ``units``, default "1").
     """
     units = units or {}
-    with h5py.File(path, "r+") as f:
+    with h5py.File(path, "r+", libver=LIBVER) as f:
         if group in f and replace:
             del f[group]
         g = f.require_group(group)
@@ -446,3 +642,38 @@ def write_group(path, group: str, arrays: Mapping[str, Any], attrs: Mapping[str,
             kwargs = dict(_COMPRESSION, chunks=True) if value.ndim and value.size > 1024 else {}
             ds = g.create_dataset(key, data=value, **kwargs)
             ds.attrs["units"] = units.get(key, "1")
+
+
+_AXIS_LABELS = {3: ("axis", (b"x", b"y", b"z")), 4: ("q_component", (b"w", b"x", b"y", b"z"))}
+
+
+def attach_dimension_scales(path, group: str, time_key: str = "t_s") -> None:
+    """Name the dimensions of a group's arrays with HDF5 dimension scales, as ``/imu`` does.
+
+    ``group[time_key]`` becomes the scale of the first dimension of every array with as many rows; a second
+    dimension of 3 gets an ``axis`` (x, y, z) scale, of 4 a ``q_component`` (w, x, y, z) scale, created in the
+    group when needed. netCDF-4 readers (xarray with h5netcdf, MATLAB ``ncread``) then see named dimensions
+    and coordinates instead of anonymous ones.
+
+    Parameters
+    ----------
+    path
+        An existing HDF5 file (written with ``LIBVER``).
+    group
+        The group holding ``time_key`` and the arrays, e.g. ``/results/default``.
+    time_key
+        The 1-D time array of the group.
+    """
+    with h5py.File(path, "r+", libver=LIBVER) as f:
+        g = f[group]
+        t = g[time_key]
+        t.make_scale(time_key)
+        for name, ds in list(g.items()):
+            if not isinstance(ds, h5py.Dataset) or ds.is_scale or ds.ndim == 0 or ds.shape[0] != t.shape[0]:
+                continue
+            ds.dims[0].attach_scale(t)
+            if ds.ndim == 2 and ds.shape[1] in _AXIS_LABELS:
+                scale_name, labels = _AXIS_LABELS[ds.shape[1]]
+                if scale_name not in g:
+                    g.create_dataset(scale_name, data=np.array(labels)).make_scale(scale_name)
+                ds.dims[1].attach_scale(g[scale_name])

@@ -2,6 +2,10 @@
 
 Settings: defaults < ``--settings FILE.json`` (a full or partial ProcessSettings dict) < the options given
 on the command line. The settings actually used are saved in summary.json and the HDF5 results group.
+
+Nothing the user gave is modified unless asked: results go to ``DIR/results.h5``; ``--into-recording``
+writes them into the input recording atomically (``outputs``). Before any processing, every output is
+checked: none may be an input (even with ``--force``), none may exist already (unless ``--force``).
 """
 
 from __future__ import annotations
@@ -58,7 +62,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="INPUT", nargs="+",
                    help="recording (.h5) or any file `bootnav import` reads (e.g. a canonical imu.csv.gz); "
                         "several inputs are processed in parallel, each into DIR/<name>/")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (created): CSVs, summary.json, plots and results.h5 (a copy of the "
+                        "recording with /results); the input is never modified")
+    p.add_argument("--into-recording", action="store_true",
+                   help="write /results/NAME into the input HDF5 recording itself instead of DIR/results.h5 "
+                        "(atomically: a copy is written, flushed and renamed over the original)")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite existing output files (and an existing /results/NAME with --into-recording); "
+                        "an input is never overwritten")
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
     p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
     p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
@@ -90,9 +102,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "({\"closed_loop\": true} / {\"straight_m\": 9} / {\"waypoints\": [...]}), "
                         "or such a JSON object inline, or 'truth' (a simulated recording's /truth); see docs/metrics.md")
     w.add_argument("--closed-loop", action="store_true", help="the walk ends where it started (closure metrics)")
-    w.add_argument("--geo-anchor", type=_floats, metavar="LAT,LON[,H]", help="WGS-84 position of the start for GeoJSON")
+    w.add_argument("--geo-anchor", type=_floats, metavar="LAT,LON[,H]",
+                   help="WGS-84 position of the start: writes path.geojson (not written without it)")
     w.add_argument("--results-name", metavar="NAME", help="HDF5 results group /results/NAME (default 'default')")
-    w.add_argument("--no-hdf5", action="store_true", help="do not write the HDF5 results group")
+    w.add_argument("--no-hdf5", action="store_true", help="do not write results.h5 (nor the results group)")
     w.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
     w.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
@@ -147,23 +160,31 @@ def build_settings(args):
     return s
 
 
-class StderrProgress:
-    """Stage lines on stderr; filter percentage only when a stage takes long enough to matter."""
+class StageProgress:
+    """The pipeline's ``progress(stage, fraction)`` shown through ``bootnav.cli.Progress``: one rewritten line
+    on a tty, plain periodic lines (no carriage returns) when stderr is a log or a pipe.
 
-    def __init__(self, enabled: bool):
-        self.enabled = enabled
+    Parameters
+    ----------
+    quiet : bool
+        Show nothing.
+    """
+
+    def __init__(self, quiet: bool = False):
+        from bootnav.cli import Progress
+
+        self.shown = Progress(quiet=quiet)
         self.t0 = time.perf_counter()
-        self.last = -1.0
 
     def __call__(self, stage: str, fraction: float) -> None:
-        if not self.enabled:
-            return
-        now = time.perf_counter() - self.t0
-        if fraction >= 1.0:
-            print(f"bootnav process: {stage} done ({now:.1f} s)", file=sys.stderr, flush=True)
-        elif now - self.last >= 1.0:
-            print(f"bootnav process: {stage} {100 * fraction:3.0f} %", file=sys.stderr, flush=True)
-            self.last = now
+        if fraction >= 1.0:  # a stage boundary always shows (a handful per run)
+            self.shown.update(f"bootnav process: {stage} done ({time.perf_counter() - self.t0:.1f} s)", force=True)
+        else:
+            self.shown.update(f"bootnav process: {stage} {100 * fraction:3.0f} %")
+
+    def done(self) -> None:
+        """Clear the tty line before the report is printed."""
+        self.shown.done()
 
 
 def format_summary(summary: dict, files: dict) -> str:
@@ -190,11 +211,12 @@ def format_summary(summary: dict, files: dict) -> str:
         f"{100 * summary['stance']['fraction']:.0f} % of samples",
         f"strides      {p.get('strides', 0)}, distance {p.get('distance_m', 0):.2f} m (horizontal)",
     ]
+    from bootnav.postproc.summary import endpoint_label
+
     m = summary.get("metrics")
-    open_path = bool(m) and m.get("reference_kind") != "closed_loop"
     if "closure_3d_m" in p:
-        label = "end - start " if open_path else "closure     "
-        note = "" if open_path else "; the error when the walk ends where it started"
+        label = f"{endpoint_label(summary):<12}"
+        note = "; the error when the walk ends where it started" if summary.get("closed_loop") else ""
         lines.append(f"{label} {p['closure_3d_m']:.3f} m = {p['closure_pct']:.2f} % of distance "
                      f"(horizontal {p['closure_h_m']:.3f} m, vertical {p['closure_v_m']:.3f} m{note})")
         lines.append(f"height       {p['height_change_m']:+.2f} m net; floors climbed {p['floors_climbed']}, "
@@ -217,23 +239,25 @@ def format_summary(summary: dict, files: dict) -> str:
     return "\n".join(lines)
 
 
-def _one(input_path: str, settings, out_dir: str, progress) -> tuple[dict, dict]:
+def _one(input_path: str, settings, out_dir: str, progress, into_recording: bool = False,
+         force: bool = False) -> tuple[dict, dict]:
     from bootnav.postproc.outputs import write_outputs
     from bootnav.postproc.pipeline import process
 
     result = process(input_path, settings, progress=progress)
-    files = write_outputs(result, out_dir)
+    files = write_outputs(result, out_dir, into_recording, force)
     return result.summary, files
 
 
 def _batch_job(job) -> tuple[str, dict | None, dict | None, str | None]:
     from bootnav.errors import BootnavError
 
-    input_path, settings_dict, out_dir = job
+    input_path, settings_dict, out_dir, into_recording, force = job
     from bootnav.postproc.settings import ProcessSettings
 
     try:
-        summary, files = _one(input_path, ProcessSettings.from_dict(settings_dict), out_dir, None)
+        summary, files = _one(input_path, ProcessSettings.from_dict(settings_dict), out_dir, None, into_recording,
+                              force)
         return input_path, summary, files, None
     except BootnavError as exc:  # one bad file must not stop the batch; reported at the end
         return input_path, None, None, str(exc)
@@ -258,22 +282,60 @@ def output_names(inputs: list[str]) -> list[str]:
         depth += 1
 
 
+def _is_file(text) -> bool:
+    """``--reference`` names a file (not 'truth', not an inline JSON object)."""
+    from pathlib import Path
+
+    try:
+        return bool(text) and Path(text).is_file()
+    except (OSError, ValueError):
+        return False
+
+
+def _check_save_settings(args, others) -> None:
+    """``--save-settings FILE``: never an input, never an existing file without ``--force``."""
+    from pathlib import Path
+
+    from bootnav.errors import InputError
+    from bootnav.postproc.outputs import same_file
+
+    dest = Path(args.save_settings)
+    if any(same_file(dest, Path(i)) for i in [*args.input, *others] if i):
+        raise InputError(f"--save-settings {dest} is an input file; choose another name")
+    if dest.exists() and not args.force:
+        raise InputError(f"{dest} exists; use --force to overwrite it")
+
+
 def run(args) -> int:
     """Process one input (report on stdout) or several in parallel (one line each); exit code 1 if any failed."""
     import os
     from pathlib import Path
 
+    from bootnav.errors import InputError
+    from bootnav.postproc.outputs import check_outputs
+    from bootnav.postproc.summary import endpoint_label
+
     settings = build_settings(args)
+    outs = [args.out] if len(args.input) == 1 else [str(Path(args.out) / n) for n in output_names(args.input)]
+    others = [settings.reference if _is_file(settings.reference) else None, args.settings, args.accel_calibration]
+    if len(args.input) > 1 and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out} is an existing file, not a directory")
+    for i, o in zip(args.input, outs):  # every refusal before any work (module docstring)
+        check_outputs(settings, o, [i, *args.input, *others], args.into_recording, args.force)
     if args.save_settings:
+        _check_save_settings(args, others)
         settings.save(args.save_settings)
     if len(args.input) == 1:
-        summary, files = _one(args.input[0], settings, args.out, StderrProgress(not args.quiet))
+        progress = StageProgress(quiet=args.quiet)
+        try:
+            summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording, args.force)
+        finally:
+            progress.done()
         print(format_summary(summary, files))
         return 0
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    outs = [str(Path(args.out) / n) for n in output_names(args.input)]
-    jobs = [(i, settings.to_dict(), o) for i, o in zip(args.input, outs)]
+    jobs = [(i, settings.to_dict(), o, args.into_recording, args.force) for i, o in zip(args.input, outs)]
     failed = 0
     with ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) as pool:
         for fut in as_completed([pool.submit(_batch_job, j) for j in jobs]):
@@ -283,7 +345,7 @@ def run(args) -> int:
                 print(f"bootnav process: error: {error}", file=sys.stderr)
                 continue
             p = summary["path"]
-            print(f"{input_path}: {p.get('distance_m', 0):.2f} m, closure {p.get('closure_3d_m', float('nan')):.3f} m "
-                  f"-> {Path(files['summary']).parent}")
+            print(f"{input_path}: {p.get('distance_m', 0):.2f} m, {endpoint_label(summary)} "
+                  f"{p.get('closure_3d_m', float('nan')):.3f} m -> {Path(files['summary']).parent}")
     print(f"{len(jobs) - failed} of {len(jobs)} inputs processed into {args.out}")
     return 1 if failed else 0

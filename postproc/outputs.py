@@ -9,17 +9,25 @@
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
 * ``1_raw_imu.png`` … ``7_height.png`` and ``path.html``: charts 1-7 and the interactive path (``plots``).
-* ``path.geojson``: the footprint path. Without an anchor, coordinates are local ENU metres (x, y, z), *not*
-  WGS-84 (stated in the collection's properties). With ``geo_anchor = (lat, lon[, h])`` they are WGS-84
-  ``[lon, lat, h]`` from a local tangent-plane approximation around the anchor (φ0, λ0, h0)::
+* ``path.geojson`` (only with ``geo_anchor = (lat, lon[, h])``, ``--geo-anchor``: GIS tools read GeoJSON
+  as WGS-84, so local metres would be drawn near 0° N 0° E): the footprint path in WGS-84 ``[lon, lat, h]``
+  from a local tangent-plane approximation around the anchor (φ0, λ0, h0)::
 
       φ = φ0 + y / (M(φ0) + h0),   λ = λ0 + x / ((N(φ0) + h0) cos φ0),   h = h0 + z
 
   with the WGS-84 meridian radius M = a(1 − e²)/(1 − e² sin²φ0)^{3/2} and prime-vertical radius
   N = a/(1 − e² sin²φ0)^{1/2}. The error grows with the square of the distance: below 1 cm within 1 km,
   far below the drift of any foot-mounted INS.
-* ``/results/<name>`` in the HDF5 recording (the input file when it is HDF5; otherwise ``DIR/results.h5``
-  = the imported recording + results) with every setting used as group attributes.
+* ``results.h5``: a copy of the input recording (the imported recording for a non-HDF5 input) plus
+  ``/results/<name>`` with every setting used as group attributes; its ``t_s`` (and ``steps/t_s``) is the
+  dimension scale of the first axis of every array, ``axis``/``q_component`` of the second, so netCDF
+  readers (xarray with h5netcdf) see named dimensions, as in ``/imu``. The input itself is never written to,
+  except with ``into_recording=True`` (``bootnav process --into-recording``), and then atomically: the
+  results go into a copy beside it, which is flushed to disk and renamed over the original, so a crash or a
+  full disk leaves either the old or the new recording, never a damaged one.
+
+No file is overwritten unless ``force=True`` (``--force``), and no output may be one of the inputs
+(``check_outputs``).
 """
 
 from __future__ import annotations
@@ -27,14 +35,17 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
+import os
+import shutil
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from bootnav import CONVENTIONS, __version__
+from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.jsonio import to_jsonable
+from bootnav.errors import InputError
 
 from .strides import STEP_COLUMNS, footprints
 
@@ -110,24 +121,28 @@ def enu_to_wgs84(xyz_m: np.ndarray, anchor) -> np.ndarray:
     return np.column_stack((lon, lat, h0 + xyz[:, 2]))
 
 
-def geojson_path(result, anchor=None) -> dict:
-    """FeatureCollection: the footprint LineString, start and end points (module docstring for frames)."""
+def geojson_path(result, anchor) -> dict:
+    """FeatureCollection in WGS-84: the footprint LineString, start and end points (module docstring).
+
+    Parameters
+    ----------
+    result
+        ``pipeline.ProcessResult``.
+    anchor : (lat_deg, lon_deg[, h_m])
+        WGS-84 position of the nav-frame origin (the start).
+
+    Returns
+    -------
+    dict
+        The GeoJSON object.
+    """
     _, fp = footprints(result.t_s, result.pos_n, result.stance)
     if len(fp) == 0:
         fp = result.pos_n[[0, -1]]
     pts = np.vstack((result.pos_n[:1], fp))  # the path starts at the origin of the nav frame
-    if anchor:
-        coords = enu_to_wgs84(pts, anchor)
-        frame = {"crs": "WGS-84 (EPSG:4979) [lon_deg, lat_deg, h_m]",
-                 "anchor_lat_lon_h": list(map(float, anchor)),
-                 "projection": "local tangent plane around the anchor (see postproc/outputs.py)"}
-        nd = 8
-    else:
-        coords = pts
-        frame = {"crs": "local ENU metres [x_east_m, y_north_m, z_up_m], origin at the start; NOT WGS-84",
-                 "note": "pass --geo-anchor LAT,LON[,H] for WGS-84 coordinates"}
-        nd = 4
-    c = np.round(coords, nd).tolist()
+    c = np.round(enu_to_wgs84(pts, anchor), 8).tolist()
+    frame = {"crs": "WGS-84 (EPSG:4979) [lon_deg, lat_deg, h_m]", "anchor_lat_lon_h": list(map(float, anchor)),
+             "projection": "local tangent plane around the anchor (see postproc/outputs.py)"}
     feat = lambda geom, props: {"type": "Feature", "geometry": geom, "properties": props}  # noqa: E731
     return {
         "type": "FeatureCollection",
@@ -163,77 +178,215 @@ def results_arrays(result) -> tuple[dict, dict]:
     return arrays, units
 
 
-def write_hdf5_results(result, out_dir: Path) -> tuple[Path, str, list[str]]:
-    """Write ``/results/<name>`` (+ ``/steps``); returns (file, group, warnings)."""
-    from bootnav.logger.recording import write_group, write_recording
+def planned_files(settings, out_dir: str | Path, into_recording: bool = False) -> list[Path]:
+    """Every file ``write_outputs`` would create in ``out_dir`` with these settings.
 
-    warnings: list[str] = []
-    name = result.settings.output.results_name
-    group = f"/results/{name}"
-    target = result.source if result.source_is_hdf5 else None
-    if target is not None:
-        try:
+    Parameters
+    ----------
+    settings
+        ``ProcessSettings`` (only ``output`` is read).
+    out_dir
+        The output directory.
+    into_recording
+        Results go into the input recording instead of ``results.h5``.
+
+    Returns
+    -------
+    list of Path
+    """
+    from .plots import FILES
+
+    out, opts = Path(out_dir), settings.output
+    names = ["trajectory.csv", "steps.csv", "summary.json"]
+    if opts.geojson and opts.geo_anchor:
+        names.append("path.geojson")
+    if opts.write_hdf5 and not into_recording:
+        names.append("results.h5")
+    if opts.plots:
+        names += [*FILES.values(), "path.html"]
+    return [out / n for n in names]
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """True when two paths name the same file (after resolving links), whether or not they exist yet."""
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
+    except OSError:
+        return False
+
+
+def check_outputs(settings, out_dir: str | Path, inputs, into_recording: bool = False, force: bool = False) -> None:
+    """Refuse, before any work, outputs that would replace an input or an existing file.
+
+    Parameters
+    ----------
+    settings
+        ``ProcessSettings`` (which files are written, the results group name).
+    out_dir
+        The output directory: it must not be an input nor an existing file.
+    inputs : sequence of path or None
+        Files the run reads, the recording first (then reference, settings, calibration files); never
+        overwritten, even with ``force``.
+    into_recording
+        Results go into the recording ``inputs[0]``, which must then be an HDF5 recording.
+    force
+        Allow replacing existing files that are not inputs, and an existing results group in the recording.
+
+    Raises
+    ------
+    InputError
+        Naming the first offending path and the option that allows it, if any.
+    """
+    from .source import is_hdf5
+
+    inputs = [Path(i) for i in inputs if i]
+    out = Path(out_dir)
+    if any(same_file(out, i) for i in inputs):
+        raise InputError(f"--out {out} is an input; give a new directory for the outputs")
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} is an existing file, not a directory")
+    for o in planned_files(settings, out, into_recording):
+        if any(same_file(o, i) for i in inputs):
+            raise InputError(f"{o}: output would replace an input file; choose another --out")
+        if o.exists() and not force:
+            raise InputError(f"{o} exists; use --force to overwrite it (or choose another --out)")
+    if into_recording and settings.output.write_hdf5:
+        rec = inputs[0] if inputs else None
+        if rec is not None and not rec.exists():
+            raise InputError(f"{rec}: no such file")
+        if rec is None or not is_hdf5(rec):
+            raise InputError(f"--into-recording needs an HDF5 recording as input, got {rec or 'an in-memory recording'}"
+                             " (`bootnav import` it first, or drop the option)")
+        if not force:
             import h5py
 
-            with h5py.File(target, "r+"):
-                pass
-        except OSError as exc:
-            warnings.append(f"{target}: cannot write results into the input recording ({exc}); wrote {out_dir / 'results.h5'}")
-            target = None
-    if target is None:
-        rec = result.recording
-        target = out_dir / "results.h5"
-        meta = dict(rec.meta)
-        meta.setdefault("source_file", str(result.source) if result.source else "")
-        imported = rec.raw.get("import_result")
-        if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
-            from bootnav.logger.importers.core import write_result
+            group = f"/results/{settings.output.results_name}"
+            with h5py.File(rec, "r") as f:
+                if group in f:
+                    raise InputError(f"{rec}: {group} exists; use --force to replace it, or --results-name NAME")
 
-            write_result(imported, target)
+
+def _fsync(path: Path) -> None:
+    """Flush a file (or a directory entry) to disk."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _replace_atomically(tmp: Path, target: Path) -> None:
+    """fsync ``tmp``, rename it over ``target`` (atomic on one file system), fsync the directory."""
+    _fsync(tmp)
+    os.replace(tmp, target)
+    _fsync(target.parent)
+
+
+def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, force: bool = False) -> tuple[Path, str]:
+    """Write ``/results/<name>`` (+ ``/steps``) into ``out_dir/results.h5`` or, when asked, the input recording.
+
+    Both go through a temporary copy in the target's directory renamed over the target (module docstring).
+
+    Parameters
+    ----------
+    result
+        ``pipeline.ProcessResult``.
+    out_dir
+        Directory of ``results.h5``.
+    into_recording
+        Write into the input recording (an HDF5 file) instead.
+    force
+        Replace an existing ``results.h5``, or an existing ``/results/<name>`` group of the input recording.
+
+    Returns
+    -------
+    (Path, str)
+        The file written and the group.
+    """
+    from bootnav.logger.recording import attach_dimension_scales, write_group, write_recording
+
+    name = result.settings.output.results_name
+    group = f"/results/{name}"
+    target = Path(result.source) if into_recording else out_dir / "results.h5"  # checked by check_outputs
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    try:
+        if result.source_is_hdf5 and result.source:
+            shutil.copy2(result.source, tmp)  # the whole recording: /imu, /events, /truth, earlier results
         else:
-            write_recording(target, rec.t_s, rec.acc_mps2, rec.gyro_radps, events=rec.events, meta=meta,
-                            saturated=rec.saturated)
-    arrays, units = results_arrays(result)
-    attrs = {
-        "software": f"bootnav {__version__}",
-        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "settings": result.settings.to_json(indent=None),
-        "summary": json.dumps(result.summary, default=str),
-        "sample_index_start": int(result.index.start or 0),  # row 0 here is /imu row sample_index_start
-        "stance_method": str(result.summary["stance"]["method"]),
-        "stance_threshold": json.dumps(result.summary["stance"]["threshold"]),
-        **{f"convention_{k}": v for k, v in CONVENTIONS.items()},
-    }
-    write_group(target, group, arrays, attrs, units)
-    step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                  "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1"}
-    steps = {**{k: np.asarray(v) for k, v in result.steps.items()}, **heading_columns(result.steps["yaw_enu_rad"])}
-    write_group(target, f"{group}/steps", steps,
-                {"description": "one row per stride, see postproc/strides.py"}, step_units)
-    return Path(target), group, warnings
+            rec = result.recording
+            meta = dict(rec.meta)
+            meta.setdefault("source_file", str(result.source) if result.source else "")
+            imported = rec.raw.get("import_result")
+            if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
+                from bootnav.logger.importers.core import write_result
+
+                write_result(imported, tmp)
+            else:
+                write_recording(tmp, rec.t_s, rec.acc_mps2, rec.gyro_radps, events=rec.events, meta=meta,
+                                saturated=rec.saturated)
+        arrays, units = results_arrays(result)
+        attrs = {
+            "software": f"bootnav {__version__}",
+            "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "settings": result.settings.to_json(indent=None),
+            "summary": json.dumps(result.summary, default=str),
+            "sample_index_start": int(result.index.start or 0),  # row 0 here is /imu row sample_index_start
+            "stance_method": str(result.summary["stance"]["method"]),
+            "stance_threshold": json.dumps(result.summary["stance"]["threshold"]),
+            **{f"convention_{k}": v for k, v in CONVENTIONS.items()},
+        }
+        write_group(tmp, group, arrays, attrs, units)
+        step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
+                      "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1"}
+        steps = {**{k: np.asarray(v) for k, v in result.steps.items()}, **heading_columns(result.steps["yaw_enu_rad"])}
+        write_group(tmp, f"{group}/steps", steps,
+                    {"description": "one row per stride, see postproc/strides.py"}, step_units)
+        attach_dimension_scales(tmp, group)  # xarray/netCDF readers see named dims (t_s, axis), as in /imu
+        attach_dimension_scales(tmp, f"{group}/steps")
+        _replace_atomically(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return target, group
 
 
-def write_outputs(result, out_dir: str | Path) -> dict[str, str]:
-    """Write every output file into ``out_dir`` (created); returns {kind: path}. Updates result.summary."""
+def write_outputs(result, out_dir: str | Path, into_recording: bool = False, force: bool = False) -> dict[str, str]:
+    """Write every output file into ``out_dir`` (created); updates ``result.summary``.
+
+    Parameters
+    ----------
+    result
+        ``pipeline.ProcessResult``.
+    out_dir
+        Output directory.
+    into_recording
+        Write the HDF5 results into the input recording (atomically) instead of ``out_dir/results.h5``.
+    force
+        Overwrite existing output files (inputs are never overwritten, ``check_outputs``).
+
+    Returns
+    -------
+    dict
+        {kind: path} of every file written.
+    """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     opts = result.settings.output
+    check_outputs(result.settings, out, [result.source], into_recording, force)
+    out.mkdir(parents=True, exist_ok=True)
     result.summary["settings"] = result.settings.to_dict()  # output options may have changed since process()
     files: dict[str, str] = {}
     t0 = time.perf_counter()
     with ThreadPoolExecutor(max_workers=1) as pool:
         # HDF5 compression runs outside the GIL: overlap it with the CSV formatting (1 h: 3.8 s -> 2.2 s)
-        h5_job = pool.submit(write_hdf5_results, result, out) if opts.write_hdf5 else None
+        h5_job = pool.submit(write_hdf5_results, result, out, into_recording, force) if opts.write_hdf5 else None
         files["trajectory"] = str(write_trajectory_csv(out / "trajectory.csv", result))
         files["steps"] = str(write_steps_csv(out / "steps.csv", result.steps))
-        if opts.geojson:
+        if opts.geojson and opts.geo_anchor:  # without an anchor, GIS tools would draw local metres at 0° N 0° E
             p = out / "path.geojson"
             p.write_text(json.dumps(geojson_path(result, opts.geo_anchor)))
             files["geojson"] = str(p)
         if h5_job is not None:
-            h5, group, warns = h5_job.result()
+            h5, group = h5_job.result()
             files["hdf5"] = f"{h5}:{group}"
-            result.warnings.extend(warns)
     result.summary["timings_s"]["write"] = time.perf_counter() - t0
     if opts.plots:
         from .plots import make_html, make_plots

@@ -164,16 +164,19 @@ def test_output_names_are_distinct():
 
 
 def test_bundled_recording_with_its_reference(tmp_path):
-    """The repository's own example recording (no shared datasets needed, so this runs on a clean CI):
-    processed as a copy, results written into the copy, reopened by a fresh process."""
+    """The repository's own example recording (no shared datasets needed, so this runs on a clean CI),
+    processed: the recording is left byte for byte as it was, the results go to OUT/results.h5
+    (the recording + /results), reopened by a fresh process."""
     src = REPO / "recordings" / "xio_ngimu_short_walk.h5"
     if not src.exists():
         pytest.skip("recordings/ not present")
-    rec = tmp_path / "walk.h5"
+    rec = tmp_path / "walk.h5"  # a copy: a regression must not damage the repository's file
     rec.write_bytes(src.read_bytes())
+    before = rec.read_bytes()
     ref = src.with_name("xio_ngimu_short_walk.reference.json")
     proc = bootnav(rec, "--out", tmp_path / "o", "--reference", ref, "--no-plots", "--results-name", "demo", "-q")
     assert proc.returncode == 0, proc.stderr
+    assert rec.read_bytes() == before
     s = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert s["metrics"]["reference_kind"] == "closed_loop"
     assert s["metrics"]["closure_pct"] < 2.5  # closed loop (truth); the paper's best Table 1 error is 2.5 %
@@ -181,5 +184,83 @@ def test_bundled_recording_with_its_reference(tmp_path):
             "print(json.dumps([f['results/demo/pos_n_m'].shape[0], f['imu/t_s'].shape[0]]))")
     from tests.conftest import run_python
 
-    n_pos, n_imu = json.loads(run_python(code, str(rec)).stdout)
+    n_pos, n_imu = json.loads(run_python(code, str(tmp_path / "o" / "results.h5")).stdout)
     assert n_pos == n_imu
+
+
+# ------------------------------------------------------------------ honest outputs (issue 13, point 5)
+@pytest.fixture(scope="module")
+def bundled_open(tmp_path_factory):
+    """The bundled loop processed without a reference: nothing says it is a loop."""
+    from bootnav.postproc.pipeline import process
+    from bootnav.postproc.settings import ProcessSettings
+
+    rec = REPO / "recordings" / "xio_ngimu_short_walk.h5"
+    if not rec.exists():
+        pytest.skip("recordings/ not present")
+    return process(rec, ProcessSettings(crop_s=(0.0, 30.0)))
+
+
+def test_closure_only_for_a_closed_loop_in_every_output(bundled_open, tmp_path):
+    from bootnav.postproc.cli_process import format_summary
+    from bootnav.postproc.outputs import write_outputs
+    from bootnav.postproc.reference import load_reference
+    from bootnav.postproc.summary import is_closed_loop
+
+    r = bundled_open
+    files = write_outputs(r, tmp_path / "open")
+    text = format_summary(r.summary, files).split("\nfiles")[0]
+    assert r.summary["closed_loop"] is False and "closure" not in text and "end − start" in text
+    assert "end − start" in (tmp_path / "open" / "path.html").read_text().split("</h3>")[0]
+    assert json.loads((tmp_path / "open" / "summary.json").read_text())["closed_loop"] is False
+    loop = load_reference('{"waypoints": [[0, 0], [10, 0], [10, 5], [0, 5], [0, 0.2]]}')
+    assert is_closed_loop(load_reference('{"closed_loop": true}')) and is_closed_loop(loop)
+    assert not is_closed_loop(load_reference('{"straight_m": 9}')) and not is_closed_loop(None)
+    r.summary["closed_loop"] = True
+    assert "closure" in format_summary(r.summary, files)
+
+
+def test_geojson_only_with_a_geo_anchor(bundled_open, tmp_path):
+    """Local metres in a GeoJSON file are drawn by GIS tools at 0° N 0° E: no file without an anchor."""
+    from bootnav.postproc.outputs import write_outputs
+
+    r = bundled_open
+    r.settings.output.plots = False
+    try:
+        files = write_outputs(r, tmp_path / "a")
+        assert "geojson" not in files and not (tmp_path / "a" / "path.geojson").exists()
+        r.settings.output.geo_anchor = (48.137, 11.575)
+        files = write_outputs(r, tmp_path / "b")
+        assert "WGS-84" in json.loads((tmp_path / "b" / "path.geojson").read_text())["properties"]["crs"]
+    finally:
+        r.settings.output.plots, r.settings.output.geo_anchor = True, None
+
+
+def test_reference_drawn_in_the_estimate_frame():
+    """The reference on the time charts: ``align_to_reference`` took the estimate onto the reference; mapping
+    the reference back must land on an estimate that is the reference rotated and moved (exactly)."""
+    from bootnav.postproc.plots import reference_in_estimate_frame
+    from bootnav.postproc.reference import Reference, align_to_reference
+
+    t = np.linspace(0, 10, 201)
+    ref = np.column_stack((t, np.sin(t), 0.1 * t))
+    yaw, start = 0.7, np.array([2.0, -1.0, 0.5])
+    c, s = np.cos(yaw), np.sin(yaw)
+    est = np.column_stack((c * ref[:, 0] - s * ref[:, 1], s * ref[:, 0] + c * ref[:, 1], ref[:, 2])) + start
+    _, ref_pts, yaw_found = align_to_reference(Reference("trajectory", ref, t_s=t, has_z=True), t, est)
+    assert np.allclose(reference_in_estimate_frame(ref_pts, yaw_found, est[0]), est, atol=1e-9)
+
+
+def test_waist_sensor_is_flagged_foot_is_not(bundled_open, datasets):
+    """A lower-back IMU run through the foot pipeline gets a warning naming the likely mount (Voisard 1-1:
+    a 0.55 s step rhythm, ‖ω‖ below 3 rad/s, centimetres of path); the bundled foot walk gets none."""
+    from bootnav.postproc.pipeline import process
+
+    lower_back = datasets / "voisard_ipol" / "1-1" / "imu_lowerback.csv.gz"
+    if not lower_back.exists():
+        pytest.skip(f"{lower_back} not present")
+    r = process(lower_back)
+    assert r.summary["mount"]["looks_like_foot"] is False
+    assert any("does not look like a sensor on a foot" in w and "bootnav pdr" in w for w in r.warnings)
+    assert bundled_open.summary["mount"]["looks_like_foot"] is True
+    assert not any("foot" in w for w in bundled_open.warnings)
