@@ -179,3 +179,28 @@ def test_mag_tilt_options_from_cli(tmp_path, walk, tilt):
     _, out = _run(tmp_path, walk, "--heading", "mag", "--mag-tilt", tilt, "--declination", "-5")
     h = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)[:, 3]
     assert h == pytest.approx(np.full(h.size, 25.0), abs=0.5)  # level walk at bearing 30, declination 5 W
+
+
+def test_no_heading_source_is_not_drawn_as_a_path(tmp_path):
+    """An accelerometer-only phone file with no compass: steps and distance, but no 'PDR path' (the x/y of the
+    steps would be a straight line along the start bearing); the summary and stderr say why."""
+    import json
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    t = np.arange(0, 30, 0.01)
+    acc = np.column_stack([0.3 * np.sin(2 * np.pi * 1.8 * t), np.zeros_like(t), 9.81 + 2.5 * np.sin(2 * np.pi * 1.8 * t)])
+    csv = tmp_path / "acc.csv"
+    np.savetxt(csv, np.column_stack([t, acc]), delimiter=",", header="t_s,ax_mps2,ay_mps2,az_mps2", comments="",
+               fmt="%.5f")
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "pdr", str(csv), "--out", str(out)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    s = json.loads((out / "summary.json").read_text())
+    assert s["heading_source"] == "none" and s["is_path"] is False
+    assert s["steps"] > 20 and any("not a path" in w for w in s["warnings"])
+    assert "not a path" in proc.stderr
+    assert not (out / "path.png").exists() and (out / "heading.png").exists()

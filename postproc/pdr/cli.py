@@ -188,6 +188,7 @@ def _checkpoints(path):
 
 def run(args) -> int:
     import json
+    import sys
     import time
     from pathlib import Path
 
@@ -247,6 +248,8 @@ def run(args) -> int:
     if res.gps is not None:
         msg += f", {res.gps['mean_m']:.1f} m mean / {res.gps['final_m']:.1f} m final from GPS"
     print(f"{msg} -> {out}")
+    for w in summary.get("warnings", []):
+        print(f"bootnav pdr: warning: {w}", file=sys.stderr)
     return 0
 
 

@@ -145,6 +145,10 @@ class PdrResult:
             "final_x_m": float(self.x_m[-1]) if self.count else 0.0,
             "final_y_m": float(self.y_m[-1]) if self.count else 0.0,
             "heading_source": self.heading_source,
+            "is_path": self.heading_source != "none",
+            "warnings": ([] if self.heading_source != "none" else
+                         ["no heading source (no gyroscope, no magnetometer or compass): steps and distance only; "
+                          "x_m/y_m keep the start bearing and are not a path"]),
             "gravity_restored": self.gravity_restored,
             "conventions": CONVENTIONS,
             "settings": self.settings.to_dict(),

@@ -58,13 +58,15 @@ def write_plots(res, out_dir) -> list[Path]:
     fig.savefig(files[-1], dpi=110)
     plt.close(fig)
 
+    if res.heading_source == "none":  # no heading: the steps keep the start bearing, which is not a path
+        return files
     fig, ax = plt.subplots(figsize=(6, 6))
     ax.plot(np.r_[0.0, res.x_m], np.r_[0.0, res.y_m], "r.-", ms=3, lw=0.8)
     ax.plot([0], [0], "ks", label="start")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    ax.set_title("PDR path")
+    ax.set_title(f"PDR path (heading: {res.heading_source})")
     ax.legend()
     fig.tight_layout()
     files.append(out / "path.png")
