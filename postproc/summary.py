@@ -208,6 +208,6 @@ def _navigation(navi: Any) -> dict | None:
         "implausible_stride_fraction": to_jsonable(float(navi.quality.bad_fraction)),
         "stride_flags": {name: int(np.count_nonzero(flags & bit)) for bit, name in FLAG_NAMES.items()},
         "stride_flag_bits": {name: bit for bit, name in FLAG_NAMES.items()},
-        "timing_offset": to_jsonable({k: v for k, v in navi.timing.items()}),
+        "timing_offset": to_jsonable(navi.timing),
         "candidates": to_jsonable(navi.candidates),
     }
