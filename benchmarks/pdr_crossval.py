@@ -43,6 +43,10 @@ GRIDS = {
     # [Lazarevskiy2021] A_LocalDistancePeaks (minimum step spacing), within the thesis' [0.2, 1.0] s
     "peak_group_distance": ("peak_group", {"literal": True}, "local_distance_peaks_s",
                             [0.2, 0.25, 0.3, 0.35, 0.4, 0.45]),
+    # [Bayindir2014] Li: "minimum peak magnitude" 2 m/s^2 as height above g or as prominence, not said
+    "li_peak_mode": ("li", {"literal": True}, "peak_mode", ["height", "prominence"]),
+    # [Bayindir2014] Li: the DTW distance behind the threshold 3 is not defined
+    "li_dtw_norm": ("li", {"literal": True}, "dtw_norm", ["path_length", "none", "znorm"]),
     # robust default (engineered, point 4 of issue 15)
     "robust_band": ("robust", {}, "band_hz", [(0.3, 2.5), (0.3, 3.0), (0.3, 3.5), (0.3, 4.0)]),
     "robust_salience_offset": ("robust", {}, "salience_offset", [0.05, 0.1, 0.15, 0.2, 0.3]),

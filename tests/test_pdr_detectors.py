@@ -330,3 +330,13 @@ def test_leppakoski_peak_validates_only_its_own_crossing():
     assert crossings == 2 * n  # the premise: two up-crossings of g per step
     assert ev.count == n
     assert DETECTORS["leppakoski"](own_crossing=False).detect(t, acc).count >= 2 * n - 1
+
+
+def test_li_minimum_peak_magnitude_is_read_as_prominence():
+    # a walk whose steps rise 1.6 m/s² above g (under the 2 m/s² gate as a height) but swing 3.2 m/s²
+    # peak to trough: the chosen reading (prominence) counts every step, the other reading none
+    t, acc = walk(amp=1.6, harm=0.0)
+    assert abs(DETECTORS["li"]().detect(t, acc).count - 60) <= 3
+    assert DETECTORS["li"](peak_mode="height").detect(t, acc).count == 0
+    with pytest.raises(ValueError, match="peak_mode"):
+        DETECTORS["li"](peak_mode="heigth")

@@ -4,12 +4,15 @@ Settings: defaults < ``--settings FILE.json`` (a full or partial ``PdrSettings``
 an earlier run) < the options given on the command line; ``--save-settings`` writes the effective ones.
 Every detector and step-length parameter is reachable with ``--detector-param NAME=VALUE`` /
 ``--length-param NAME=VALUE`` (names: the dataclass fields, listed in summary.json "detector_params" /
-"settings"); the common ones have their own flags.
+"settings"); the common ones have their own flags, and ``--set NAME=VALUE`` reaches any other field of
+``PdrSettings``. Every setting is checked before any work (``PdrSettings.validate``: unknown keys, wrong
+types, negative durations, named by their key path).
 
 Writes steps.csv (t_s,length_m,yaw_enu_rad,heading_deg_cw_from_north,x_m,y_m; headings as
 ``bootnav.CONVENTIONS["heading"]``), path_local.csv, path_latlon.csv (with --start or GPS), gps.csv (with GPS),
 summary.json (counts, distance, settings, conventions, GPS and checkpoint comparisons) and plots
-(bootnav.postproc.pdr.plots)."""
+(bootnav.postproc.pdr.plots). No existing file is overwritten without ``--force`` and none may be an input;
+each file is written to a temporary name and renamed (an interrupted run leaves no half-written file)."""
 
 from __future__ import annotations
 
@@ -54,12 +57,20 @@ def add_arguments(parser) -> None:
                         help="magnetometer calibration fitted on the recording (NKUA2009 4.3 percentiles, fits)")
     parser.add_argument("--mag-calibration-window", default=None, metavar="T0,T1",
                         help="fit the calibration on these seconds after the start only (e.g. a turn on the spot)")
+    parser.add_argument("--mag-percentiles", default=None, metavar="LO,HI",
+                        help="percentiles of the percentile calibrations (default 5,95 as NKUA2009 4.3)")
+    parser.add_argument("--gyro-signed-magnitude", action="store_true",
+                        help="integrate sgn(w_v)|w| instead of the vertical rate (Lazarevskiy2021 eqs. 2.7-2.8)")
     parser.add_argument("--declination", type=float, default=None, metavar="DEG", help="east positive")
     parser.add_argument("--start", default=None, metavar="LAT,LON", help="start point for the lat/lon path")
     parser.add_argument("--no-gps", action="store_true", help="ignore GPS columns of the input")
     parser.add_argument("--checkpoints", default=None, metavar="FILE.csv",
                         help="true checkpoints t_s,x_m,y_m (m east/north of the start): errors without reset")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="set_fields",
+                        help="any other PdrSettings field (repeatable), e.g. compass_window_s=0.4 or "
+                             "tilt_weight_window_s=0.4; values read as JSON")
     parser.add_argument("--no-plots", action="store_true")
+    parser.add_argument("--force", action="store_true", help="overwrite existing output files (never an input)")
     parser.add_argument("--out", required=True, metavar="DIR")
 
 
@@ -120,6 +131,8 @@ def build_settings(args):
     from bootnav.postproc.pdr.pipeline import PdrSettings
 
     s = PdrSettings.from_file(args.settings) if args.settings else PdrSettings()
+    for name, value in _params(args.set_fields, PdrSettings, "--set").items():
+        setattr(s, name, value)
     if args.detector and args.detector != s.detector:
         s.detector, s.detector_params = args.detector, {}
     if s.detector not in DETECTORS:
@@ -149,11 +162,15 @@ def build_settings(args):
         s.forward_axis = _floats(args.forward_axis, 3, "--forward-axis")
     if args.mag_calibration_window:
         s.mag_calibration_window_s = _floats(args.mag_calibration_window, 2, "--mag-calibration-window")
+    if args.mag_percentiles:
+        s.mag_percentiles = _floats(args.mag_percentiles, 2, "--mag-percentiles")
+    if args.gyro_signed_magnitude:
+        s.gyro_signed_magnitude = True
     if args.start:
         s.start_lat_lon = _parse_start(args.start)
     if args.no_gps:
         s.use_gps = False
-    return s
+    return s.validate()
 
 
 def _calibration_walks(items):
@@ -186,6 +203,48 @@ def _checkpoints(path):
     return a.T
 
 
+OUTPUT_FILES = ("steps.csv", "path_local.csv", "path_latlon.csv", "gps.csv", "summary.json")
+
+
+def _check_outputs(args) -> None:
+    """Before any work: the output folder is not a file, no output (or --save-settings) would replace an
+    input, and none exists unless --force."""
+    from pathlib import Path
+
+    from bootnav.errors import InputError
+    from bootnav.postproc.outputs import same_file
+    from bootnav.postproc.pdr.plots import PLOT_FILES
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} is an existing file, not a directory")
+    inputs = [Path(args.input), *(Path(p) for p in [args.settings, args.checkpoints] if p)]
+    inputs += [Path(item.rpartition("=")[0]) for item in args.calibrate_length]
+    targets = [out / name for name in (*OUTPUT_FILES, *PLOT_FILES)]
+    targets += [Path(args.save_settings)] if args.save_settings else []
+    for target in targets:
+        if any(same_file(target, i) for i in inputs):
+            raise InputError(f"{target} is an input; choose another --out / --save-settings")
+        if target.exists() and not args.force:
+            raise InputError(f"{target} exists; use --force to overwrite it (or choose another --out)")
+
+
+def _atomic(path, write) -> None:
+    """``write(tmp)`` then rename over ``path``: an interrupted run never leaves a half-written file."""
+    import os
+
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    write(tmp)
+    os.replace(tmp, path)
+
+
+def _csv(path, columns: dict, fmt="%.6f") -> None:
+    import numpy as np
+
+    _atomic(path, lambda tmp: np.savetxt(tmp, np.column_stack(list(columns.values())), delimiter=",", fmt=fmt,
+                                         header=",".join(columns), comments=""))
+
+
 def run(args) -> int:
     import json
     import sys
@@ -195,6 +254,7 @@ def run(args) -> int:
     import numpy as np
 
     from bootnav.core.jsonio import to_jsonable
+    from bootnav.errors import InputError
     from bootnav.postproc.outputs import heading_columns
     from bootnav.postproc.pdr.detectors import make_detector
     from bootnav.postproc.pdr.io import load_input
@@ -202,6 +262,7 @@ def run(args) -> int:
     from bootnav.postproc.pdr.pipeline import calibrate_length, run_pdr
 
     t0 = time.perf_counter()
+    _check_outputs(args)
     settings = build_settings(args)
     if args.calibrate_length:
         settings.length_params = calibrate_length(settings, _calibration_walks(args.calibrate_length))
@@ -209,26 +270,24 @@ def run(args) -> int:
         settings.save(args.save_settings)
     inp = load_input(args.input)
     _check_finite(args.input, inp.t_s, inp.acc_b, inp.gyro_b)
-    res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg,
-                  gps=inp.gps)
+    try:
+        res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg,
+                      gps=inp.gps)
+    except InputError as exc:
+        raise InputError(f"{args.input}: {exc}") from None
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    columns = {"t_s": res.t_s, "length_m": res.length_m, **heading_columns(res.yaw_enu_rad), "x_m": res.x_m,
-               "y_m": res.y_m}
-    np.savetxt(out / "steps.csv", np.column_stack(list(columns.values())), delimiter=",", fmt="%.6f",
-               header=",".join(columns), comments="")
-    np.savetxt(out / "path_local.csv", np.column_stack([np.r_[res.t_s[:1] if res.count else [], res.t_s],
-                                                        np.r_[[0.0] if res.count else [], res.x_m],
-                                                        np.r_[[0.0] if res.count else [], res.y_m]]),
-               delimiter=",", fmt="%.6f", header="t_s,x_m,y_m", comments="")
+    _csv(out / "steps.csv", {"t_s": res.t_s, "length_m": res.length_m, **heading_columns(res.yaw_enu_rad),
+                             "x_m": res.x_m, "y_m": res.y_m})
+    first = [0.0] if res.count else []
+    _csv(out / "path_local.csv", {"t_s": np.r_[res.t_s[:1], res.t_s], "x_m": np.r_[first, res.x_m],
+                                  "y_m": np.r_[first, res.y_m]})
     if res.lat_deg is not None:
-        np.savetxt(out / "path_latlon.csv", np.column_stack([res.t_s, res.lat_deg, res.lon_deg]), delimiter=",",
-                   fmt=["%.6f", "%.9f", "%.9f"], header="t_s,lat_deg,lon_deg", comments="")
+        _csv(out / "path_latlon.csv", {"t_s": res.t_s, "lat_deg": res.lat_deg, "lon_deg": res.lon_deg},
+             fmt=["%.6f", "%.9f", "%.9f"])
     if res.gps is not None:
-        g = res.gps
-        np.savetxt(out / "gps.csv", np.column_stack([g["t_s"], g["gps_east_m"], g["gps_north_m"], g["pdr_east_m"],
-                                                     g["pdr_north_m"]]), delimiter=",", fmt="%.6f",
-                   header="t_s,gps_east_m,gps_north_m,pdr_east_m,pdr_north_m", comments="")
+        _csv(out / "gps.csv", {k: res.gps[k] for k in ("t_s", "gps_east_m", "gps_north_m", "pdr_east_m",
+                                                       "pdr_north_m")})
     summary = res.summary()
     summary.update({"input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
                     "has_gyro": inp.gyro_b is not None, "has_mag": inp.mag_b is not None,
@@ -243,7 +302,8 @@ def run(args) -> int:
 
         summary["plots"] = [p.name for p in write_plots(res, out)]
     summary["runtime_s"] = time.perf_counter() - t0
-    (out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False))
+    text = json.dumps(to_jsonable(summary), indent=1, allow_nan=False)
+    _atomic(out / "summary.json", lambda tmp: tmp.write_text(text))
     msg = f"{res.count} steps, {summary['distance_m']:.1f} m, heading from {res.heading_source}"
     if res.gps is not None:
         msg += f", {res.gps['mean_m']:.1f} m mean / {res.gps['final_m']:.1f} m final from GPS"

@@ -31,30 +31,86 @@ from bootnav.core.conventions import CONVENTIONS
 from bootnav.errors import InputError
 
 
+HEADING_METHODS = ("auto", "none", "gyro", "mag", "complementary", "compass")
+MAG_TILTS = ("gravity", "weights", "none")
+
+
 @dataclass
 class PdrSettings:
+    """All settings of one PDR run (``run_pdr``, ``bootnav pdr``), saved with its results.
+
+    The parameters of the chosen detector and step-length model are the fields of their dataclasses
+    (``detectors.DETECTORS``, ``length.LENGTH_MODELS``); ``detector_params`` / ``length_params`` hold the
+    ones that differ from those defaults and are checked like every other setting (``validate``).
+
+    Attributes
+    ----------
+    detector, detector_params : str, dict
+        Step detector and its parameter overrides.
+    length, length_params : str, dict
+        Step-length model and its parameter overrides (``calibrate_length`` fits them).
+    height_m : float or None, m
+        Walker height for the models that use it (footpath, renaudin); None = the model's default.
+    heading : str
+        One of ``HEADING_METHODS`` (module docstring).
+    heading0_deg, declination_deg : float, deg
+        Start bearing (clockwise from north) of "gyro" and "none"; magnetic declination, east positive.
+    forward_axis : (float, float, float)
+        Body axis pointing forward (magnetometer heading).
+    complementary_tau_s : float, s
+        Crossover time constant of the gyro / magnetometer fusion.
+    gravity_cutoff_hz : float, Hz
+        Low-pass cut-off of the gravity direction about which the gyro is integrated and the magnetometer
+        levelled (walking at 1.5-2.5 steps/s is well above it).
+    gyro_signed_magnitude : bool
+        Integrate sgn(w_v) |w| instead of the vertical rate w_v [Lazarevskiy2021, eqs. 2.7-2.8].
+    compass_window_s : float, s
+        Circular averaging of a device compass before each step ([NKUA2009] code: 8 samples at 20 Hz).
+    mag_tilt : str
+        One of ``MAG_TILTS``: "gravity" (engineered), "weights" ([NKUA2009, §4.2] tilt weights), "none"
+        (level device, [Lazarevskiy2021, eq. 3.2]).
+    tilt_weight_window_s : float, s
+        Moving average of the tilt-weight correction ([NKUA2009, §4.2]: 8 samples at 20 Hz).
+    mag_calibration : str
+        ``heading.mag_calibration.MAG_CALIBRATIONS``.
+    mag_percentiles : (float, float)
+        Percentiles of the "percentile" calibrations ([NKUA2009, §4.3]: 5 and 95).
+    mag_calibration_window_s : (float, float) or None, s
+        Fit the magnetometer calibration on this window after the first sample (e.g. a turn on the spot);
+        None = the whole recording.
+    start_lat_lon : (float, float) or None, deg
+        Start of the geodetic path; None = the first GPS fix (if any).
+    use_gps : bool
+        Use the GPS fixes of the input (start point and comparison).
+    """
+
     detector: str = "robust"
     detector_params: dict = field(default_factory=dict)
     length: str = "frequency_variance"
     length_params: dict = field(default_factory=dict)
-    height_m: float | None = None  # used by the models that need it (footpath, renaudin)
+    height_m: float | None = None
     heading: str = "auto"
-    heading0_deg: float = 0.0  # start bearing (clockwise from north)
-    declination_deg: float = 0.0  # east positive
-    forward_axis: tuple = (0.0, 1.0, 0.0)  # body axis pointing forward (magnetometer heading)
+    heading0_deg: float = 0.0
+    declination_deg: float = 0.0
+    forward_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
     complementary_tau_s: float = 10.0
-    start_lat_lon: tuple | None = None
-    mag_tilt: str = "gravity"  # "gravity" | "weights" [NKUA2009, §4.2] | "none" [Lazarevskiy2021, eq. 3.2]
-    mag_calibration: str = "none"  # heading.mag_calibration.MAG_CALIBRATIONS
-    mag_calibration_window_s: tuple | None = None  # (t0, t1) s after the first sample to fit on; None = all
-    use_gps: bool = True  # GPS fixes of the input: start point and comparison
+    gravity_cutoff_hz: float = 0.3
+    gyro_signed_magnitude: bool = False
+    compass_window_s: float = 0.4
+    mag_tilt: str = "gravity"
+    tilt_weight_window_s: float = 0.4
+    mag_calibration: str = "none"
+    mag_percentiles: tuple[float, float] = (5.0, 95.0)
+    mag_calibration_window_s: tuple[float, float] | None = None
+    start_lat_lon: tuple[float, float] | None = None
+    use_gps: bool = True
 
     def to_dict(self) -> dict:
+        """Plain JSON-able dict of every setting (tuples as lists)."""
         d = asdict(self)
-        d["forward_axis"] = list(self.forward_axis)
-        d["start_lat_lon"] = list(self.start_lat_lon) if self.start_lat_lon else None
-        if self.mag_calibration_window_s is not None:
-            d["mag_calibration_window_s"] = list(self.mag_calibration_window_s)
+        for k, v in d.items():
+            if isinstance(v, tuple):
+                d[k] = list(v)
         return d
 
     @classmethod
@@ -74,42 +130,91 @@ class PdrSettings:
         Raises
         ------
         InputError
-            An unknown key or a value of the wrong kind.
+            An unknown key, a value of the wrong type, a negative duration, an unknown method name or an
+            out-of-range value, named by its key path (e.g. ``settings.detector_params.max_step_s``).
         """
-        data = dict(data or {})
-        if isinstance(data.get("settings"), dict) and "conventions" in data:
-            data = dict(data["settings"])
-        names = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise InputError(f"PDR settings: unknown key(s) {unknown}; known: {sorted(names)}")
-        for key in ("detector_params", "length_params"):
-            if key in data and not isinstance(data[key], dict):
-                raise InputError(f"PDR settings: {key} must be an object, got {type(data[key]).__name__}")
-        for key, n in (("forward_axis", 3), ("start_lat_lon", 2), ("mag_calibration_window_s", 2)):
-            v = data.get(key)
-            if v is not None:
-                if not isinstance(v, (list, tuple)) or len(v) != n:
-                    raise InputError(f"PDR settings: {key} must be a list of {n} numbers, got {v!r}")
-                data[key] = tuple(float(x) for x in v)
-        return cls(**data)
+        from bootnav.postproc.settings import _from_plain
+
+        if isinstance(data, dict) and isinstance(data.get("settings"), dict) and "conventions" in data:
+            data = data["settings"]
+        s = _from_plain(cls, data if data is not None else {}, "")
+        s._check()
+        return s
+
+    def validate(self) -> "PdrSettings":
+        """Raise InputError naming the first bad setting (the checks of ``from_dict``); returns self."""
+        PdrSettings.from_dict(self.to_dict())
+        return self
+
+    def _check(self) -> None:
+        from bootnav.postproc.pdr.detectors import DETECTORS
+        from bootnav.postproc.pdr.heading.mag_calibration import MAG_CALIBRATIONS
+        from bootnav.postproc.pdr.length import LENGTH_MODELS
+        from bootnav.postproc.settings import _from_plain
+
+        def bad(key, why):
+            raise InputError(f"settings.{key}: {why}")
+
+        for key, choices in (("detector", DETECTORS), ("length", LENGTH_MODELS), ("heading", HEADING_METHODS),
+                             ("mag_tilt", MAG_TILTS), ("mag_calibration", MAG_CALIBRATIONS)):
+            if getattr(self, key) not in choices:
+                bad(key, f"unknown {key.replace('_', ' ')} {getattr(self, key)!r}; choose one of {sorted(choices)}")
+        for key, registry, name in (("detector_params", DETECTORS, self.detector),
+                                    ("length_params", LENGTH_MODELS, self.length)):
+            _from_plain(registry[name], getattr(self, key), f".{key}")  # unknown keys, types, durations
+        for key, n in (("forward_axis", 3), ("mag_percentiles", 2), ("mag_calibration_window_s", 2),
+                       ("start_lat_lon", 2)):
+            v = getattr(self, key)
+            if v is None:
+                continue
+            if not isinstance(v, (list, tuple)) or len(v) != n or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
+                                      for x in v):
+                bad(key, f"expected {n} finite numbers, got {list(v)}")
+            setattr(self, key, tuple(float(x) for x in v))
+        if not np.any(self.forward_axis):
+            bad("forward_axis", "the zero vector has no direction")
+        lo, hi = self.mag_percentiles
+        if not 0 <= lo < hi <= 100:
+            bad("mag_percentiles", f"expected 0 <= low < high <= 100, got {[lo, hi]}")
+        w = self.mag_calibration_window_s
+        if w is not None and not 0 <= w[0] < w[1]:
+            bad("mag_calibration_window_s", f"expected 0 <= t0 < t1 (s after the first sample), got {list(w)}")
+        ll = self.start_lat_lon
+        if ll is not None and not (-90 <= ll[0] <= 90 and -180 <= ll[1] <= 180):
+            bad("start_lat_lon", f"latitude must be in [-90, 90] and longitude in [-180, 180], got {list(ll)}")
+        for key in ("height_m", "complementary_tau_s", "gravity_cutoff_hz", "compass_window_s",
+                    "tilt_weight_window_s"):
+            v = getattr(self, key)
+            if v is not None and not v > 0:
+                bad(key, f"must be positive, got {v}")
 
     @classmethod
     def from_file(cls, path) -> "PdrSettings":
         """``from_dict`` of a JSON file; errors name the file."""
         from bootnav.core.jsonio import read_json_file
 
+        path = Path(path)
         try:
-            return cls.from_dict(read_json_file(path, "PDR settings file"))
+            data = read_json_file(path, "PDR settings file")
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{path}: settings file is not UTF-8 text (byte {exc.start}); save it as UTF-8 JSON") \
+                from None
+        except IsADirectoryError:
+            raise InputError(f"{path}: is a directory, expected a settings JSON file") from None
+        try:
+            return cls.from_dict(data)
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
 
     def save(self, path) -> Path:
-        """Write ``to_dict`` as JSON to ``path``; returns the path."""
+        """Write ``to_dict`` as JSON to ``path`` (temp file + rename: never a half-written file); returns it."""
         import json
+        import os
 
         path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+        tmp.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+        os.replace(tmp, path)
         return path
 
 
@@ -164,6 +269,12 @@ def _check_inputs(t_s, acc_b):
         raise InputError(f"acc_b must be (N, 3) with N = len(t_s) = {t.shape[0]}; got {a.shape}")
     if t.size < 10 or not np.isfinite(t).any() or np.nanmax(t) - np.nanmin(t) <= 0:
         raise InputError(f"need at least 10 samples spanning a positive time; got {t.size}")
+    fin = np.flatnonzero(np.isfinite(t))
+    back = np.flatnonzero(np.diff(t[fin]) < 0)
+    if back.size:  # a clock restart: sorting would interleave the two parts' steps (as process, refuse)
+        i, j = int(fin[back[0] + 1]), int(fin[back[0]])
+        raise InputError(f"sample {i}: time goes backwards ({t[j]:.6f} s -> {t[i]:.6f} s, a clock restart?); "
+                         f"samples are never reordered: split the recording at sample {i} and run each part")
     bad = ~np.isfinite(a).all(axis=1)
     if bad.any():
         keep = ~bad & np.isfinite(t)
@@ -233,16 +344,15 @@ def _mag_bearing(settings, t, acc, mag):
         lo, hi = settings.mag_calibration_window_s
         mask = (t - t[0] >= lo) & (t - t[0] <= hi)
     try:
-        mag = calibrate_mag(mag, settings.mag_calibration, mask)
+        mag = calibrate_mag(mag, settings.mag_calibration, mask, settings.mag_percentiles)
     except ValueError as exc:
         raise InputError(str(exc)) from None
     if settings.mag_tilt == "gravity":
-        return tilt_compensated_heading(mag, gravity_direction(acc, nominal_rate_hz(t)), settings.forward_axis)
+        up = gravity_direction(acc, nominal_rate_hz(t), settings.gravity_cutoff_hz)
+        return tilt_compensated_heading(mag, up, settings.forward_axis)
     if settings.mag_tilt == "weights":
-        return tilt_weight_heading(t, mag, acc, settings.forward_axis)
-    if settings.mag_tilt == "none":
-        return untilted_heading(mag, settings.forward_axis)
-    raise InputError(f"unknown mag_tilt {settings.mag_tilt!r}; choose gravity, weights or none")
+        return tilt_weight_heading(t, mag, acc, settings.forward_axis, settings.tilt_weight_window_s)
+    return untilted_heading(mag, settings.forward_axis)  # "none" (names checked by PdrSettings)
 
 
 def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
@@ -250,9 +360,7 @@ def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
     from bootnav.postproc.pdr.heading.declination import apply_declination
     from bootnav.postproc.pdr.heading.gyro import gyro_heading
 
-    method = settings.heading
-    if method not in ("auto", "none", "gyro", "mag", "complementary", "compass"):
-        raise InputError(f"unknown heading method {method!r}; choose auto, none, gyro, mag, complementary, compass")
+    method = settings.heading  # one of HEADING_METHODS (checked by PdrSettings)
     if method == "auto":
         method = "gyro" if gyro is not None else ("compass" if compass is not None else "none")
     psi0 = np.radians(settings.heading0_deg)
@@ -261,25 +369,24 @@ def _heading(settings, t, acc, gyro, mag, t_steps, compass=None):
     if method == "compass":
         if compass is None:
             raise InputError("heading 'compass' needs a device heading column (e.g. heading_deg); this input has none")
-        return apply_declination(compass_at_steps(t, compass, t_steps), settings.declination_deg), "compass"
+        bearing = compass_at_steps(t, compass, t_steps, settings.compass_window_s)
+        return apply_declination(bearing, settings.declination_deg), "compass"
     if method in ("gyro", "complementary") and gyro is None:
         raise InputError(f"heading {method!r} needs a gyroscope; this input has none")
     if method in ("mag", "complementary") and mag is None:
         raise InputError(f"heading {method!r} needs a magnetometer; this input has none")
+    gyro_opts = {"signed_magnitude": settings.gyro_signed_magnitude, "gravity_cutoff_hz": settings.gravity_cutoff_hz}
     if method == "gyro":
-        tt, psi = gyro_heading(t, gyro, acc, psi0)
+        tt, psi = gyro_heading(t, gyro, acc, psi0, **gyro_opts)
     else:
         psi_m = np.unwrap(apply_declination(_mag_bearing(settings, t, acc, mag), settings.declination_deg))
         tt = t
         psi = psi_m
         if method == "complementary":
-            tg, psi_g = gyro_heading(t, gyro, acc, 0.0)
+            tg, psi_g = gyro_heading(t, gyro, acc, 0.0, **gyro_opts)
             psi_m_g = np.interp(tg, t, psi_m)
             psi = complementary_heading(tg, psi_g, psi_m_g, settings.complementary_tau_s)
             tt = tg
-    if method not in ("gyro", "mag", "complementary"):
-        raise InputError(f"unknown heading method {settings.heading!r}; "
-                         "choose auto, none, gyro, mag, complementary, compass")
     return np.angle(np.exp(1j * np.interp(t_steps, tt, psi))), method
 
 
@@ -290,7 +397,8 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     Parameters
     ----------
     t_s : array_like, shape (N,)
-        Sample times, s (any clock; irregular sampling is fine, detectors resample).
+        Sample times, s (any clock, never going backwards; irregular sampling and repeated times are
+        fine, detectors resample).
     acc_b : array_like, shape (N, 3)
         Specific force in the sensor frame, m/s², gravity included. Linear acceleration (gravity removed
         by a phone's OS) is accepted: gravity is restored (``restore_gravity``). Rows with a non-finite
@@ -320,15 +428,15 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     Raises
     ------
     InputError
-        Wrong array shapes, fewer than 10 samples, an unknown method name, or a heading method whose
-        sensor is missing.
+        Wrong array shapes, fewer than 10 samples, time going backwards (a clock restart), a bad setting
+        (``PdrSettings.validate``), or a heading method whose sensor is missing.
     """
     from bootnav.postproc.pdr.detectors import make_detector
     from bootnav.postproc.pdr.length.features import step_features
     from bootnav.postproc.pdr.path import (geodetic_path, gps_comparison, gps_fixes, local_path, local_to_latlon,
                                            position_at, yaw_enu_from_bearing)
 
-    settings = settings or PdrSettings()
+    settings = (settings or PdrSettings()).validate()
     t, acc, keep = _check_inputs(t_s, acc_b)
     gyro = None if gyro_b is None else np.asarray(gyro_b, float)
     mag = None if mag_b is None else np.asarray(mag_b, float)

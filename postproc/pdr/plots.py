@@ -12,11 +12,23 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 
 from bootnav.postproc.outputs import heading_columns
+
+
+PLOT_FILES = ("steps.png", "steps_zoom.png", "length.png", "heading.png", "path.png", "path_latlon.png",
+              "path_gps.png")
+
+
+def _save(fig, path: Path) -> None:
+    """Save a figure crash-safely (temporary file in the same folder, then rename) and close it."""
+    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
 
 
 def write_plots(res, out_dir) -> list[Path]:
@@ -44,7 +56,7 @@ def write_plots(res, out_dir) -> list[Path]:
     ax[1].set_xlabel("time since start (s)")
     fig.tight_layout()
     files.append(out / "length.png")
-    fig.savefig(files[-1], dpi=110)
+    _save(fig, files[-1])
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(10, 3.5))
@@ -55,7 +67,7 @@ def write_plots(res, out_dir) -> list[Path]:
     ax.set_title(f"heading: {res.heading_source}")
     fig.tight_layout()
     files.append(out / "heading.png")
-    fig.savefig(files[-1], dpi=110)
+    _save(fig, files[-1])
     plt.close(fig)
 
     if res.heading_source == "none":  # no heading: the steps keep the start bearing, which is not a path
@@ -70,7 +82,7 @@ def write_plots(res, out_dir) -> list[Path]:
     ax.legend()
     fig.tight_layout()
     files.append(out / "path.png")
-    fig.savefig(files[-1], dpi=110)
+    _save(fig, files[-1])
     plt.close(fig)
 
     if res.lat_deg is not None:
@@ -83,7 +95,7 @@ def write_plots(res, out_dir) -> list[Path]:
         ax.ticklabel_format(useOffset=False)
         fig.tight_layout()
         files.append(out / "path_latlon.png")
-        fig.savefig(files[-1], dpi=110)
+        _save(fig, files[-1])
         plt.close(fig)
 
     if res.gps is not None:
@@ -99,7 +111,7 @@ def write_plots(res, out_dir) -> list[Path]:
         ax.legend()
         fig.tight_layout()
         files.append(out / "path_gps.png")
-        fig.savefig(files[-1], dpi=110)
+        _save(fig, files[-1])
         plt.close(fig)
     return files
 
@@ -128,7 +140,7 @@ def _steps_figure(plt, res, t0, path, xlim):
         for a in axs:
             a.set_xlim(*xlim)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _save(fig, path)
     plt.close(fig)
     return path
 

@@ -2,17 +2,20 @@
 
     a = ||f||, then FIR low-pass: order 30 (31 taps), cut-off 3 Hz, fs 50 Hz             [literal]
         (Hamming firwin [engineered]; causal as on the phone, times corrected by the 15-sample group delay)
-    peaks of a - g with height >= 2 m/s^2 and spacing >= 0.3 s (scipy find_peaks)       [literal values;
-                                                                                          "above g" inferred]
+    peaks of a - g with prominence >= 2 m/s^2 and spacing >= 0.3 s (scipy find_peaks)   [literal values]
+        The paper's "minimum peak magnitude" may be the height above g or the prominence; it does not say.
+        Prominence is the reading chosen by the rule used for every open value (leave-one-dataset-out over
+        the developer PDR sets, ``benchmarks/pdr_crossval.py``, docs/tuning-log.md); ``peak_mode="height"``
+        is the other reading.
     steps = segments between consecutive surviving peaks; keep step i if
         duration <= 1 s  and  0.2 g <= max - min of a within the step <= 2 g             [literal]
     DTW check: keep S_i if DTW(S_i, S_{i-2}) <= 3 or DTW(S_i, S_{i+2}) <= 3              [literal threshold]
         DTW = L1 local cost, cumulative cost divided by the warping-path length
-        [engineered: the paper does not define it; ``dtw_norm="znorm"`` z-normalises the segments first,
-        ``"none"`` uses (approximately) the total cost]; steps without a neighbour at +-2 are kept.
-    g = 9.8 (the paper's value) in literal mode; ``literal=False``: g = median |a| of the recording and the
-    2 m/s^2 "minimum peak magnitude" read as PROMINENCE instead of height above g
-    (the paper does not say which, so both are offered) [engineered].
+        [the paper does not define it; ``dtw_norm="znorm"`` z-normalises the segments first, ``"none"`` uses
+        (approximately) the total cost; the same rule keeps the per-sample cost, which "znorm" ties and
+        "none" is far worse than]; steps without a neighbour at +-2 are kept.
+    g = 9.8 (the paper's value) in literal mode; ``literal=False``: g = median |a| of the recording
+    [engineered].
 A rejected step removes its END peak from the count (the paper does not say) [engineered].
 """
 
@@ -84,9 +87,15 @@ class LiDetector:
     g_mps2: float = 9.8
     zero_phase: bool = False  # filtfilt instead of the phone's causal filter
     dtw_norm: str = "path_length"  # "path_length", "none" or "znorm" (z-normalised segments)
-    peak_mode: str = ""  # "" -> "height" (literal: height above g) or "prominence" (literal=False)
+    peak_mode: str = "prominence"  # or "height" (above g): the paper's open reading (module docstring)
 
     name = "li"
+
+    def __post_init__(self):
+        if self.peak_mode not in ("prominence", "height"):
+            raise ValueError(f"peak_mode {self.peak_mode!r}: choose prominence or height")
+        if self.dtw_norm not in ("path_length", "none", "znorm"):
+            raise ValueError(f"dtw_norm {self.dtw_norm!r}: choose path_length, none or znorm")
 
     def _dtw(self, a, b) -> float:
         d = dtw_distance(a, b)
@@ -110,8 +119,7 @@ class LiDetector:
             # causal FIR as on the phone; linear phase, so removing the d-sample delay aligns it with the input
             f = signal.lfilter(taps, [1.0], np.r_[n, np.full(d, n[-1])])[d:]
         g = self.g_mps2 if self.literal else float(np.median(n))
-        mode = self.peak_mode or ("height" if self.literal else "prominence")
-        crit = {"height": self.min_peak_mps2} if mode == "height" else {"prominence": self.min_peak_mps2}
+        crit = {self.peak_mode: self.min_peak_mps2}
         pk, _ = signal.find_peaks(f - g, distance=max(1, int(round(self.min_peak_interval_s * self.fs_hz))), **crit)
         if pk.size == 0:
             return StepEvents(np.zeros(0), self.name, {"t_s": tg, "signal": f - g})

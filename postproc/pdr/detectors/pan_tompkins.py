@@ -12,8 +12,10 @@ Ying et al. 2007 [13]: band-pass -> derivative -> squaring -> moving-window inte
 Band-pass: the thesis' low-pass equation is unrecoverable [R]; default = 2nd-order Butterworth
 0.5–5 Hz [engineered]; ``lowpass="pan_tompkins"`` uses the original integer low-pass
 y(n) = 2y(n-1) - y(n-2) + x(n) - 2x(n-6) + x(n-12) (NOT confirmed by the text). fs 20 Hz, the rate of
-the thesis' system ([NKUA2009, §6.2]; it states none for this method), so N = 20 spans 1 s: at 50 Hz
-(0.4 s) every step gives extra humps (+74 % steps on Voisard's lower back against +13 % at 20 Hz). ``literal=False`` additionally ignores humps lower than
+the thesis' system ([NKUA2009, §6.2]; it states none for this method), so N = 20 spans 1 s and the
+4-sample derivative 0.2 s. The literal hump coding pairs every sign change of the MWI output, so the rate
+matters beyond the window length: at 50 Hz the shorter derivative passes more ripple and every step gets
+extra humps, even with N = 50 (docs/tuning-log.md). ``literal=False`` additionally ignores humps lower than
 ``min_rel_height`` x the 5-s local maximum of the MWI output before pairing (Pan–Tompkins' adaptive
 threshold, [engineered 0.2]), so noise wiggles do not shift the pairing.
 """

@@ -104,7 +104,7 @@ def ellipse_fit_2d(hx, hy) -> EllipsoidCalibration:
 MAG_CALIBRATIONS = ("none", "percentile", "percentile_literal", "ellipse", "ellipsoid")
 
 
-def calibrate_mag(mag_b, method: str = "none", fit_mask=None) -> np.ndarray:
+def calibrate_mag(mag_b, method: str = "none", fit_mask=None, percentiles=(5.0, 95.0)) -> np.ndarray:
     """The magnetometer samples corrected by one of the calibrations above, fitted on the recording itself.
 
     Parameters
@@ -117,6 +117,9 @@ def calibrate_mag(mag_b, method: str = "none", fit_mask=None) -> np.ndarray:
         "ellipsoid" (3-D fit, needs samples over many orientations).
     fit_mask : array_like of bool, shape (N,), optional
         Samples to fit on (e.g. a calibration turn at the start of the walk); default all.
+    percentiles : (float, float)
+        Lower and upper percentile of the "percentile" methods (the thesis' 5 and 95: a few outliers
+        from nearby iron do not set the range).
 
     Returns
     -------
@@ -132,7 +135,7 @@ def calibrate_mag(mag_b, method: str = "none", fit_mask=None) -> np.ndarray:
     if len(f) < 9:
         raise ValueError(f"magnetometer calibration {method!r} needs at least 9 samples to fit; got {len(f)}")
     if method.startswith("percentile"):
-        cal = percentile_calibration(f[:, 0], f[:, 1], literal_offset=method == "percentile_literal")
+        cal = percentile_calibration(f[:, 0], f[:, 1], *percentiles, literal_offset=method == "percentile_literal")
         m[:, 0], m[:, 1] = cal.apply(m[:, 0], m[:, 1])
         return m
     cal = ellipse_fit_2d(f[:, 0], f[:, 1]) if method == "ellipse" else ellipsoid_fit(f)

@@ -44,20 +44,19 @@ def tilt_compensated_heading(mag_b: np.ndarray, up_b: np.ndarray, forward_b=(0.0
     return np.arctan2(e @ f, n @ f)
 
 
-def tilt_weight_heading(t_s, mag_b, acc_b, forward_b=(0.0, 1.0, 0.0), n_avg: int = 8,
-                        fs_ref_hz: float = 20.0) -> np.ndarray:
+def tilt_weight_heading(t_s, mag_b, acc_b, forward_b=(0.0, 1.0, 0.0), window_s: float = 0.4) -> np.ndarray:
     """Bearing (rad, clockwise from magnetic north) with the [NKUA2009, §4.2] tilt-weight correction.
 
     Parameters
     ----------
     t_s : array_like, shape (N,)
-        Sample times, s (sets the moving-average length: ``n_avg`` samples at ``fs_ref_hz`` = 0.4 s).
+        Sample times, s (set the moving-average length in samples).
     mag_b, acc_b : array_like, shape (N, 3)
         Field (any unit) and specific force (gravity included) in the sensor frame.
     forward_b : sequence of 3 float
         Body axis pointing forward.
-    n_avg, fs_ref_hz : int, float
-        The thesis' moving average: 8 samples at its 20 Hz.
+    window_s : float
+        Length of the causal moving average, s: the thesis' 8 samples at its 20 Hz = 0.4 s.
 
     Returns
     -------
@@ -66,7 +65,7 @@ def tilt_weight_heading(t_s, mag_b, acc_b, forward_b=(0.0, 1.0, 0.0), n_avg: int
     """
     from bootnav.postproc.pdr.signals import causal_moving_average, nominal_rate_hz
 
-    n = max(1, int(round(n_avg * nominal_rate_hz(np.asarray(t_s, float)) / fs_ref_hz)))
+    n = max(1, int(round(window_s * nominal_rate_hz(np.asarray(t_s, float)))))
     m_bar = np.column_stack([causal_moving_average(c, n) for c in np.asarray(mag_b, float).T])
     a_bar = np.column_stack([causal_moving_average(c, n) for c in np.asarray(acc_b, float).T])
     w = a_bar / np.linalg.norm(a_bar, axis=1, keepdims=True)
