@@ -15,6 +15,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", type=Path, nargs="?",
                         help="input log: bootnav SD-card .txt, CSV/TXT (optionally .gz); "
                              "not needed with --profile list")
+    parser.add_argument("second", type=Path, nargs="?", metavar="FILE2",
+                        help="a second boot's log: both go into one multi-boot recording (--labels, --align)")
+    parser.add_argument("--labels", default="left,right", help="boot labels of FILE and FILE2 (default left,right)")
+    parser.add_argument("--align", choices=("timestamps", "start"), default=None,
+                        help="two files: 'timestamps' = their own time columns share one clock (default when both "
+                             "have one), 'start' = both first samples at session time 0")
+    parser.add_argument("--offset-s", type=float, default=None, metavar="S",
+                        help="two files: FILE2's first sample at S seconds of FILE's clock (may be negative)")
     parser.add_argument("--out", type=Path, help="output recording (default: FILE's name with .h5, in the cwd)")
     parser.add_argument("--profile", help="shipped profile NAME or a FILE.toml (default: auto-detect); "
                         "'--profile list' shows the shipped ones")
@@ -29,8 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mount", help="where the sensor was worn: left_boot, right_boot, lower_back, phone_hand, ...")
     parser.add_argument("--sensor", type=int, help="which IMU of a multi-IMU file (e.g. IEZ: 1 or 2)")
     parser.add_argument("--delimiter", help="force the delimiter: ',' ';' 'tab' 'whitespace'")
-    parser.add_argument("--no-unit-check", action="store_true",
-                        help="record a failed gravity/gyro unit check as a note instead of an error")
+    parser.add_argument("--no-unit-check", "--trust-units", action="store_true", dest="no_unit_check",
+                        help="trust the declared units: record a failed gravity/gyro unit check as a note (and in "
+                             "/meta unit_check) instead of an error")
     parser.add_argument("--force", action="store_true", help="replace --out if it is an existing HDF5 file")
     parser.add_argument("--quiet", action="store_true", help="print only errors")
 
@@ -76,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
     if args.file is None:  # a usage error, like a missing required argument
         print("bootnav import: error: the input file is required (except with --profile list)", file=sys.stderr)
         return 2
+    if args.second is not None:
+        return _run_two(args)
     name = args.file.name[:-3] if args.file.name.endswith(".gz") else args.file.name
     out = args.out or Path.cwd() / (Path(name).stem + ".h5")
     check_out(args.file, out, args.force)
@@ -97,5 +108,88 @@ def run(args: argparse.Namespace) -> int:
         if sat:
             print(f"{args.file.name}: saturated samples: {sat}")
         print(f"wrote {out} ({result.n} samples)")
+    sys.stdout.flush()
+    return 0
+
+
+def _run_two(args: argparse.Namespace) -> int:
+    """Two boots' files -> one multi-boot recording, on one session clock by the rule of ``--align`` /
+    ``--offset-s`` (docs/recording-format.md, "Multi-boot recordings")."""
+    import math
+
+    import numpy as np
+
+    from bootnav.errors import BootnavError, DiskFullError
+    from bootnav.logger.importers import read_any
+    from bootnav.logger.recording import check_boot_label, is_disk_full, make_events, write_group, write_multi_boot
+
+    files = [args.file, args.second]
+    labels = [x.strip() for x in args.labels.split(",")]
+    if len(labels) != 2 or labels[0] == labels[1]:
+        raise BootnavError(f"--labels {args.labels!r}: give two distinct labels, e.g. left,right")
+    for label in labels:
+        check_boot_label(label)
+    if args.out is None:
+        raise BootnavError("two input files: give the multi-boot recording to write with --out FILE.h5")
+    if args.offset_s is not None and (args.align is not None or not math.isfinite(args.offset_s)):
+        raise BootnavError("--offset-s S (a finite number) and --align exclude each other: give one rule")
+    for f in files:
+        check_out(f, args.out, args.force)
+    delimiter = {"tab": "\t", "comma": ",", "semicolon": ";"}.get(args.delimiter, args.delimiter)
+    results = [read_any(f, args.profile, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                        time_unit=args.time_unit, acc_range_g=args.acc_range, gyro_range_dps=args.gyro_range,
+                        rate_hz=args.rate, mount=args.mount or f"{label}_boot", sensor=args.sensor,
+                        delimiter=delimiter, check_units=not args.no_unit_check)
+               for f, label in zip(files, labels)]
+    t0 = [r.meta.get("t0_source_s") for r in results]
+    have_t0 = all(isinstance(x, (int, float)) and math.isfinite(x) for x in t0)
+    rule = "offset" if args.offset_s is not None else (args.align or ("timestamps" if have_t0 else "start"))
+    if rule == "timestamps" and not have_t0:
+        raise BootnavError(f"--align timestamps: {files[t0.index(None) if None in t0 else 0]} has no time column; "
+                           "use --align start or --offset-s S")
+    if rule == "timestamps":
+        first = [float(x) for x in t0]
+    elif rule == "offset":
+        first = [0.0, float(args.offset_s)]
+    else:
+        first = [0.0, 0.0]
+    s0 = min(first)
+    boots = {}
+    for label, r, f0 in zip(labels, results, first):
+        meta = dict(r.meta, boot_label=label, clock_alignment={"timestamps": "file-timestamps", "start":
+                    "start-together", "offset": "offset"}[rule], clock_offset_s=f0 - s0, clock_scale=1.0,
+                    clock_residual_s=float("nan"), clock_blocks=0)
+        events = make_events(sorted(r.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1))))
+        events["t_s"] += f0 - s0
+        boots[label] = dict(r.optional, t_s=r.t_s + (f0 - s0), acc=r.acc, gyro=r.gyro, acc_channel=r.acc_channel,
+                            gyro_channel=r.gyro_channel, events=events, meta=meta, saturated=r.saturated)
+    epoch = rule == "timestamps" and s0 > 1e9  # both files on a UNIX clock: the session start is absolute
+    attrs = {"session_start_unix_s": s0 if epoch else float("nan"),
+             "session_clock": "seconds since the first sample of any boot", "clock_alignment": rule}
+    out = args.out
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")  # crash-safe: written beside, synced, renamed
+    try:
+        write_multi_boot(tmp, boots, attrs=attrs)
+        for label, r in zip(labels, results):
+            if r.aux:
+                write_group(tmp, f"boots/{label}/aux", r.aux, attrs={"description": "extra input columns, one per "
+                            "dataset, row-aligned with imu/t_s"}, units=r.aux_units)
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, out)
+    except (DiskFullError, OSError) as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, DiskFullError) or is_disk_full(exc):
+            raise DiskFullError(f"disk full at {out}: 0 frames written (an import writes all or nothing)") from exc
+        raise BootnavError(f"{out}: cannot write ({exc}); choose a writable place") from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    if not args.quiet:
+        for f, label, r in zip(files, labels, results):
+            for line in r.messages:
+                print(f"{f.name}: {line}")
+        print(f"alignment: {rule} ({labels[1]} starts {first[1] - first[0]:+.6f} s after {labels[0]})")
+        print(f"wrote {out} ({', '.join(f'{label} {r.n} samples' for label, r in zip(labels, results))})")
     sys.stdout.flush()
     return 0

@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print a machine-readable summary")
 
 
-def load_any(path):
+def load_any(path, boot=None):
     """A recording, or any other file through ``bootnav import``'s reader, as the ``Recording`` that
     ``import`` would store (written to a temporary file and loaded back, so ``info FILE`` and ``info`` of
     the imported recording agree). A ``.h5``/``.hdf5`` name is always read as a recording, so a damaged
@@ -51,16 +51,18 @@ def load_any(path):
 
         with tempfile.TemporaryDirectory(prefix="bootnav-info-") as tmp:
             return load(write_result(read_any(p), Path(tmp) / "imported.h5"), with_truth=False)
-    return load(p, with_truth=False)
+    return load(p, with_truth=False, boot=boot)
 
 
-def summarize(path) -> dict:
+def summarize(path, boot=None) -> dict:
     """The summary ``bootnav info`` prints (also used by tests and other tools).
 
     Parameters
     ----------
     path
         A recording or any file ``bootnav import`` reads (``load_any``).
+    boot
+        The boot of a multi-boot recording (``bootnav.logger.recording.boot_labels``).
 
     Returns
     -------
@@ -71,7 +73,7 @@ def summarize(path) -> dict:
 
     from bootnav.core.timebase import gap_mask, missing_samples, nominal_period, timing_summary
 
-    rec = load_any(path)
+    rec = load_any(path, boot)
     t = rec.t_s
     dt = np.diff(t)
     good = dt[np.isfinite(dt) & (dt > 0)]
@@ -80,15 +82,21 @@ def summarize(path) -> dict:
     kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in rec.events["kind"]]
     count_of = {k: kinds.count(k) for k in sorted(set(kinds))}
     gap_events = rec.events_of("gap")
+    idx = np.flatnonzero(gap_mask(dt, med))  # holes in the time stamps, by the one gap rule
+    time_gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(m)}
+                 for i, m in zip(idx, missing_samples(dt[idx], med))]
     if gap_events.size or rec.seq is not None:  # sequence numbers: the recorder's gap events are exact
         gaps = [{"t_s": float(e["t_s"]), "sample_index": int(e["sample_index"]), "missing": int(e["count"])}
                 for e in gap_events]
         gap_source = "sequence numbers" if rec.seq is not None else "events"
-    else:  # no seq numbers (imported data): gaps from the time stamps, by the one gap rule
-        idx = np.flatnonzero(gap_mask(dt, med))
-        gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(m)}
-                for i, m in zip(idx, missing_samples(dt[idx], med))]
-        gap_source = "timestamps"
+        # a device that rebooted at a reconnect counts seq from 0 again: no seq gap, but a hole in time
+        counted = {g["sample_index"] for g in gaps}
+        restarts = [g for g in time_gaps if g["sample_index"] not in counted]
+        if restarts:
+            gaps = sorted(gaps + restarts, key=lambda g: g["sample_index"])
+            gap_source += f" + timestamps ({len(restarts)} hole(s) across a device restart)"
+    else:  # no seq numbers (imported data): gaps from the time stamps
+        gaps, gap_source = time_gaps, "timestamps"
     sat = rec.saturated.astype(np.uint8)
     sat_counts = {a: int(((sat >> i) & 1).sum()) for i, a in enumerate(AXES)}
     meta = rec.meta
@@ -135,6 +143,10 @@ def summarize(path) -> dict:
         "data_warnings": data_warnings(rec),
         "gap_list": gaps[:100],
     }
+    if boot is not None:  # the boot's place on the session clock (docs/recording-format.md)
+        summary.update(boot=boot, start_s=float(t[0]) if rec.n else float("nan"),
+                       **{k: meta.get(k) for k in ("clock_alignment", "clock_offset_s", "clock_scale",
+                                                   "clock_residual_s")})
     return summary
 
 
@@ -183,13 +195,43 @@ def _text(value):
 
 
 def run(args) -> int:
-    s = summarize(args.file)
+    labels = _boot_labels(args.file)
+    s = {"file": str(args.file), "boots": {b: summarize(args.file, b) for b in labels}} if labels \
+        else summarize(args.file)
     if args.json:
         from bootnav.core.jsonio import to_jsonable
 
         print(json.dumps(to_jsonable(s), indent=1, allow_nan=False))
         return 0
-    out = sys.stdout
+    if labels:
+        print(f"{args.file}: multi-boot recording, boots {', '.join(labels)} on one session clock")
+        for b, sb in s["boots"].items():
+            lines = _lines(sb)
+            lines[0] = f"boot {b}"
+            fitted = str(sb["clock_alignment"]) == "host-receive"  # recorder: rate and residual of the fit
+            lines.insert(1, f"  clock       {sb['clock_alignment'] or '?'}: starts at {_fmt(sb['start_s'])} s"
+                            + (f", device clock {(1 / _num(sb['clock_scale']) - 1) * 1e6:+.1f} ppm, residual "
+                               f"{_fmt(round(_num(sb['clock_residual_s']) * 1e3, 2))} ms" if fitted else ""))
+            print("\n".join(lines))
+        return 0
+    print("\n".join(_lines(s)), file=sys.stdout)
+    return 0
+
+
+def _boot_labels(path) -> list[str]:
+    """Labels of a multi-boot recording, [] for anything else (which ``summarize`` reports on)."""
+    import h5py
+
+    from bootnav.logger.recording import boot_labels
+
+    try:
+        return boot_labels(path) if h5py.is_hdf5(path) else []
+    except (OSError, TypeError):
+        return []
+
+
+def _lines(s: dict) -> list[str]:
+    """The text ``bootnav info`` prints for one recording (or one boot)."""
     sat = ", ".join(f"{a} {c}" for a, c in s["saturated_samples"].items() if c) or "none"
     lines = [
         f"{s['file']}",
@@ -202,7 +244,7 @@ def run(args) -> int:
         f" {s['raw_units']['acc']}, {s['raw_units']['gyro']})",
         f"  gaps        {s['gaps']} ({s['dropped']} samples missing, from {s['gap_source']})",
         f"  link        {s['crc_errors']} CRC errors, {s['resyncs']} resyncs, {s['disconnects']} disconnects,"
-        f" {s['skipped_lines']} skipped lines",
+        f" {s['reconnects']} reconnects, {s['skipped_lines']} skipped lines",
         f"  saturation  {sat}",
         f"  events      {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}",
     ]
@@ -210,5 +252,4 @@ def run(args) -> int:
         lines.append(f"  WARNING     {w}")
     if not s["complete"]:
         lines.append("  note        no final metadata: the writer did not close (crash or still recording)")
-    print("\n".join(lines), file=out)
-    return 0
+    return lines

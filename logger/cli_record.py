@@ -12,8 +12,12 @@ MIN_BAUD, MAX_BAUD = 300, 4_000_000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", required=True,
-                        help="serial port or pyserial URL: /dev/ttyUSB0, a pty path from `bootnav emulate`, loop://")
+    parser.add_argument("--port", required=True, action="append",
+                        help="serial port or pyserial URL: /dev/ttyUSB0, a pty path from `bootnav emulate`, loop://; "
+                             "twice (--port A --port B) records two boots into one multi-boot recording")
+    parser.add_argument("--label", action="append", default=None,
+                        help="boot label of each --port, in order (default with two ports: left, right); "
+                             "the mount becomes LABEL_boot")
     parser.add_argument("--baud", type=int, default=500_000,
                         help="baud rate (default 500000: carries 1 kHz; see firmware-protocol/PROTOCOL.md)")
     parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create")
@@ -26,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="wait this long for the sensor's header frame before assuming ±16 g / ±2000 °/s")
     parser.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
                         help="give up if the port cannot be opened at start within S seconds")
-    parser.add_argument("--mount", default="", help="where the sensor sits, e.g. left_boot, right_boot")
+    parser.add_argument("--mount", default="", help="where the sensor sits, e.g. left_boot, right_boot (one port)")
     parser.add_argument("--subject", default="")
     parser.add_argument("--notes", default="", help="free-text session notes stored in /meta")
     parser.add_argument("--quiet", action="store_true", help="no live status line")
@@ -54,8 +58,10 @@ def run(args) -> int:
     if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
         raise BootnavError(f"{out.parent}: not a writable directory for --out")
 
+    if len(args.port) > 1 or args.label:
+        return _run_multi(args)
     settings = RecorderSettings(
-        port=args.port, out=args.out, baud=args.baud, duration_s=args.duration,
+        port=args.port[0], out=args.out, baud=args.baud, duration_s=args.duration,
         flush_interval_s=args.flush_interval, header_wait_s=args.header_wait,
         connect_timeout_s=args.connect_timeout, mount=args.mount, subject=args.subject,
         session_notes=args.notes,
@@ -74,4 +80,50 @@ def run(args) -> int:
         raise BootnavError(f"no data received from {args.port} ({stats.stop_reason}); {args.out} not written")
     print(f"{args.out}: {stats.frames} frames, {stats.dropped} dropped, {stats.crc_errors} CRC errors, "
           f"{stats.resyncs} resyncs, {stats.disconnects} disconnects ({stats.stop_reason})", file=sys.stderr)
+    return 0
+
+
+def _run_multi(args) -> int:
+    """Two (or more) ports into one multi-boot recording (``MultiBootRecorder``)."""
+    from bootnav.errors import BootnavError
+    from bootnav.logger.recording import check_boot_label
+    from bootnav.logger.serial_recorder import MultiBootRecorder, MultiRecorderSettings
+
+    ports = args.port
+    if len(ports) < 2:
+        raise BootnavError("--label names the boots of a multi-boot recording: give two --port (one sensor: "
+                           "--mount left_boot)")
+    labels = args.label or (["left", "right"] if len(ports) == 2 else [])
+    if len(labels) != len(ports):
+        raise BootnavError(f"{len(ports)} --port but {len(labels)} --label: give one --label per --port "
+                           "(default only for two ports: left, right)")
+    if len(set(labels)) != len(labels) or len(set(ports)) != len(ports):
+        raise BootnavError(f"--label {labels} / --port {ports}: each boot needs its own label and port")
+    for label in labels:
+        check_boot_label(label)
+    if args.mount:
+        raise BootnavError("--mount names one sensor; with several ports the mount of each is LABEL_boot "
+                           "(choose the labels with --label)")
+    settings = MultiRecorderSettings(
+        ports=ports, labels=labels, out=args.out, baud=args.baud, duration_s=args.duration,
+        flush_interval_s=args.flush_interval, header_wait_s=args.header_wait, connect_timeout_s=args.connect_timeout,
+        mounts=[f"{label}_boot" for label in labels], subject=args.subject, session_notes=args.notes)
+    recorder = MultiBootRecorder(settings, status_stream=None if args.quiet else sys.stderr)
+    signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
+    signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
+    all_stats = recorder.run()
+    if recorder.disk_full is not None:
+        raise recorder.disk_full
+    if not recorder.wrote_file:
+        got = sum(st.bytes_in for st in all_stats)
+        raise BootnavError((f"no valid frame in {got} bytes from {', '.join(ports)} (wrong --baud?)" if got else
+                            f"no data received from {', '.join(ports)} ({recorder.stop_reason})")
+                           + f"; {args.out} not written")
+    for label, port, st in zip(labels, ports, all_stats):
+        clock = recorder.clock.get(label, {})
+        align = (f", clock residual {clock['clock_residual_s'] * 1e3:.2f} ms, device clock rate "
+                 f"error {(1 / clock['clock_scale'] - 1) * 1e6:+.0f} ppm" if clock else ", no sample")
+        print(f"{args.out} [{label} {port}]: {st.frames} frames, {st.dropped} dropped, {st.crc_errors} CRC errors, "
+              f"{st.resyncs} resyncs, {st.disconnects} disconnects{align}", file=sys.stderr)
+    print(f"{args.out}: {recorder.stop_reason}", file=sys.stderr)
     return 0

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import fcntl
 import json
+import math
 import os
 import select
 import struct
@@ -66,6 +67,8 @@ class EmulatorSettings:
     linger_s: float = 1.0  # keep the port open after the last frame
     seq0: int = 0  # first seq (set near 65535 to exercise the u16 wrap)
     t0_us: int = 0  # first device time (set near 2**32 to exercise the t_us wrap)
+    clock_ppm: float = 0.0  # device clock rate error: t_us advances (1 + ppm 1e-6) periods per real period
+    start_delay_s: float = 0.0  # the device starts streaming this long after the host connects
     accel_fs: int = 3
     gyro_fs: int = 3
     dlpf: int = 3
@@ -74,6 +77,7 @@ class EmulatorSettings:
     fw_version: tuple[int, int, int] = (0, 1, 0)
     seed: int = 0
     tick_s: float = 0.005  # pacing granularity
+    boot: str | None = None  # the boot of a multi-boot --source to stream
 
 
 @dataclass
@@ -144,13 +148,16 @@ def synthetic_signal(duration_s: float, rate_hz: float, accel_fs: int = 3, gyro_
     return SourceSignal(acc, gyro, temp, rate_hz, accel_fs, gyro_fs)
 
 
-def load_source(path, accel_fs: int | None = None, gyro_fs: int | None = None) -> SourceSignal:
-    """Counts from a recording: int16 counts as stored, or SI floats quantised with the declared ranges."""
+def load_source(path, accel_fs: int | None = None, gyro_fs: int | None = None, boot: str | None = None) -> SourceSignal:
+    """Counts from a recording (``boot``: one boot of a multi-boot recording): int16 counts as stored, or SI
+    floats quantised with the declared ranges."""
     from bootnav.logger.recording import load
 
-    rec = load(path, with_truth=False)
+    rec = load(path, with_truth=False, boot=boot)
     meta = rec.meta
-    rate = float(meta.get("rate_nominal_hz") or rec.rate_hz)
+    nominal = meta.get("rate_nominal_hz")
+    finite = isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal > 0
+    rate = float(nominal) if finite else rec.rate_hz
     a_fs = accel_fs if accel_fs is not None else _code(meta.get("accel_range_g"), mpu6050.accel_code, 3)
     g_fs = gyro_fs if gyro_fs is not None else _code(meta.get("gyro_range_dps"), mpu6050.gyro_code, 3)
     if rec.raw["acc_attrs"].get("units") == "count" and rec.raw["gyro_attrs"].get("units") == "count":
@@ -252,7 +259,7 @@ class Emulator:
                 rate = s.rate_hz or 200.0
                 signal = synthetic_signal(s.duration_s or 10.0, rate, s.accel_fs, s.gyro_fs, s.seed)
             else:
-                signal = load_source(s.source)
+                signal = load_source(s.source, boot=s.boot)
         self.signal = signal
         if signal.acc.shape[0] == 0:
             raise ValueError("the source has no samples")
@@ -300,7 +307,8 @@ class Emulator:
             k = np.minimum(idx, self.signal.seq.shape[0] - 1)
             return self.signal.seq[k].astype(np.int64), self.signal.t_device[k].astype(np.int64)
         j = idx - self._restart_k
-        return (s.seq0 + j) & 0xFFFF, (s.t0_us + np.round(j * period_us).astype(np.int64)) & 0xFFFFFFFF
+        tick_us = period_us * (1.0 + s.clock_ppm * 1e-6)  # frames leave at the true rate, stamped by a skewed clock
+        return (s.seq0 + j) & 0xFFFF, (s.t0_us + np.round(j * tick_us).astype(np.int64)) & 0xFFFFFFFF
 
     def _due(self, now_s: float) -> int:
         """How many frames the device has produced ``now_s`` seconds into the stream."""
@@ -332,6 +340,10 @@ class Emulator:
         try:
             if s.wait_for_host and not self._wait_for_host(port):
                 raise TimeoutError(f"no host opened {s.out_link} within {s.host_timeout_s} s")
+            delay_end = time.monotonic() + s.start_delay_s
+            while not self._stop and time.monotonic() < delay_end:
+                port.read_commands()  # a header request before the device runs is not answered
+                time.sleep(min(s.tick_s, max(0.0, delay_end - time.monotonic())))
             t_start = time.monotonic()
             rep.stream_start_unix = time.time()
             sent_header_at = None

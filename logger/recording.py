@@ -15,6 +15,7 @@ import datetime as _dt
 import errno
 import json
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
@@ -156,6 +157,15 @@ def _utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
+def _root_attrs(f: h5py.File) -> None:
+    """Format version, producer and the conventions: the root attributes of every file bootnav writes."""
+    f.attrs["format_version"] = FORMAT_VERSION
+    f.attrs["producer"] = f"bootnav {__version__}"
+    f.attrs["created_utc"] = _utc_now()
+    for key, value in CONVENTIONS.items():
+        f.attrs[key] = value
+
+
 def _clean_attr(value: Any) -> Any:
     if value is None:
         return ""
@@ -164,6 +174,19 @@ def _clean_attr(value: Any) -> Any:
     ):
         return json.dumps(value)
     return value
+
+
+def _creating_name(path: Path) -> Path:
+    """Hidden name beside ``path`` under which a new recording is created (``_publish``)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def _publish(file: h5py.File, tmp: Path, path: Path) -> None:
+    """Show a newly created recording under its name only once its whole structure is on disk: a crash while
+    creating leaves no header-only file at ``path``. HDF5 keeps writing through the open handle after the
+    rename."""
+    file.flush()
+    os.replace(tmp, path)
 
 
 class RecordingWriter:
@@ -189,30 +212,41 @@ class RecordingWriter:
         meta: Mapping[str, Any] | None = None,
         swmr: bool = True,
         chunk_rows: int = CHUNK_ROWS,
+        _shared: tuple[h5py.File, str] | None = None,
     ):
         self.path = Path(path)
+        self._peers = [self]  # writers sharing the file (one per boot): a failed write rolls back all of them
+        if _shared is not None:  # a boot group of a MultiBootWriter's file, which owns file attrs and SWMR
+            self._file, group = _shared
+            self._closed = False
+            self._create_layout(self._file.create_group(group), acc, gyro, temp, device_time, host_time, seq,
+                                meta, chunk_rows)
+            return
         self._closed = True
         if free_bytes(self.path) < MIN_FREE_BYTES:  # HDF5 cannot recover from a failed create: do not start one
             raise DiskFullError(f"disk full at {self.path}: 0 frames written (no space for a new file)")
+        tmp = _creating_name(self.path)
         try:
-            self._file = h5py.File(self.path, "w", libver=LIBVER)
+            self._file = h5py.File(tmp, "w", libver=LIBVER)
             self._closed = False
             self._create(acc, gyro, temp, device_time, host_time, seq, meta, swmr, chunk_rows)
+            _publish(self._file, tmp, self.path)
         except (OSError, RuntimeError) as exc:
             self.abort()
+            tmp.unlink(missing_ok=True)  # nothing of value in it: no 0-byte or header-only file
             if is_disk_full(exc):
-                self.path.unlink(missing_ok=True)  # nothing of value in it: no 0-byte or header-only file
                 raise DiskFullError(f"disk full at {self.path}: 0 frames written (no space for a new file)") from exc
             raise
 
     def _create(self, acc, gyro, temp, device_time, host_time, seq, meta, swmr, chunk_rows) -> None:
         """Create every dataset (before SWMR mode, which forbids creating objects later)."""
-        f = self._file
-        f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["producer"] = f"bootnav {__version__}"
-        f.attrs["created_utc"] = _utc_now()
-        for key, value in CONVENTIONS.items():
-            f.attrs[key] = value
+        _root_attrs(self._file)
+        self._create_layout(self._file, acc, gyro, temp, device_time, host_time, seq, meta, chunk_rows)
+        if swmr:
+            self._file.swmr_mode = True
+
+    def _create_layout(self, f, acc, gyro, temp, device_time, host_time, seq, meta, chunk_rows) -> None:
+        """``meta``, ``imu/*`` and ``events`` of one recording (or one boot) in the group ``f``."""
         meta_group = f.create_group("meta")
         for key, value in (meta or {}).items():
             meta_group.attrs[key] = _clean_attr(value)
@@ -272,8 +306,6 @@ class RecordingWriter:
         self._events.attrs["kinds"] = ",".join(EVENT_KINDS)
         self.n = 0
         self.n_safe, self.t_safe = 0, float("nan")  # rows on disk at the last flush, and their last time
-        if swmr:
-            f.swmr_mode = True
 
     @property
     def enabled(self) -> tuple[str, ...]:
@@ -331,8 +363,9 @@ class RecordingWriter:
             self._file.flush()
         except (OSError, RuntimeError) as exc:
             self._fail(exc)
-        self.n_safe = self.n
-        self.t_safe = float(self._t[self.n - 1]) if self.n else float("nan")
+        for w in self._peers:
+            w.n_safe = w.n
+            w.t_safe = float(w._t[w.n - 1]) if w.n else float("nan")
 
     def room_for(self, n_rows: int, n_events: int = 0) -> bool:
         """Whether the disk (and the process's file-size limit) has room for ``n_rows`` more samples and
@@ -343,7 +376,7 @@ class RecordingWriter:
         """
         row = sum(ds.dtype.itemsize * (ds.shape[1] if ds.ndim == 2 else 1) for ds in self._arrays.values())
         chunk = sum(ds.chunks[0] * ds.dtype.itemsize * (ds.shape[1] if ds.ndim == 2 else 1)
-                    for ds in self._arrays.values())
+                    for w in self._peers for ds in w._arrays.values())
         need = n_rows * row + n_events * EVENT_DTYPE.itemsize + 2 * chunk + (64 << 10)
         return need <= free_bytes(self.path)
 
@@ -358,11 +391,12 @@ class RecordingWriter:
         A full disk raises ``DiskFullError`` saying how much was safely written (up to the last
         ``flush``); any other I/O error is re-raised after the same clean-up.
         """
-        for ds in self._arrays.values():
-            try:
-                ds.resize(self.n_safe, axis=0)
-            except (OSError, ValueError):
-                pass
+        for w in self._peers:
+            for ds in w._arrays.values():
+                try:
+                    ds.resize(w.n_safe, axis=0)
+                except (OSError, ValueError):
+                    pass
         if n_events is not None:
             try:
                 self._events.resize(n_events, axis=0)
@@ -377,7 +411,8 @@ class RecordingWriter:
         """Close after a failed write without raising (the file keeps what the last flush wrote)."""
         if self._closed:
             return
-        self._closed = True
+        for w in self._peers:
+            w._closed = True
         try:
             self._file.close()
         except (OSError, RuntimeError, ValueError):
@@ -454,6 +489,156 @@ def write_recording(
 
 
 @dataclass
+class BootLayout:
+    """What one boot of a multi-boot recording stores (the arguments of a single ``RecordingWriter``)."""
+
+    acc: Channel
+    gyro: Channel
+    temp: Channel | None = None
+    device_time: bool = False
+    host_time: bool = False
+    seq: bool = False
+    meta: Mapping[str, Any] | None = None
+
+
+def check_boot_label(label: str) -> str:
+    """A boot label is a group name: letters, digits, ``_`` and ``-``, starting with a letter."""
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]{0,31}", label or ""):
+        raise InputError(f"boot label {label!r}: use letters, digits, '_' or '-', starting with a letter "
+                         "(e.g. left, right)")
+    return label
+
+
+class MultiBootWriter:
+    """One multi-boot recording (``docs/recording-format.md``): one ``RecordingWriter`` per boot group.
+
+    ``boot(label)`` is that boot's writer (``append``, ``add_events``, ``n``, ``n_safe``); ``flush`` makes every
+    boot's rows safe at once, and a failed write shrinks every boot back to the last flush. All groups are
+    created before SWMR mode is switched on, as SWMR requires.
+    """
+
+    def __init__(self, path: str | os.PathLike, boots: Mapping[str, BootLayout], *,
+                 attrs: Mapping[str, Any] | None = None, swmr: bool = True, chunk_rows: int = CHUNK_ROWS):
+        self.path = Path(path)
+        labels = [check_boot_label(label) for label in boots]
+        if len(set(labels)) != len(labels) or not labels:
+            raise InputError(f"boot labels {labels}: give one distinct label per boot")
+        if free_bytes(self.path) < MIN_FREE_BYTES:
+            raise DiskFullError(f"disk full at {self.path}: 0 frames written (no space for a new file)")
+        tmp = _creating_name(self.path)
+        self._file = h5py.File(tmp, "w", libver=LIBVER)
+        try:
+            _root_attrs(self._file)
+            self._file.attrs["boots"] = json.dumps(labels)
+            for key, value in (attrs or {}).items():
+                self._file.attrs[key] = _clean_attr(value)
+            self._boots = {
+                label: RecordingWriter(self.path, b.acc, b.gyro, temp=b.temp, device_time=b.device_time,
+                                       host_time=b.host_time, seq=b.seq, meta=b.meta, chunk_rows=chunk_rows,
+                                       _shared=(self._file, f"boots/{label}"))
+                for label, b in boots.items()}
+            for w in self._boots.values():
+                w._peers = list(self._boots.values())
+            if swmr:
+                self._file.swmr_mode = True
+            _publish(self._file, tmp, self.path)
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            tmp.unlink(missing_ok=True)
+            if is_disk_full(exc):
+                raise DiskFullError(f"disk full at {self.path}: 0 frames written (no space for a new file)") from exc
+            raise
+
+    @property
+    def labels(self) -> list[str]:
+        return list(self._boots)
+
+    def boot(self, label: str) -> RecordingWriter:
+        return self._boots[label]
+
+    def flush(self) -> None:
+        """Write every boot's rows to disk (a reader or a crash sees them from now on)."""
+        next(iter(self._boots.values())).flush()
+
+    def room_for(self, n_rows: int, n_events: int = 0) -> bool:
+        """Room for ``n_rows`` more samples (all boots together) and ``n_events`` events (``RecordingWriter``)."""
+        return next(iter(self._boots.values())).room_for(n_rows, n_events)
+
+    def disk_full_error(self) -> DiskFullError:
+        safe = ", ".join(f"{label} {w.n_safe} frames"
+                         + (f" up to t = {w.t_safe:.3f} s" if np.isfinite(w.t_safe) else "")
+                         for label, w in self._boots.items())
+        return DiskFullError(f"disk full at {self.path}: safely written {safe}")
+
+    def abort(self) -> None:
+        """Close after a failed write without raising (the file keeps what the last flush wrote)."""
+        try:
+            self._file.close()
+        except (OSError, RuntimeError, ValueError):
+            pass
+        for w in getattr(self, "_boots", {}).values():
+            w._closed = True
+
+    def close(self, final_meta: Mapping[str, Mapping[str, Any]] | None = None,
+              final_attrs: Mapping[str, Any] | None = None) -> None:
+        """Flush, close, then write per-boot ``final_meta`` (label -> attributes) and root ``final_attrs``."""
+        first = next(iter(self._boots.values()))
+        if first._closed:
+            return
+        self.flush()
+        try:
+            self._file.close()
+        except (OSError, RuntimeError) as exc:
+            first._fail(exc)
+        for w in self._boots.values():
+            w._closed = True
+        if not final_meta and not final_attrs:
+            return
+        try:
+            with h5py.File(self.path, "r+", libver=LIBVER) as f:
+                for key, value in (final_attrs or {}).items():
+                    f.attrs[key] = _clean_attr(value)
+                for label, meta in (final_meta or {}).items():
+                    for key, value in meta.items():
+                        f[f"boots/{label}/meta"].attrs[key] = _clean_attr(value)
+        except (OSError, RuntimeError) as exc:
+            if is_disk_full(exc):
+                raise DiskFullError(f"{self.disk_full_error()} (final metadata not written)") from exc
+            raise
+
+
+def write_multi_boot(path, boots: Mapping[str, Mapping[str, Any]], *, attrs: Mapping[str, Any] | None = None) -> Path:
+    """Write a whole multi-boot recording at once (``bootnav import`` of two files).
+
+    ``boots`` maps a label to the keyword arguments of ``write_recording`` for that boot (``t_s``, ``acc``,
+    ``gyro``, ``acc_channel``, ``gyro_channel``, ``events``, ``meta``, ``saturated``, ``temp``, ``temp_channel``,
+    ``t_device``, ``t_host``, ``seq``); every ``t_s`` must already be on the session clock.
+    """
+    layouts, blocks = {}, {}
+    for label, b in boots.items():
+        b = dict(b)
+        opt = {k: b.pop(k) for k in ("temp", "t_device", "t_host", "seq") if b.get(k) is not None}
+        layouts[label] = BootLayout(b.get("acc_channel") or si_channel("acc"),
+                                    b.get("gyro_channel") or si_channel("gyro"), temp=b.get("temp_channel"),
+                                    device_time="t_device" in opt, host_time="t_host" in opt, seq="seq" in opt,
+                                    meta=b.get("meta"))
+        blocks[label] = (b, opt)
+    writer = MultiBootWriter(path, layouts, attrs=attrs, swmr=False)
+    try:
+        for label, (b, opt) in blocks.items():
+            w = writer.boot(label)
+            w.append(b["t_s"], np.asarray(b["acc"]), np.asarray(b["gyro"]), saturated=b.get("saturated"), **opt)
+            if b.get("events") is not None:
+                w.add_events(b["events"])
+        writer.close(final_meta={label: timing_summary(np.asarray(b["t_s"], dtype=float))
+                                 for label, (b, _) in blocks.items()})
+    except BaseException:
+        writer.abort()
+        raise
+    return Path(path)
+
+
+@dataclass
 class Recording:
     """A recording in SI units, as ``load`` returns it."""
 
@@ -495,8 +680,13 @@ def _open_for_read(path: Path) -> h5py.File:
     except OSError as first:
         text = str(first)
         if "truncated file" in text:
-            raise InputError(f"{path}: the file is cut short ({text.split('(', 1)[-1].rstrip(')')}); "
-                             "it was not completely copied or written") from first
+            m = re.search(r"eof = (\d+).*stored_eof = (\d+)", text)
+            have = (f"only {int(m[1])} of its {int(m[2])} bytes ({100 * int(m[1]) / int(m[2]):.1f} %) are present"
+                    if m and int(m[2]) else text.split("(", 1)[-1].rstrip(")"))
+            # salvage was tried and is not robust: HDF5 writes the chunk index and the group links where they
+            # fit, often after the data, so a cut file rarely keeps a row of every dataset readable
+            raise InputError(f"{path}: the file is cut short: {have}; it was not completely copied or written, "
+                             "copy it again from its source") from first
         if not any(k in text for k in ("h5clear", "consistency flags", "already open", "lock")):
             raise InputError(f"{path}: cannot open as an HDF5 recording ({first})") from first
         try:
@@ -520,11 +710,16 @@ def _finite_number(value) -> bool:
         and bool(np.isfinite(value))
 
 
-def _check_layout(f: h5py.File, path: Path) -> None:
-    """Reject a file whose layout ``load`` cannot trust, naming the dataset path and what is wrong."""
+def _check_layout(f: h5py.File, path: Path, g: h5py.Group | None = None) -> None:
+    """Reject a file whose layout ``load`` cannot trust, naming the dataset path and what is wrong.
+
+    ``g`` is the group holding ``imu`` and ``events`` (a boot group of a multi-boot file), default the root.
+    """
+    g = f if g is None else g
+    at = g.name.rstrip("/")  # dataset paths in the messages: /imu/t_s or /boots/left/imu/t_s
     version = f.attrs.get("format_version")
-    if version is None or "imu" not in f:
-        raise InputError(f"{path}: not a bootnav recording (no format_version or /imu)")
+    if version is None or "imu" not in g:
+        raise InputError(f"{path}: not a bootnav recording (no format_version or {at}/imu)")
     if isinstance(version, np.ndarray) and version.size == 1:
         version = version.reshape(()).item()
     if isinstance(version, (bool, np.bool_)) or not isinstance(version, (int, np.integer)):
@@ -532,12 +727,12 @@ def _check_layout(f: h5py.File, path: Path) -> None:
                          "(not written by bootnav, or damaged)")
     if int(version) > FORMAT_VERSION:
         raise InputError(f"{path}: format_version {version} is newer than this bootnav reads ({FORMAT_VERSION})")
-    if not isinstance(f["imu"], h5py.Group):
-        raise InputError(f"{path}: /imu is a dataset, expected a group holding t_s, acc and gyro")
-    imu = f["imu"]
+    if not isinstance(g["imu"], h5py.Group):
+        raise InputError(f"{path}: {at}/imu is a dataset, expected a group holding t_s, acc and gyro")
+    imu = g["imu"]
     for name, ndim in (("t_s", 1), ("acc", 2), ("gyro", 2)):
         if name not in imu:
-            raise InputError(f"{path}: /imu/{name} is missing; a recording needs /imu/t_s, /imu/acc and /imu/gyro")
+            raise InputError(f"{path}: {at}/imu/{name} is missing; a recording needs imu/t_s, imu/acc and imu/gyro")
     for name in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq"):
         if name not in imu:
             continue
@@ -547,29 +742,68 @@ def _check_layout(f: h5py.File, path: Path) -> None:
                 or (ndim == 2 and ds.shape[1] != 3):
             want = "an (N, 3) numeric dataset" if ndim == 2 else "a 1-D numeric dataset"
             got = f"{ds.dtype} {ds.shape}" if isinstance(ds, h5py.Dataset) else "a group"
-            raise InputError(f"{path}: /imu/{name} is {got}, expected {want}")
+            raise InputError(f"{path}: {at}/imu/{name} is {got}, expected {want}")
         for key in ("scale_to_si", "offset_to_si"):
             value = ds.attrs.get(key, 0.0)
             if isinstance(value, np.ndarray) and value.size == 1:
                 value = value.reshape(()).item()
             if not _finite_number(value):
-                raise InputError(f"{path}: attribute {key} of /imu/{name} is {_decode(value)!r}, expected a finite number")
-    if "events" in f:
-        ev = f["events"]
+                raise InputError(f"{path}: attribute {key} of {at}/imu/{name} is {_decode(value)!r}, expected a finite number")
+    if "events" in g:
+        ev = g["events"]
         if not isinstance(ev, h5py.Dataset) or ev.dtype.names is None \
                 or not {"t_s", "sample_index", "kind"} <= set(ev.dtype.names):
-            raise InputError(f"{path}: /events is not an event table (a compound dataset with t_s, sample_index, "
+            raise InputError(f"{path}: {at}/events is not an event table (a compound dataset with t_s, sample_index, "
                              "kind, ...); delete it with h5py to read the samples")
 
 
-def load(path: str | os.PathLike, *, with_truth: bool = True) -> Recording:
+def _boots_attr(f: h5py.File, path: Path) -> list[str]:
+    raw = f.attrs.get("boots")
+    if raw is None:
+        return []
+    try:
+        labels = json.loads(_decode(raw))
+    except (TypeError, ValueError):
+        labels = None
+    if not isinstance(labels, list) or not all(isinstance(x, str) for x in labels):
+        raise InputError(f"{path}: root attribute boots is {_decode(raw)!r}, expected a JSON list of boot labels")
+    return labels
+
+
+def boot_labels(path: str | os.PathLike) -> list[str]:
+    """Labels of the boots of a multi-boot recording in port order (e.g. ``["left", "right"]``); ``[]`` for a
+    single-boot recording.
+
+    Raises
+    ------
+    InputError
+        The file is missing or not HDF5.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    with _open_for_read(path) as f:
+        return _boots_attr(f, path)
+
+
+def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None) -> Recording:
     """Open a recording and return it in SI units (the one function every consumer uses).
+
+    Parameters
+    ----------
+    path
+        A recording (single- or multi-boot).
+    with_truth
+        Also read ``/truth`` (simulator) when present.
+    boot
+        The boot to read from a multi-boot recording (``boot_labels``); required for one, refused for a
+        single-boot recording. Its ``t_s`` is on the session clock shared by all boots.
 
     Raises
     ------
     InputError
         The file is missing, cut short, unreadable, or its layout is not a recording's; the message
-        names the file and the dataset path.
+        names the file and the dataset path. A multi-boot file without ``boot`` (or an unknown label).
     """
     path = Path(path)
     if not path.exists():
@@ -577,17 +811,28 @@ def load(path: str | os.PathLike, *, with_truth: bool = True) -> Recording:
     if path.is_dir():
         raise InputError(f"{path}: is a directory, expected a recording file")
     with _open_for_read(path) as f:
+        labels = _boots_attr(f, path)
+        if labels and boot is None:
+            raise InputError(f"{path}: a multi-boot recording (boots {', '.join(labels)}); read one boot with "
+                             f"load(path, boot={labels[0]!r}), or use a command's two-boot mode")
+        if boot is not None and boot not in labels:
+            raise InputError(f"{path}: no boot {boot!r} in this recording"
+                             + (f" (boots: {', '.join(labels)})" if labels else " (a single-boot recording)"))
+        if boot is not None and f"boots/{boot}" not in f:
+            raise InputError(f"{path}: group /boots/{boot} is missing although the root attribute boots lists it")
+        g = f[f"boots/{boot}"] if boot is not None else f
         try:
-            _check_layout(f, path)
-            return _read(f, path, with_truth)
+            _check_layout(f, path, g)
+            return _read(f, path, with_truth, g)
         except (OSError, RuntimeError) as exc:  # a damaged chunk ("filter returned failure") or header
             text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
                 from exc
 
 
-def _read(f: h5py.File, path: Path, with_truth: bool) -> Recording:
-    imu = f["imu"]
+def _read(f: h5py.File, path: Path, with_truth: bool, g: h5py.Group | None = None) -> Recording:
+    g = f if g is None else g
+    imu = g["imu"]
     # A killed writer may leave datasets of unequal length; keep the common prefix.
     names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
     n = min(imu[k].shape[0] for k in names)
@@ -603,8 +848,8 @@ def _read(f: h5py.File, path: Path, with_truth: bool) -> Recording:
         acc_mps2=scale("acc"),
         gyro_radps=scale("gyro"),
         saturated=np.zeros(n, np.uint8) if saturated is None else saturated,
-        events=f["events"][()] if "events" in f else np.zeros(0, EVENT_DTYPE),
-        meta={k: _decode(v) for k, v in f["meta"].attrs.items()} if "meta" in f else {},
+        events=g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE),
+        meta={k: _decode(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {},
         attrs={k: _decode(v) for k, v in f.attrs.items()},
         temp_degc=scale("temp") if "temp" in imu else None,
         t_device=get("t_device"),
@@ -617,10 +862,10 @@ def _read(f: h5py.File, path: Path, with_truth: bool) -> Recording:
             "gyro_attrs": dict(imu["gyro"].attrs),
         },
     )
-    if with_truth and "truth" in f:
-        g = f["truth"]
-        rec.truth = {k: g[k][()] for k in g if isinstance(g[k], h5py.Dataset)}
-        rec.truth["attrs"] = {k: _decode(v) for k, v in g.attrs.items()}
+    if with_truth and "truth" in g:
+        tg = g["truth"]
+        rec.truth = {k: tg[k][()] for k in tg if isinstance(tg[k], h5py.Dataset)}
+        rec.truth["attrs"] = {k: _decode(v) for k, v in tg.attrs.items()}
     return rec
 
 

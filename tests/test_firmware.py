@@ -434,3 +434,15 @@ def test_simulated_walk_passes_through_the_firmware_unchanged(built, tmp_path):
     np.testing.assert_array_equal(r.raw["gyro"], walk.raw["gyro"][sl])
     np.testing.assert_allclose(r.acc_mps2, walk.acc_mps2[sl], rtol=1e-12, atol=0)
     np.testing.assert_allclose(r.gyro_radps, walk.gyro_radps[sl], rtol=1e-12, atol=0)
+
+
+def test_missing_toolchain_skips_locally_and_fails_under_ci(monkeypatch):
+    """``make test`` runs these tests whenever the toolchain is installed (no marker deselects them); without
+    it they skip on a developer's machine, and fail under CI, which installs it."""
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    monkeypatch.delenv("CI", raising=False)
+    with pytest.raises(pytest.skip.Exception, match="firmware toolchain missing: make, cc, avr-gcc"):
+        _need_toolchain()
+    monkeypatch.setenv("CI", "true")
+    with pytest.raises(pytest.fail.Exception, match="firmware toolchain missing: make, cc, avr-gcc"):
+        _need_toolchain()

@@ -186,13 +186,30 @@ def test_cli_error_is_one_clear_line(tmp_path):
     assert not (tmp_path / "x.h5").exists()
 
 
-def test_rad_per_s_declared_as_deg_per_s_is_warned(tmp_path):
+def test_rad_per_s_declared_as_deg_per_s_is_an_error(tmp_path):
     t, a, g = walk_rows()
-    write_csv(tmp_path / "x.csv", t, a, g, header="t,ax,ay,az,gx,gy,gz")  # rad/s
-    r = read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="dps")
-    assert any("suspiciously small" in e["detail"] and "--gyro-unit radps" in e["detail"] for e in r.events)
+    write_csv(tmp_path / "x.csv", t, a, g, header="t,ax,ay,az,gx,gy,gz")  # rad/s, peak 6 rad/s
+    # read as deg/s the 6 rad/s swing peaks at 0.105 rad/s: below the 0.3 rad/s no walking foot stays under
+    with pytest.raises(InputError, match=r"x.csv: gyro check failed: .* only 0.1\d* rad/s with the declared unit "
+                                         r"'dps'.*use --gyro-unit radps"):
+        read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="dps")
+    r = read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="dps", check_units=False)
+    assert "overridden: gyro check failed" in r.meta["unit_check"]
     r = read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="radps")
-    assert not any("suspiciously" in e["detail"] for e in r.events)
+    assert "unit_check" not in r.meta and not any("gyro" in e["detail"] for e in r.events if e["kind"] == "note")
+
+
+def test_borderline_units_are_warned_and_recorded(tmp_path):
+    """A gyro between 0.3 and 0.6 rad/s in deg/s, |acc| at rest 10-25 % off g: kept, with a warning in /meta."""
+    t, a, g = walk_rows()
+    write_csv(tmp_path / "x.csv", t, a * 1.15, np.degrees(g) * 0.4 / 6.0, header="t,ax,ay,az,gx,gy,gz")
+    r = read_any(tmp_path / "x.csv", acc_unit="mps2", gyro_unit="dps")
+    assert r.meta["unit_check"].startswith("gravity borderline: at rest")
+    assert "+15 % off g" in r.meta["unit_check"] and "gyro suspiciously small" in r.meta["unit_check"]
+    assert sum("suspiciously small" in e["detail"] for e in r.events) == 1
+    # the same gyro at 1 rad/s peak, gravity right: nothing to say
+    write_csv(tmp_path / "y.csv", t, a, np.degrees(g) / 6.0, header="t,ax,ay,az,gx,gy,gz")
+    assert "unit_check" not in read_any(tmp_path / "y.csv", acc_unit="mps2", gyro_unit="dps").meta
 
 
 def test_cp1252_header_with_degree_sign(tmp_path):

@@ -15,7 +15,7 @@ PROFILE = "heidari2019_sd_txt"
 
 def _paper_log(tmp_path, profile="mpu6050-2g-250dps", delimiter=" ", name="DATALOG.TXT"):
     """A simulated walk written the way an Arduino sketch prints it: millis() and the six int16 registers."""
-    sim = pytest.importorskip("bootnav.simulator.simulate")
+    from bootnav import simulator as sim
     res = sim.simulate("paper-straight", seed=0, profile=profile)
     ms = np.floor(res.t_s * 1000.0).astype(np.int64) + 5123  # millis() since power-on
     rows = np.column_stack([ms, res.acc.astype(np.int64), res.gyro.astype(np.int64)])

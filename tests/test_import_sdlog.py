@@ -167,7 +167,7 @@ def test_firmware_protocol_sd_vectors(tmp_path):
 
 def test_simulated_walk_sd_log_imports_bit_exact(tmp_path):
     """The simulator's SD-card writer (an independent implementation of §2) -> importer: counts identical."""
-    sim = pytest.importorskip("bootnav.simulator")
+    from bootnav import simulator as sim
     res = sim.simulate("paper-straight", seed=2)
     path = sim.write_sd_txt(res, tmp_path / "walk.txt")
     rec = load(import_file(path, tmp_path / "walk.h5"))

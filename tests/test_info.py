@@ -104,3 +104,23 @@ def test_one_gap_rule_for_importer_info_and_filter(tmp_path):
     assert s["gap_source"] == "timestamps"
     assert [(g["sample_index"], g["missing"]) for g in s["gap_list"]] == gaps
     assert [i for i, _ in time_base(t).gaps] == [201, 301]
+
+
+def test_info_shows_the_hole_and_the_reconnect_of_a_device_that_rebooted(tmp_path):
+    """``--restart-on-reconnect``: seq and t_us restart from 0, so no seq gap; the hole is in the time stamps."""
+    from bootnav.logger.recording import load
+
+    out, report, _ = emulate_and_record(
+        tmp_path, ["--duration", "2.0", "--rate", "500", "--disconnect-at", "0.6", "--disconnect-pause", "1.0",
+                   "--restart-on-reconnect"])
+    rec = load(out)
+    k = int(np.flatnonzero(np.diff(rec.seq.astype(int)) != 1)[0]) + 1  # first frame after the reboot
+    hole_s = rec.t_s[k] - rec.t_s[k - 1]
+    assert hole_s > 1.0  # the port was away 1 s
+    s = info_json(out)
+    assert s["disconnects"] >= 1 and s["reconnects"] == 1
+    assert s["gaps"] == 1 and s["gap_list"][0]["sample_index"] == k
+    assert s["dropped"] == round(hole_s * 500) - 1  # the samples that fit into the hole at 500 Hz
+    assert "device restart" in s["gap_source"]
+    text = run_python("import sys; from bootnav.cli import main; sys.exit(main(sys.argv[1:]))", "info", str(out)).stdout
+    assert f"gaps        1 ({s['dropped']} samples missing" in text and ", 1 reconnects," in text

@@ -254,3 +254,40 @@ def test_sd_line_vectors():
         else:
             with pytest.raises(ProtocolError, match=v["expect"]["error"]):
                 parse_sd_line(v["line"])
+
+
+def _frame_hiding_a_status_frame() -> tuple[bytes, bytes]:
+    """(A, B): a valid sample frame A whose payload and CRC (its last 16 bytes) are themselves a valid status
+    frame B. A's CRC covers P + Q (P = A[2:12], ending in B's sync word), B's covers Q alone; both are the
+    same two bytes when the CRC register after P is back at its initial 0xFFFF (CRC-16/CCITT-FALSE has no
+    final XOR), so P's clock bytes are searched for that (1 in 65536)."""
+    rng = np.random.default_rng(14)
+    t = rng.integers(0, 2**32, 400_000, dtype=np.uint64).astype("<u4").view(np.uint8).reshape(-1, 4)
+    p = np.zeros((t.shape[0], 10), np.uint8)
+    p[:, 0:4] = [0x01, 0x01, 0x07, 0x00]  # sample frame, version 1, seq 7
+    p[:, 4:8] = t
+    p[:, 8:10] = [0xA5, 0x5A]
+    hit = np.flatnonzero(crc16_ccitt_false_rows(p) == 0xFFFF)
+    assert hit.size, "no clock value found: widen the search"
+    q = bytes([0x03, 0x01, 0x09, 0x00, 1, 2, 3, 4, 1, 0, 0, 0])  # status frame, seq 9, t_us, code 1 ...
+    body = bytes(p[hit[0]]) + q
+    a = b"\xA5\x5A" + body + crc16_ccitt_false(body).to_bytes(2, "little")
+    b = a[10:]
+    assert unpack_frame(a).seq == 7 and unpack_frame(b) == StatusFrame(9, 0x04030201, 1, 0, 0)
+    return a, b
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 1000])
+def test_a_frame_hidden_inside_an_accepted_frame_is_not_a_second_frame(chunk):
+    """Greedy chain over CRC-valid candidates: the earliest wins, a candidate inside it is payload, and the
+    next frame starting exactly at its end is kept."""
+    a, _ = _frame_hiding_a_status_frame()
+    c = SampleFrame(8, 5000, (1, 2, 3), (4, 5, 6), 7).pack()
+    stream = b"\x00\x11" + a + c
+    parser = FrameParser()
+    results = [parser.feed(stream[i:i + chunk]) for i in range(0, len(stream), chunk)]
+    seqs = [int(s) for r in results for s in r.samples["seq"]]
+    assert seqs == [7, 8]
+    assert [s for r in results for s in r.statuses] == []
+    events = [(e.kind, e.byte_offset) for r in results for e in r.events] + parser.finish()
+    assert events == [("resync", 0)]  # only the two leading garbage bytes

@@ -34,6 +34,19 @@ def wait_for(path: Path, timeout: float = 15.0) -> None:
         time.sleep(0.02)
 
 
+def wait_for_frames(path: Path, n: int, timeout: float = 20.0) -> None:
+    """Poll the recording (SWMR read) until it holds ``n`` frames or ``timeout`` passes (the assertions that
+    follow judge): a condition, not a fixed sleep, so a loaded machine only makes it slower."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            if load(path).n >= n:
+                return
+        except Exception:  # noqa: BLE001 - not created yet / mid-creation
+            pass
+        time.sleep(0.05)
+
+
 def finish(proc: subprocess.Popen, timeout: float = 30.0) -> str:
     _, err = proc.communicate(timeout=timeout)
     assert proc.returncode == 0, f"{proc.args} exited {proc.returncode}:\n{err}"
@@ -47,11 +60,12 @@ def emulate_and_record(tmp_path: Path, emu_args: list[str], rec_args: list[str] 
     wait_for(link)
     rec = bootnav("record", "--port", str(link), "--out", str(out), *rec_args)
     finish(emu)
-    time.sleep(0.3)  # the recorder's last read cycle
+    sent = json.loads(report.read_text())
+    wait_for_frames(out, len(sent["valid_seqs"]))  # the recorder's last read cycle and flush
     rec.send_signal(stop)
     err = finish(rec)
     assert_complete_in_fresh_process(out)
-    return out, json.loads(report.read_text()), err
+    return out, sent, err
 
 
 def assert_complete_in_fresh_process(path: Path) -> dict:
@@ -231,8 +245,8 @@ def test_without_a_header_frame_the_recorder_assumes_16g_2000dps_and_says_so(tmp
             if late_header and k == 26 * 200:  # 1 s in, long after the 0.3 s wait: ±4 g, ±500 °/s
                 os.write(master, HeaderFrame(200, 1_000_000, accel_fs=1, gyro_fs=1).pack())
             os.write(master, data[k:k + 26 * 40])
-            time.sleep(0.2)
-        time.sleep(0.3)
+            time.sleep(0.2)  # pacing: 40 frames per 0.2 s is the device's 200 Hz
+        wait_for_frames(out, n)
         rec.send_signal(signal.SIGTERM)
         finish(rec)
     finally:

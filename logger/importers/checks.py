@@ -10,8 +10,18 @@ says which unit *would* fit: |acc| ≈ 1 means g, ≈ 9.81 means m/s², ≈ 3276
 2000 °/s = 34.9 rad/s. A 99.9th-percentile |ω| above 35 rad/s after conversion is physically absurd and
 almost always deg/s declared as rad/s (x57.3); the error suggests ``--gyro-unit dps``.
 
-A gyro that barely turns (99.9th percentile below 0.3 rad/s = 17 deg/s) while the accelerometer shows motion is
-only a warning (``note`` event): rad/s declared as deg/s, or a genuinely quiet recording.
+**Gyro too small.** rad/s data declared as deg/s is 57.3x too small. The evidence is taken while the sensor
+demonstrably moves: the samples whose |f| differs from g by more than 3 m/s² (0.3 g: far above noise and any slow
+tilt), at least 1 s of them. While a foot accelerates like that it also rotates: its swing peaks at 5-15 rad/s, a
+waist or a hand at 1-3 rad/s. The 99th percentile of |ω| over those samples is 0.77-24 rad/s on the developer
+recordings (lowest: a lower-back sensor); rad/s read as deg/s turns a 15 rad/s swing into 0.26 rad/s. Below
+0.3 rad/s with the unit declared deg/s the mismatch is unambiguous: an error suggesting ``--gyro-unit radps``.
+Between 0.3 and 0.6 rad/s with deg/s declared it is borderline: a warning, a ``note`` event and the figure in
+the metadata (``unit_check``). With rad/s or counts declared a small gyro is no unit mismatch (no flag makes it
+larger by 57x) and is left alone.
+
+**Borderline gravity.** A quietest-second |f| off g by 10-25 % passes, with the same warning/metadata: a good
+sensor at rest is within 2 % of g, so such a value suggests a wrong range or a recording with no still second.
 
 **Saturation.** A sample is saturated on an axis when its raw value is at full scale: for int16 counts
 ≥ 32767 or ≤ -32768; for values in physical units |v| ≥ (1 - 0.5 %) · range (the margin absorbs the
@@ -27,7 +37,12 @@ from bootnav.core.runs import runs
 from bootnav.logger.mpu6050 import STANDARD_GRAVITY
 
 ACC_TOLERANCE = 0.25
+ACC_BORDERLINE = 0.10  # |f|/g off by more than this (but within ACC_TOLERANCE): a warning
 GYRO_ABSURD_RADPS = 35.0
+DYNAMIC_ACC_MPS2 = 3.0  # ||f| - g| above this: the sensor accelerates (0.3 g, far above noise and slow tilts)
+MIN_DYNAMIC_S = 1.0  # dynamic time needed before the gyro is judged (a few strides)
+GYRO_MOVING_MIN_RADPS = 0.6  # p99 |rate| while accelerating: a walking foot, waist or hand turns faster
+GYRO_UNIT_ERROR_RADPS = 0.3  # below it with deg/s declared: rad/s read as deg/s (15 rad/s -> 0.26)
 SI_MARGIN = 0.005
 
 
@@ -61,7 +76,9 @@ def acc_unit_problem(acc_raw: np.ndarray, scale_to_si: float, declared: str, rat
 
 
 def gyro_unit_problem(gyro_si: np.ndarray, declared: str) -> str | None:
-    mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
+    """None if the gyro's 99.9th percentile |rate| is physically possible, else a message (module docstring)."""
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e308 values: refused later by the physical bounds
+        mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
     mag = mag[np.isfinite(mag)]
     if mag.size == 0:
         return None
@@ -73,22 +90,61 @@ def gyro_unit_problem(gyro_si: np.ndarray, declared: str) -> str | None:
             f"more than any foot or MEMS gyro reaches ({GYRO_ABSURD_RADPS} rad/s = 2000 deg/s); try {hint}")
 
 
-def gyro_too_small(acc_si: np.ndarray, gyro_si: np.ndarray) -> str | None:
-    """A warning (not an error) when the accelerometer shows walking but the gyro barely turns.
-
-    A walking foot, waist or phone turns at > 1 rad/s; rad/s data declared as deg/s is 57x too small.
-    """
-    acc_mag = np.linalg.norm(np.asarray(acc_si, dtype=np.float64), axis=1)
-    gyro_mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
-    ok = np.isfinite(acc_mag) & np.isfinite(gyro_mag)
-    if ok.sum() < 100:
+def acc_borderline(acc_raw: np.ndarray, scale_to_si: float, rate_hz: float) -> str | None:
+    """A warning when the quietest second's |f| passes the gravity check but is 10-25 % off g (module docstring)."""
+    raw_mag, i0 = quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
+    si = raw_mag * scale_to_si
+    if not np.isfinite(si) or abs(si / STANDARD_GRAVITY - 1.0) <= ACC_BORDERLINE:
         return None
-    moving = float(np.std(acc_mag[ok])) > 2.0  # m/s^2: clearly more than sensor noise at rest
-    p = float(np.percentile(gyro_mag[ok], 99.9))
-    if moving and p < 0.3:
-        return (f"gyro suspiciously small: 99.9th percentile of |rate| is {p:.3g} rad/s while the accelerometer "
-                f"shows motion; if the file is in rad/s, use --gyro-unit radps")
-    return None
+    return (f"gravity borderline: at rest (quietest second, from sample {i0}) |acc| is {si:.4g} m/s^2, "
+            f"{100 * (si / STANDARD_GRAVITY - 1):+.0f} % off g; check --acc-unit and --acc-range")
+
+
+def gyro_unit_too_small(acc_si: np.ndarray, gyro_si: np.ndarray, t_s: np.ndarray,
+                        declared: str) -> tuple[str | None, str | None]:
+    """Is the gyro far too small for the motion the accelerometer shows? (module docstring)
+
+    Parameters
+    ----------
+    acc_si, gyro_si : ndarray, shape (N, 3)
+        Specific force in m/s^2 and angular rate in rad/s, converted with the declared units.
+    t_s : ndarray, shape (N,)
+        Time of each sample, s (the dynamic duration is summed from its intervals).
+    declared : str
+        The declared gyro unit (``dps``, ``radps``, ``counts``).
+
+    Returns
+    -------
+    (error, warning) : tuple of str or None
+        With deg/s declared: ``error`` when the gyro is below 0.3 rad/s while moving (unambiguous),
+        ``warning`` when below 0.6 rad/s (borderline); both None otherwise, for other declared units, or
+        without enough motion to judge.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size < 2 or declared != "dps":
+        return None, None
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e308 values: refused later by the physical bounds
+        acc_mag = np.linalg.norm(np.asarray(acc_si, dtype=np.float64), axis=1)
+        gyro_mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
+    dt = np.empty_like(t)
+    dt[:-1] = np.diff(t)
+    dt[-1] = dt[-2]
+    dt = np.where(np.isfinite(dt) & (dt > 0), dt, 0.0)
+    dt = np.minimum(dt, 5 * max(float(np.median(dt)), 1e-9))  # a gap is not motion time
+    dynamic = np.isfinite(acc_mag) & np.isfinite(gyro_mag) & (np.abs(acc_mag - STANDARD_GRAVITY) > DYNAMIC_ACC_MPS2)
+    dyn_s = float(dt[dynamic].sum())
+    if dyn_s < MIN_DYNAMIC_S:
+        return None, None
+    p = float(np.percentile(gyro_mag[dynamic], 99))
+    evidence = (f"while the accelerometer shows motion ({dyn_s:.3g} s with ||acc| - g| > {DYNAMIC_ACC_MPS2:g} m/s^2) "
+                f"the 99th percentile of |rate| is only {p:.3g} rad/s with the declared unit {declared!r}, "
+                f"where a moving foot, waist or hand turns at > {GYRO_MOVING_MIN_RADPS:g} rad/s")
+    if p < GYRO_UNIT_ERROR_RADPS:
+        return (f"gyro check failed: {evidence}; the file is in rad/s: use --gyro-unit radps "
+                "(or --trust-units if the sensor really barely turned)"), None
+    if p < GYRO_MOVING_MIN_RADPS:
+        return None, f"gyro suspiciously small: {evidence}; if the file is in rad/s, use --gyro-unit radps"
+    return None, None
 
 
 def saturation(raw: np.ndarray, full_scale: float, counts: bool, first_bit: int) -> tuple[np.ndarray, list[dict]]:

@@ -48,7 +48,7 @@ from bootnav.logger.recording import (Channel, counts_channel, is_disk_full, mak
 from . import checks, columns as colmod, sdlog
 from .profiles import Profile, all_profiles, load_profile, matches
 from .result import ImportResult
-from .text import TextTable, parse_table, read_text
+from .text import TextTable, decode_text, parse_table, read_bytes, utf16_encoding
 
 G = mpu6050.STANDARD_GRAVITY
 ACC_SCALE = {"g": G, "mps2": 1.0}
@@ -217,9 +217,10 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory; give the log file to import")
-    text, raw, damage = read_text(path)
+    data, raw, damage = read_bytes(path)
+    text = decode_text(path, data, damage)
     if sdlog.looks_like_sd_log(text) and profile in (None, "bootnav_sd"):
-        result = sdlog.read_sd_log(path, text, raw, **overrides)  # a line cut by the damage fails its CRC
+        result = sdlog.read_sd_log(path, text, raw, data, **overrides)  # a line cut by the damage fails its CRC
     else:
         src = _detect(path, text, profile, overrides, damage)
         _map_columns(src)
@@ -229,6 +230,10 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         saturated = _sample_events(src, t, units)
         result = _build_result(src, t, time_unit, units, saturated, raw)
     _check_physical(result, path, overrides.get("check_units", True))
+    utf16 = utf16_encoding(data)
+    if utf16:
+        result.meta["source_encoding"] = utf16
+        result.messages.append(f"note: {path.name} is UTF-16 text ({utf16}), decoded")
     if damage:
         result.events.append(dict(kind="note", detail=f"{damage}: the lines after it are lost"[:200]))
         result.messages.append(f"WARNING: {path.name}: {damage}; every complete line before it was read")
@@ -537,17 +542,24 @@ def _check_units(src: _Source, t: np.ndarray) -> _Units:
         p = checks.gyro_unit_problem(gyro_arr.astype(np.float64) * gyro_ch.scale_to_si, gyro_unit)
         if p:
             problems.append(p)
-    if src.has_gyro and not problems:
-        w = checks.gyro_too_small(acc_arr.astype(np.float64) * acc_ch.scale_to_si,
-                                  gyro_arr.astype(np.float64) * gyro_ch.scale_to_si)
-        if w:
-            src.events.append(dict(kind="note", detail=w[:200]))
-            src.messages.append("WARNING: " + w)
+    borderline = []
+    if acc_quantity == "specific_force" and not problems:
+        borderline.append(checks.acc_borderline(acc_arr, acc_ch.scale_to_si, rate))
+    if src.has_gyro and acc_quantity == "specific_force" and not problems:
+        err, warn = checks.gyro_unit_too_small(acc_arr.astype(np.float64) * acc_ch.scale_to_si,
+                                               gyro_arr.astype(np.float64) * gyro_ch.scale_to_si, t, gyro_unit)
+        problems += [err] if err else []
+        borderline.append(warn)
+    for w in filter(None, borderline):  # borderline: kept, said, and recorded in the file's /meta
+        src.events.append(dict(kind="note", detail=w[:200]))
+        src.messages.append("WARNING: " + w)
+        src.meta["unit_check"] = (src.meta.get("unit_check", "") + "; " + w).lstrip("; ")
     for p in problems:
         if overrides.get("check_units", True):
             raise InputError(f"{path}: {p}")
         src.events.append(dict(kind="note", detail=("unit check overridden: " + p)[:200]))
         src.messages.append("WARNING (unit check overridden): " + p)
+        src.meta["unit_check"] = (src.meta.get("unit_check", "") + "; overridden: " + p).lstrip("; ")
     if acc_quantity != "specific_force":
         src.events.append(dict(kind="note", detail=f"acc is {acc_quantity} (gravity removed), NOT specific force"))
         src.messages.append(f"WARNING: acc is {acc_quantity.upper()} (gravity removed), NOT specific force: fine for "

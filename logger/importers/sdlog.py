@@ -6,8 +6,9 @@
 CRC-16/CCITT-FALSE (``bootnav.logger.crc``) over the ASCII characters before ``*``, four upper-case hex digits.
 Raw counts are stored bit-exact as int16 with the scale factors of the header's full-scale codes.
 
-Per line, in this order: a line without ``*HHHH`` or with a CRC mismatch -> ``crc_error`` event
-(line number and byte offset of the line start); fields not 9 integers in range -> ``skipped_line``;
+Per line, in this order: a data line with a non-ASCII byte (the format is ASCII: invalid UTF-8 or a corrupted
+byte), a line without ``*HHHH`` or with a CRC mismatch -> ``crc_error`` event (line number and byte offset of
+the line start, counted on the file's bytes so they stay exact after any bad byte); fields not 9 integers in range -> ``skipped_line``;
 the last line without a newline that fails either test -> ``skipped_line`` "truncated last line".
 Then: uint32 µs clock unwrapped (``time_wrap``), backward/duplicate times, and sequence gaps
 (``gap`` with the number of missing sequence numbers, seq wraps at 2**16).
@@ -26,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.csvio import decompress
 from bootnav.core.timebase import SEQ_MODULUS, time_events, timing_summary, unwrap_counter
 from bootnav.errors import InputError
 from bootnav.logger import mpu6050
@@ -34,6 +36,7 @@ from bootnav.logger.recording import counts_channel
 
 from . import checks
 from .result import ImportResult
+from .text import utf16_encoding
 
 HEADER_PREFIX = "# bootnav-sd"
 _HEADER_RE = re.compile(r"^#\s*bootnav-sd\s+v(\d+)\s*(.*)$")
@@ -106,15 +109,45 @@ def _parse_fields(bodies: list[str], line_idx: list[int], skip) -> tuple[np.ndar
     return np.array(rows, dtype=np.int64).reshape(-1, 9), keep
 
 
-def read_sd_log(path: Path, text: str, raw: bytes, **overrides) -> ImportResult:
-    """Parse and check our SD-card log (module docstring); ``raw`` is the file's bytes (for its hash)."""
-    lines = text.split("\n")
+def _lines_and_offsets(text: str, data: bytes) -> tuple[list[str], np.ndarray, dict[int, int]]:
+    """Lines of the log, the byte offset of each line start in ``data``, and {line index: offset of its first
+    non-ASCII byte}.
+
+    The lines come from ``data`` read as latin-1 (one character per byte), so every offset stays exact after
+    any invalid UTF-8 byte; a UTF-8 byte-order mark is removed from the first line's text (not its offsets).
+    A UTF-16 file (a log saved again by a Windows editor) is split from ``text``, its offsets in UTF-16 bytes.
+    """
+    utf16 = utf16_encoding(data)
+    if utf16:
+        lines = text.split("\n")
+        bom = 2 if data[:2] in (b"\xff\xfe", b"\xfe\xff") else 0
+        sizes = np.fromiter((len(ln.encode("utf-16-le")) + 2 for ln in lines), dtype=np.int64, count=len(lines))
+        offsets = bom + np.concatenate(([0], np.cumsum(sizes[:-1])))
+        return lines, offsets, {}
+    lines = data.decode("latin-1").split("\n")
+    offsets = np.concatenate(([0], np.cumsum(np.fromiter((len(ln) + 1 for ln in lines[:-1]), dtype=np.int64,
+                                                         count=len(lines) - 1))))
+    bom = 3 if data[:3] == b"\xef\xbb\xbf" else 0
+    lines[0] = lines[0][bom:]
+    pos = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) >= 0x80)
+    pos = pos[pos >= bom]
+    line_of = np.searchsorted(offsets, pos, side="right") - 1
+    first_line, first = np.unique(line_of, return_index=True)
+    return lines, offsets, dict(zip(first_line.tolist(), pos[first].tolist()))
+
+
+def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **overrides) -> ImportResult:
+    """Parse and check our SD-card log (module docstring).
+
+    ``text`` is the decoded file, ``raw`` the file's bytes (for its hash) and ``data`` the decompressed
+    bytes (``raw`` undone from gzip when None): byte offsets are counted in ``data``.
+    """
+    data = decompress(raw)[0] if data is None else data
+    lines, offsets, non_ascii = _lines_and_offsets(text, data)
     ends_without_newline = not text.endswith("\n")
     if not ends_without_newline:
         lines.pop()
-    offsets = np.zeros(len(lines), dtype=np.int64)
-    if lines:  # byte offset of each line start (ASCII file: characters == bytes)
-        offsets[1:] = np.cumsum([len(ln.encode("utf-8", "replace")) + 1 for ln in lines[:-1]])
+        offsets = offsets[:-1]
     header: dict[str, str] | None = None
     headers: list[tuple[int, dict]] = []
     events: list[dict] = []
@@ -136,6 +169,14 @@ def read_sd_log(path: Path, text: str, raw: bytes, **overrides) -> ImportResult:
             s = ln.rstrip("\r").strip()
             if not s:
                 continue
+            if i in non_ascii:  # the format is ASCII: a comment keeps its UTF-8 text, a data line is corrupt
+                if s.startswith("#"):
+                    s = s.encode("latin-1").decode("utf-8", errors="replace")
+                else:
+                    b = non_ascii[i]
+                    skip(i, f"byte 0x{data[b]:02X} at byte offset {b} is not ASCII (invalid UTF-8 or a corrupted "
+                            f"byte): {s[:60]!r}", kind="crc_error")
+                    continue
             if s.startswith("#"):
                 if s.startswith(HEADER_PREFIX) or re.match(r"^#\s*bootnav-sd", s):
                     try:

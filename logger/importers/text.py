@@ -2,8 +2,9 @@
 
 The parser never guesses silently and never drops data silently:
 
-* encoding: UTF-8 (BOM removed), gzip transparently (a cut-off stream keeps its complete lines); files with
-  NUL bytes or mostly control bytes are rejected as binary;
+* encoding: UTF-8 (BOM removed), UTF-16 (a byte-order mark or every other byte NUL: Windows "Unicode"
+  exports), else cp1252; gzip transparently (a cut-off stream keeps its complete lines); other files with NUL
+  bytes or mostly control bytes are rejected as binary;
 * lines: split on LF, a trailing CR removed (CRLF files), blank lines ignored, comment lines
   (``#``, ``%``, ``//``) collected as the preamble;
 * delimiter: ``;``, tab, ``,`` or runs of whitespace, chosen as the one that splits the first data lines
@@ -41,23 +42,62 @@ def read_text(path: Path) -> tuple[str, bytes, str | None]:
     gzip is undone; a cut-off or damaged gzip stream keeps what precedes the damage and says what went wrong
     in ``damage`` (None when intact), so the caller can drop the incomplete last line and report it.
     """
+    data, raw, damage = read_bytes(path)
+    return decode_text(path, data, damage), raw, damage
+
+
+def read_bytes(path: Path) -> tuple[bytes, bytes, str | None]:
+    """(decompressed bytes, file bytes, damage) of a file; see ``read_text``."""
     raw = Path(path).read_bytes()
     data, damage = decompress(raw)
+    return data, raw, damage
+
+
+def utf16_encoding(data: bytes) -> str | None:
+    """``utf-16-le``/``utf-16-be`` when ``data`` is UTF-16 text (a byte-order mark, or ASCII text whose every
+    other byte is NUL, as Windows "Unicode" exports are), else None."""
+    if data[:2] == b"\xff\xfe":
+        return "utf-16-le"
+    if data[:2] == b"\xfe\xff":
+        return "utf-16-be"
+    head = np.frombuffer(data[:4096], dtype=np.uint8)
+    head = head[: head.size - head.size % 2]
+    if head.size < 8:
+        return None
+    nul_even, nul_odd = float(np.mean(head[0::2] == 0)), float(np.mean(head[1::2] == 0))
+    if nul_odd > 0.9 and nul_even < 0.1:
+        return "utf-16-le"
+    if nul_even > 0.9 and nul_odd < 0.1:
+        return "utf-16-be"
+    return None
+
+
+def decode_text(path: Path, data: bytes, damage: str | None = None) -> str:
+    """Text of the (decompressed) bytes: UTF-8 (BOM removed), UTF-16 (BOM or NUL pattern), else cp1252;
+    refuses a binary file with the offset of its first NUL byte."""
     if not data.strip():
         raise InputError(f"{path}: file is empty (no data lines)")
+    utf16 = utf16_encoding(data)
+    if utf16:
+        body = data[2:] if data[:2] in (b"\xff\xfe", b"\xfe\xff") else data
+        text = body[: len(body) - len(body) % 2].decode(utf16, errors="replace")  # a cut last byte dropped
+        if not text.strip("\x00\n\r\t \ufeff"):
+            raise InputError(f"{path}: file is empty (no data lines)")
+        if "\x00" in text:
+            raise InputError(f"{path}: file is UTF-16 ({utf16}) with NUL characters (at character "
+                             f"{text.index(chr(0))}); save it again as UTF-8 text")
+        return text.lstrip("\ufeff")
     head = data[:65536]
     nul = head.find(b"\x00")
     control = sum(head.count(bytes([c])) for c in range(32) if c not in (9, 10, 13))
     if nul >= 0 or control > 0.01 * len(head):
         where = f"first NUL byte at offset {nul}" if nul >= 0 else f"{control} control bytes in the first {len(head)}"
         raise InputError(f"{path}: looks like a binary file, not a text log ({where})")
+    data = data[3:] if data[:3] == b"\xef\xbb\xbf" else data  # the UTF-8 byte-order mark, even before bad bytes
     try:
-        text = data.decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError:  # Windows loggers: "°/s" in cp1252/latin-1 headers; a damaged tail: cut anyway
-        text = data.decode("utf-8", errors="replace") if damage else data.decode("cp1252", errors="replace")
-    if text.startswith("\ufeff"):
-        text = text[1:]
-    return text, raw, damage
+        return data.decode("utf-8", errors="replace") if damage else data.decode("cp1252", errors="replace")
 
 
 def is_number(token: str) -> bool:

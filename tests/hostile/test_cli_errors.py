@@ -97,7 +97,9 @@ def test_cut_recording_fails_fast_with_its_size(tmp_path, capsys, percent):
     path = tmp_path / f"cut{percent}.h5"
     path.write_bytes(data[: len(data) * percent // 100])
     code, _, err = _run(capsys, ["info", path])
-    _assert_one_line_error(code, err, "cut short", "info")
+    have = len(data) * percent // 100
+    _assert_one_line_error(code, err, f"the file is cut short: only {have} of its {len(data)} bytes "
+                                      f"({100 * have / len(data):.1f} %) are present", "info")
 
 
 def _bad_inputs(tmp: Path) -> list[tuple[list, str, str]]:

@@ -141,3 +141,22 @@ def test_junk_right_after_the_header_is_a_skipped_line_event(tmp_path):
     assert [e["line"] for e in skipped] == [2]
     assert "I2C timeout" in skipped[0]["detail"]
     assert result.n == N  # every data line kept
+
+
+def test_rad_per_s_walk_imported_as_deg_per_s_is_refused(tmp_path, capsys):
+    """The bundled x-io walk (rad/s) declared as deg/s once gave a 7.97 m path instead of 22.85 m."""
+    rec = load(Path(__file__).resolve().parents[2] / "recordings" / "xio_ngimu_short_walk.h5")
+    src = tmp_path / "walk.csv"
+    with open(src, "w") as fh:
+        fh.write("t,ax,ay,az,gx,gy,gz\n")
+        np.savetxt(fh, np.column_stack([rec.t_s, rec.acc_mps2, rec.gyro_radps]), fmt="%.6f", delimiter=",")
+    out = tmp_path / "walk.h5"
+    assert main(["import", str(src), "--out", str(out), "--acc-unit", "mps2", "--gyro-unit", "dps"]) == 1
+    err = _err(capsys)
+    # the file, the declared unit, the evidence (11.2 rad/s peak read as deg/s -> p99 0.188 rad/s) and the fix
+    assert err.startswith(f"bootnav import: error: {src}: gyro check failed: while the accelerometer shows motion")
+    assert "99th percentile of |rate| is only 0.188 rad/s with the declared unit 'dps'" in err
+    assert "use --gyro-unit radps" in err and not out.exists()
+    assert main(["import", str(src), "--out", str(out), "--acc-unit", "mps2", "--gyro-unit", "dps",
+                 "--trust-units", "--quiet"]) == 0
+    assert "overridden: gyro check failed" in load(out).meta["unit_check"]
