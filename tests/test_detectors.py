@@ -113,7 +113,7 @@ def test_registry_lists_every_detector_module():
 
     assert set(DETECTORS) == REGISTERED
     for mod in pkgutil.iter_modules(pkg.__path__):
-        if mod.name.startswith("_") or mod.name in ("base", "postprocess"):
+        if mod.name.startswith("_") or mod.name in ("base", "postprocess", "stream"):  # stream: StreamStance wraps them
             continue
         module = importlib.import_module(f"{pkg.__name__}.{mod.name}")
         defined = [c for c in vars(module).values()
@@ -518,3 +518,22 @@ def test_isolated_short_stance_is_kept_but_fragments_are_dropped():
     too_short[100:104] = True  # 20 ms: below the isolated minimum
     assert not postprocess.remove_short_fragments(too_short, t, 0.05, 0.005, isolated_min_s=0.035,
                                                   isolation_s=0.4).any()
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_literal_shoe_window_covers_exactly_the_centred_n_samples(n):
+    """The printed form at an interior sample k, by hand: the n samples k - n//2 ... k - n//2 + n - 1 (the
+    same window as the moving mean of the squared form), each residual against gravity along their mean.
+    Residuals differ at every sample, so a window one sample too wide, too narrow or shifted changes T."""
+    rng = np.random.default_rng(11)
+    acc = np.array([0.0, 0.0, G]) + rng.normal(0.0, 0.5, (30, 3))
+    gyro = rng.normal(0.0, 0.3, (30, 3))
+    sa, sg = 0.05, 0.02
+    t_lit = shoe_statistic(acc, gyro, n, sa, sg, G, literal=True)
+    for k in (10, 17):
+        win = slice(k - n // 2, k - n // 2 + n)
+        f_mean = acc[win].mean(axis=0)
+        u = f_mean / np.linalg.norm(f_mean)
+        acc_term = np.mean(np.linalg.norm(acc[win] - G * u, axis=1)) / sa
+        gyro_term = np.mean(np.sum(gyro[win] ** 2, axis=1)) / sg
+        assert t_lit[k] == pytest.approx(acc_term + gyro_term, rel=1e-12)

@@ -16,25 +16,33 @@ Error-state conventions (shared with reference.py, see ``bootnav.postproc.ins.fi
 the ZUPT pseudo-measurement is z = 0 − v̂ = δv + noise, δx = K z, then p̂ += δp, v̂ += δv, q̂ ← exp(δθ/2) ⊗ q̂,
 b̂ += δb, δx ← 0. The "+ k_n v_n" of [Heidari2019, eq. 3] is this with the minus sign of z absorbed in k_n.
 
-Numba's on-disk cache of ``filter_chunk`` is keyed on this file only, and the cached code contains the jitted
-functions it calls: after editing one of those modules (``measurements.py``, ``kalman.py``, ``kernels.py``,
-``layout.py``, ``riccati.py``, ``smoother.py``) delete ``__pycache__/*.nbi`` and ``*.nbc`` here, or touch this file.
+Python drives the kernel through ``stream.StreamNavigator`` (the one incremental engine; ``stream.run_fast``
+pushes a whole record through it): ``filter_chunk`` filters a chunk and carries the filter state and the
+smoother's open segment to the next call; ``close_segment`` smooths the last segment at the end of the record.
+
+Numba's on-disk cache of a function is stamped with the hash of its own source file only, while the cached
+code contains the jitted functions it calls from other modules (``measurements.py``, ``kalman.py``,
+``kernels.py``, ``riccati.py``, ``smoother.py``, ...): editing one of those would leave a stale kernel.
+``key_cache_on_sources`` stamps the kernels' cache with the hash of this file and of every module of this
+package it imports, transitively (``kernel_sources``), so an edit of any of them recompiles the kernels
+(once; ``ensure_compiled`` tells the registered ``compile_notice`` listeners first).
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import time
+from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 from numba import literal_unroll, njit
 
 from bootnav.postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
-from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, POS, QUAT, VEL,
-                                         initial_nominal_state)
+from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, POS, QUAT, VEL
 from bootnav.postproc.ins.kalman import joseph3, sequential_update
-from bootnav.postproc.ins.measurements import (KERNEL_REGISTRY, MAX_ROWS, N_KINDS, ZUPT, active_flags, measure,
-                                               zupt)
+from bootnav.postproc.ins.measurements import KERNEL_REGISTRY, MAX_ROWS, N_KINDS, ZUPT, measure, zupt
 from bootnav.postproc.ins.riccati import gain_into
 from bootnav.postproc.ins.smoother import rts_backward
 
@@ -81,15 +89,32 @@ def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
 
 
 @njit(cache=True)
-def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, active, n, ric_u, ric_lam, ric_t, ric_tau, st, P,
-                 pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, applied, counters):
-    """Run samples k0..k1−1; ``st`` = nominal state (layout.py) and ``P`` are updated in place.
+def close_segment(n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx, seg, counters, next_row):
+    """Smooth the open segment (``smoother.rts_backward`` corrects its output rows in place) and open the next
+    one at output row ``next_row``."""
+    if seg[0] > 1:
+        counters[SMOOTHER_SKIPPED] += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, seg[0], n, seg[1], pos, vel,
+                                                   q, ba, bg)
+    counters[SMOOTHER_SEGMENTS] += 1
+    seg[0] = 0
+    seg[1] = next_row
 
+
+@njit(cache=True)
+def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active, n, ric_u, ric_lam, ric_t, st, P,
+                 pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, applied, counters):
+    """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
+
+    Input row k (``dt_s``, ``acc``, ``gyro``, ``stance`` = the ZUPT mask, ``xvar``, ``ric_tau``) writes output
+    row o0 + k. Input row k0 − 1 is the sample before (only its ZUPT flag is read: the heading aid's stance
+    onset and the end of a stance phase; a False row before the record's first sample). The smoother's open
+    segment starts at output row ``seg[1]`` and holds ``seg[0]`` samples; it is closed (smoothed, its rows
+    corrected in place) when the next sample shows that it ended: after the last sample of a stance phase, or
+    when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one).
     ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
     (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
     smoother's bookkeeping.
     """
-    N = dt_s.shape[0]
     ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
     K = np.zeros((n, 3))
     A = np.empty((n, n))
@@ -97,6 +122,9 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, active, n, ric_u, r
     z = np.zeros(MAX_ROWS)
     c = np.empty((3, 3))
     for k in range(k0, k1):
+        r = o0 + k
+        if prm.smooth and seg[0] > 0 and (seg[0] >= prm.max_segment or (stance[k - 1] and not stance[k])):
+            close_segment(n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx, seg, counters, r)
         dt = dt_s[k]
         qw, qx, qy, qz = st[iq], st[iq + 1], st[iq + 2], st[iq + 3]
         if dt > 0.0:
@@ -162,9 +190,9 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, active, n, ric_u, r
         else:
             for entry in literal_unroll(KERNEL_REGISTRY):  # one specialised copy per model, registry order
                 if active[entry.kind]:
-                    mrows, first, r = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
+                    mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
                     if mrows > 0:
-                        sequential_update(P, dx, z, mrows, first, r, n, K, A)
+                        sequential_update(P, dx, z, mrows, first, rr, n, K, A)
                         applied[entry.kind] += 1
                         updated = True
         if updated:
@@ -181,83 +209,104 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, prm, active, n, ric_u, r
             st[iq], st[iq + 1], st[iq + 2], st[iq + 3] = exp_times_quat(st[iq], st[iq + 1], st[iq + 2], st[iq + 3],
                                                                         dx[DTH], dx[DTH + 1], dx[DTH + 2])
         for i in range(3):
-            pos[k, i] = st[ip + i]
-            vel[k, i] = st[iv + i]
-            ba[k, i] = st[iba + i]
-            bg[k, i] = st[ibg + i]
-            pos_sig[k, i] = math.sqrt(max(P[DP + i, DP + i], 0.0))
+            pos[r, i] = st[ip + i]
+            vel[r, i] = st[iv + i]
+            ba[r, i] = st[iba + i]
+            bg[r, i] = st[ibg + i]
+            pos_sig[r, i] = math.sqrt(max(P[DP + i, DP + i], 0.0))
         for i in range(4):
-            q[k, i] = st[iq + i]
+            q[r, i] = st[iq + i]
         if prm.smooth:
             for a_ in range(n):
                 buf_dx[j, a_] = dx[a_]
                 for b_ in range(n):
                     buf_post[j, a_, b_] = P[a_, b_]
             seg[0] = j + 1
-            end_of_stance = stance[k] and (k + 1 == N or not stance[k + 1])
-            if seg[0] >= prm.max_segment or k + 1 == N or end_of_stance:
-                if seg[0] > 1:
-                    counters[SMOOTHER_SKIPPED] += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, seg[0], n,
-                                                               seg[1], pos, vel, q, ba, bg)
-                counters[SMOOTHER_SEGMENTS] += 1
-                seg[0] = 0
-                seg[1] = k + 1
 
 
-def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, settings, tb, P0, zupt_gain, prm,
-             progress=None, extra_var=None):
-    """Drive ``filter_chunk`` over the record in a few chunks (arguments as ``filter.run_filter`` prepares them).
+def key_cache_on_sources(dispatchers, paths) -> bytes:
+    """Stamp the on-disk numba cache of ``dispatchers`` with the hash of the files ``paths`` (module docstring).
 
-    Returns
-    -------
-    (arrays dict pos_n, vel_n, q_nb, acc_bias_b, gyro_bias_b, pos_sigma_n; info dict)
+    A cached entry is used only if every file is unchanged since it was compiled; an edit to any of them
+    recompiles. Returns the combined hash. Dispatchers without an on-disk cache are left alone.
     """
-    n = settings.n_states
-    N = t_s.shape[0]
-    dt_nom = tb.nominal_dt_s
-    active = active_flags(settings)
-    if zupt_gain is not None:
-        ric_u, ric_lam, ric_t, ric_tau = zupt_gain.U.copy(), zupt_gain.lam.copy(), zupt_gain.T.copy(), zupt_gain.tau
-    else:
-        ric_u, ric_lam, ric_t, ric_tau = np.eye(3), np.zeros(3), np.zeros((6, 3)), np.zeros(N)
-    st = initial_nominal_state(q0_nb, acc_bias0_b, gyro_bias0_b)
-    P = P0.copy()
-    out = {name: np.empty((N, 3)) for name in ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")}
-    out["q_nb"] = np.empty((N, 4))
-    nb = prm.max_segment if prm.smooth else 1
-    buf_post = np.empty((nb, n, n))
-    buf_pred = np.empty((nb, n, n))
-    buf_fpar = np.empty((nb, 13))
-    buf_dx = np.empty((nb, n))
-    seg = np.zeros(2, dtype=np.int64)
-    applied = np.zeros(N_KINDS, dtype=np.int64)
-    counters = np.zeros(2, dtype=np.int64)
-    stance_u8 = np.ascontiguousarray(stance, dtype=np.bool_)
-    xvar = np.zeros((N, 6)) if extra_var is None else np.ascontiguousarray(extra_var, dtype=np.float64) * dt_nom
-    n_chunks = 1 if progress is None else max(1, min(10, N // 100_000))
-    bounds = np.linspace(0, N, n_chunks + 1).astype(np.int64)
+    h = hashlib.sha256()
+    for p in sorted(Path(p) for p in paths):
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
+    digest = h.digest()
+    for d in dispatchers:
+        cache_file = getattr(getattr(d, "_cache", None), "_cache_file", None)
+        if cache_file is not None and hasattr(cache_file, "_source_stamp"):
+            cache_file._source_stamp = (cache_file._source_stamp, digest)
+    return digest
 
-    def chunk(a, b):
-        filter_chunk(a, b, tb.dt_s, acc_b, gyro_b, stance_u8, xvar, prm, active, n, ric_u, ric_lam, ric_t, ric_tau,
-                     st, P, out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"],
-                     out["pos_sigma_n"], buf_post, buf_pred, buf_fpar, buf_dx, seg, applied, counters)
 
-    # a zero-length call compiles (or loads from the numba cache) this signature: timed separately
-    tc = time.perf_counter()
-    chunk(0, 0)
-    compile_s = time.perf_counter() - tc
+def kernel_sources(module_file=__file__) -> list[Path]:
+    """This module's file and every module of this package it imports, transitively (module-level imports, read
+    from the source): the code a cached kernel may contain."""
+    import ast
+
+    pkg = Path(module_file).parent
+    todo, seen = [Path(module_file)], set()
+    while todo:
+        p = todo.pop()
+        if p in seen or not p.exists():
+            continue
+        seen.add(p)
+        for node in ast.parse(p.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith(__package__ + "."):
+                todo.append(pkg / (node.module.rsplit(".", 1)[1] + ".py"))
+    return sorted(seen)
+
+
+key_cache_on_sources((filter_chunk, close_segment, rts_backward, _propagate_cov), kernel_sources())
+
+_compile_listeners: list = []
+
+
+@contextmanager
+def compile_notice(callback):
+    """Within the block, ``callback()`` is called before the fast engine's kernels are compiled (a first run
+    on this machine, or after an edit of this package; not when numba loads them from its cache)."""
+    _compile_listeners.append(callback)
+    try:
+        yield
+    finally:
+        _compile_listeners.remove(callback)
+
+
+def _cached_on_disk(dispatcher) -> bool:
+    """Whether numba's on-disk cache holds a valid (source stamp matching) entry of ``dispatcher``."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:  # numba internals changed: cannot tell, stay quiet
+        return True
+
+
+def _needs_compiling() -> bool:
+    """Whether the kernels must be compiled (neither in this process nor in numba's cache)."""
+    if filter_chunk.signatures and close_segment.signatures:
+        return False
+    return not (_cached_on_disk(filter_chunk) and _cached_on_disk(close_segment))
+
+
+def ensure_compiled(nav) -> float:
+    """Compile (or load from numba's cache) the kernels with the argument types ``nav`` (a
+    ``stream.StreamNavigator``) passes; returns the seconds spent. The ``compile_notice`` listeners are told
+    first when a real compilation is due."""
     t0 = time.perf_counter()
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        chunk(int(a), int(b))
-        if progress is not None:
-            progress(float(b) / N)
-    info = {
-        "run_s": time.perf_counter() - t0,
-        "compile_s": compile_s,
-        "applied": applied,
-        "smoother_segments": int(counters[SMOOTHER_SEGMENTS]),
-        "smoother_skipped_steps": int(counters[SMOOTHER_SKIPPED]),
-        "smoother_max_segment_samples": prm.max_segment,
-        "final_P": P,
-    }
-    return out, info
+    if _needs_compiling():
+        for cb in list(_compile_listeners):
+            cb()
+    if not filter_chunk.signatures or not close_segment.signatures:
+        n = nav.n
+        one3 = np.zeros((1, 3))
+        none3, none4 = np.zeros((0, 3)), np.zeros((0, 4))
+        seg, counters = np.zeros(2, dtype=np.int64), np.zeros(2, dtype=np.int64)
+        filter_chunk(1, 1, np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1),
+                     0, nav.prm, nav._active, n, *nav._ric, nav._st.copy(), nav._P.copy(), none3, none3.copy(), none4,
+                     none3.copy(), none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred, nav._buf_fpar,
+                     nav._buf_dx, seg, np.zeros(N_KINDS, dtype=np.int64), counters)
+        close_segment(n, none3, none3.copy(), none4, none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred,
+                      nav._buf_fpar, nav._buf_dx, seg, counters, 0)
+    return time.perf_counter() - t0

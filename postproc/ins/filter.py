@@ -28,13 +28,13 @@ bias with 15 states), a position row from the cross-covariance and the open-loop
 the still period (riccati.py); P is still propagated and Joseph-updated with that (suboptimal) gain so
 ``pos_sigma_n`` stays meaningful.
 
-Engines (``FilterSettings.engine``): ``fast.py`` (numba, production) and ``reference.py`` (filterpy, readable);
-they agree to 1e-9 m. Variants tried and not kept are in ``docs/tuning-log.md`` (section Filter).
+Engines (``FilterSettings.engine``): ``fast.py`` (numba, production; driven incrementally by
+``stream.StreamNavigator``) and ``reference.py`` (filterpy, readable); they agree to 1e-9 m. Variants tried and
+not kept are in ``docs/tuning-log.md`` (section Filter).
 """
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -42,11 +42,13 @@ import numpy as np
 
 from bootnav.core.runs import runs
 from bootnav.core.timebase import GAP_FACTOR, time_base
-from bootnav.errors import InputError
 from bootnav.postproc.ins.measurements import HEADING_AID, ZUPT, ZaruMeasurement
 from bootnav.postproc.ins.mechanization import validate_imu
-from bootnav.postproc.ins.params import kernel_params
+from bootnav.postproc.ins.prepare import FilterSetup, initial_covariance, prepare_filter, saturation_variance
 from bootnav.postproc.ins.settings import FilterSettings
+
+__all__ = ["FilterSetup", "NavSolution", "delay_zupt_onsets", "initial_covariance", "prepare_filter", "run_filter",
+           "saturation_variance", "warm_up"]
 
 
 @dataclass
@@ -61,25 +63,6 @@ class NavSolution:
     gyro_bias_b: np.ndarray | None
     pos_sigma_n: np.ndarray
     info: dict = field(default_factory=dict)  # JSON-serialisable: mode, engine, riccati report, timings, ...
-
-
-def initial_covariance(settings: FilterSettings) -> np.ndarray:
-    """P₀ = diag of the initial error sigmas (yaw separately: alignment cannot see it)."""
-    s = [settings.init_pos_sigma_m] * 3 + [settings.init_vel_sigma_mps] * 3
-    s += [settings.init_att_sigma_rad] * 2 + [settings.init_yaw_sigma_rad]
-    if settings.n_states == 15:
-        s += [settings.init_acc_bias_sigma_mps2] * 3 + [settings.init_gyro_bias_sigma_radps] * 3
-    return np.diag(np.square(s))
-
-
-def _init_vector(init, name, default):
-    v = getattr(init, name, None)
-    if v is None:
-        return np.array(default, dtype=float)
-    v = np.asarray(v, dtype=float).reshape(-1)
-    if not np.all(np.isfinite(v)):
-        raise InputError(f"initial state {name} is not finite: {v}")
-    return v
 
 
 def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_fraction: float) -> np.ndarray:
@@ -120,36 +103,6 @@ def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_f
     for a, c in zip(starts, cut):
         out[a:c] = False
     return out
-
-
-def saturation_variance(saturated, n: int, settings: FilterSettings) -> np.ndarray | None:
-    """Extra per-sample variance of each body axis (ax, ay, az, gx, gy, gz) of saturated samples, (N, 6), or
-    None when nothing is saturated.
-
-    A clipped sample says only "at least full scale": the true value is unknown, so instead of trusting the
-    clipped number with the normal noise the filter adds ``sat_acc_sigma_mps2``² / ``sat_gyro_sigma_radps``²
-    to that sample's per-sample variance (process noise) ALONG THE CLIPPED BODY AXIS (the other axes are
-    fine), i.e. the velocity / attitude uncertainty grows in that direction through the clipped burst and
-    the next ZUPTs correct the error it caused. ``saturated``: (N,) bitmask (bits ax, ay, az, gx, gy, gz as
-    ``bootnav.logger.recording.SATURATION_BITS``), or (N, 6) bool, or (N,) bool (every axis).
-    """
-    if saturated is None:
-        return None
-    sat = np.asarray(saturated)
-    if sat.shape[0] != n:
-        raise InputError(f"saturated must have {n} rows like t_s, got shape {sat.shape}")
-    if sat.ndim == 2:
-        axes = sat[:, :6].astype(bool)
-    elif sat.dtype == bool:
-        axes = np.repeat(sat[:, None], 6, axis=1)
-    else:
-        bits = sat.astype(np.uint8)
-        axes = np.column_stack([(bits >> b) & 1 for b in range(6)]).astype(bool)
-    if not axes.any():
-        return None
-    sig2 = np.array([settings.sat_acc_sigma_mps2**2] * 3 + [settings.sat_gyro_sigma_radps**2] * 3)
-    out = axes * sig2
-    return out if out.any() else None
 
 
 def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,
@@ -197,54 +150,34 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     """
     settings = settings or FilterSettings()
     settings.validate()
-    warnings: list[str] = []
     t_s, acc_b, gyro_b = validate_imu(t_s, acc_b, gyro_b, stance)
     stance = np.ascontiguousarray(stance, dtype=bool)
     zupt_mask = delay_zupt_onsets(t_s, stance, settings.zupt_onset_delay_s, settings.zupt_onset_max_fraction)
-    if not (np.isfinite(gravity) and 5.0 < gravity < 15.0):
-        raise InputError(f"gravity must be the local magnitude in m/s² (about 9.8), got {gravity!r}")
     tb = time_base(t_s)
     extra_var = saturation_variance(saturated, t_s.shape[0], settings)
-    q0 = _init_vector(init, "q_nb", [1.0, 0.0, 0.0, 0.0])
-    if q0.shape != (4,) or not 0.5 < np.linalg.norm(q0) < 1.5:
-        raise InputError(f"init.q_nb must be a unit quaternion (w, x, y, z), got {q0}")
-    q0 = q0 / np.linalg.norm(q0) * (1.0 if q0[0] >= 0 else -1.0)
-    bg0 = _init_vector(init, "gyro_bias_b", np.zeros(3))
-    ba0 = _init_vector(init, "acc_bias_b", np.zeros(3))
-    P0 = initial_covariance(settings)
-    zupt_gain = None
-    ric_report = None
-    smooth = settings.smoother == "rts"
-    if settings.mode == "riccati":
-        from bootnav.postproc.ins.riccati import paper_zupt_gain, still_period_acc_bias
-
-        zupt_gain = paper_zupt_gain(settings, gravity, tb.nominal_dt_s, t_s, zupt_mask)
-        if getattr(init, "acc_bias_b", None) is None and getattr(init, "acc_mean_b", None) is not None:
-            ba0 = still_period_acc_bias(_init_vector(init, "acc_mean_b", [0.0, 0.0, gravity]), gravity)
-        ric_report = zupt_gain.report.to_dict()
-        if extra_var is not None:
-            warnings.append(f"riccati (paper) mode: {int((extra_var > 0).any(axis=1).sum())} saturated samples; "
-                            "the constant gain cannot widen its uncertainty after a clipped swing (the time-varying "
-                            "filter does), so the tilt and height after it are less trustworthy")
-        if smooth:
-            smooth = False
-            warnings.append("smoother disabled in riccati (paper) mode: RTS needs the optimal time-varying P")
+    prep = prepare_filter(init, gravity, settings, tb.nominal_dt_s, t_s, zupt_mask)
+    zupt_gain, prm = prep.zupt_gain, prep.prm
+    smooth = prm.smooth
+    ric_report = None if zupt_gain is None else zupt_gain.report.to_dict()
+    warnings: list[str] = []
+    if zupt_gain is not None and extra_var is not None:
+        warnings.append(f"riccati (paper) mode: {int((extra_var > 0).any(axis=1).sum())} saturated samples; "
+                        "the constant gain cannot widen its uncertainty after a clipped swing (the time-varying "
+                        "filter does), so the tilt and height after it are less trustworthy")
+    warnings += prep.warnings
     if not stance.any():
         warnings.append("no stance sample: the filter ran open loop (pure strapdown) — the path is not usable")
     if tb.gap_mask.any():
         warnings.append(f"{int(tb.gap_mask.sum())} timestamp gap(s) > {GAP_FACTOR:g} x nominal period "
                         f"(largest {tb.dt_s.max():.4g} s) were propagated as single steps")
 
-    max_segment = max(16, int(math.ceil(settings.smoother_max_segment_s / tb.nominal_dt_s)))
-    prm = kernel_params(settings, gravity, tb.nominal_dt_s, zupt_gain is not None, smooth, max_segment)
-
     t0 = time.perf_counter()
     if settings.engine == "fast":
-        from bootnav.postproc.ins.fast import run_fast as run_engine
+        from bootnav.postproc.ins.stream import run_fast as run_engine
     else:
         from bootnav.postproc.ins.reference import run_reference as run_engine
-    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, q0, bg0, ba0, settings, tb, P0, zupt_gain, prm,
-                            progress, extra_var)
+    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep.q0_nb, prep.gyro_bias0_b, prep.acc_bias0_b, settings,
+                            tb, prep.P0, zupt_gain, prm, progress, extra_var)
     elapsed = time.perf_counter() - t0
     biases = settings.n_states == 15
     info = {
