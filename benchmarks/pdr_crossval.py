@@ -11,8 +11,10 @@ Trials are read once and scored by ``bootnav eval``'s scorer (``runner.score_pdr
 (issue 15): Oxford |count err| <= 0.5 % and F1 >= 0.99; Voisard lower back <= 1.5 % and F1 >= 0.98;
 Mobilise-D lower back F1 >= 0.95 and step-length MAE <= 0.08 m.
 
-Usage: .venv/bin/python benchmarks/pdr_crossval.py [--datasets DIR] [--grid NAME ...] [--processes 2]
+Usage: .venv/bin/python benchmarks/pdr_crossval.py [--datasets DIR] [--grid NAME ...] [--processes 2] [--anatomy]
 Grids: ``GRIDS`` below (the literal detectors' open values and the robust default's candidates).
+``--anatomy`` prints the robust default's error anatomy instead (``anatomy``: what kind of true step it misses
+and what kind of step it adds, per set, and each recording's cadence and F1).
 """
 
 from __future__ import annotations
@@ -53,6 +55,8 @@ GRIDS = {
     "robust_interval_penalty": ("robust", {}, "interval_penalty", [0.5, 1.0, 2.0, 4.0]),
     "robust_periodicity_min": ("robust", {}, "periodicity_min", [0.3, 0.45, 0.6]),
     "robust_onset_trim": ("robust", {}, "onset_trim_fraction", [0.0, 0.3, 0.5]),
+    # 2026-12-01 error anatomy: the dominant Mobilise-D miss is a mid-bout step gated by periodicity
+    "robust_periodicity_window": ("robust", {}, "periodicity_window_s", [1.0, 1.5, 2.0, 2.5]),
 }
 
 _CACHE: dict = {}
@@ -140,16 +144,128 @@ def print_grid(name: str, table: dict) -> None:
     print(f"\nchosen on all sets: {pname} = {chosen}")
 
 
+def _truth_bouts(trial, tt: np.ndarray) -> list:
+    """(first, last) index into the sorted true steps of each walking bout: the reference's bouts where the
+    set has them (mobgap_lab), else runs of true steps less than 1.6 s apart (the detector's bout gap)."""
+    from bootnav.postproc.evaluate.runner import _truth_json, read_csv_columns
+
+    path = trial.path / "truth_walking_bouts.csv"
+    if path.exists():
+        c = read_csv_columns(path)
+        rows = c["source"] == _truth_json(trial.path).get("step_events_reference", "INDIP")
+        rows = rows if rows.any() else np.ones(rows.size, bool)
+        idx = [np.nonzero((tt >= a - 0.01) & (tt <= b + 0.01))[0] for a, b in zip(c["t_start_s"][rows], c["t_end_s"][rows])]
+        return [(i[0], i[-1]) for i in idx if i.size]
+    br = np.r_[0, np.nonzero(np.diff(tt) > 1.6)[0] + 1, tt.size]
+    return [(a, b - 1) for a, b in zip(br[:-1], br[1:])]
+
+
+def anatomy_of_trial(trial) -> dict:
+    """Classify the robust default's misses and false steps of one trial against its true steps (matched
+    as METRICS.md says: one-to-one within ±0.25 s; mobgap_lab inside the reference's walking bouts).
+
+    A miss is "timing" when an unmatched detection lies within 0.5 s (the step was found, > 0.25 s off);
+    else by place: first / last (the first two / last two true steps of a bout), short bout (< 8 true
+    steps), turn (mean rate about gravity over 1 s > 0.5 rad/s), slow (true step interval > 0.7 s), mid.
+    Its cause is read off the detector's trace at the most prominent candidate within ±0.25 s: no candidate,
+    the periodicity / activity / handling gate, or not chosen (beat tracking, onset trim, bout < 4 steps).
+    A false step is "timing" (paired with a miss), before the first / after the last true step, or inside."""
+    from bootnav.postproc.evaluate.metrics import match_events
+    from bootnav.postproc.evaluate.runner import _inside_walking_bouts, _truth_json
+    from bootnav.postproc.pdr.detectors import make_detector
+    from bootnav.postproc.pdr.signals import centered_moving_average, gravity_direction, resample_uniform
+
+    t, acc, gyro = _load(trial)
+    det = make_detector("robust")
+    ev = det.detect(t, acc)
+    tr = ev.trace
+    d = ev.t_s[_inside_walking_bouts(trial.path, _truth_json(trial.path), ev.t_s)]
+    tt = np.sort(trial.t_steps)
+    md, mt = np.zeros(d.size, bool), np.zeros(tt.size, bool)
+    pairs = match_events(d, tt)
+    for i, j in pairs:
+        md[i], mt[j] = True, True
+    place = np.full(tt.size, "mid", object)
+    for a, b in _truth_bouts(trial, tt):
+        place[a:b + 1] = "short bout" if b - a + 1 < 8 else "mid"
+        place[[a, min(a + 1, b)]] = "first"
+        place[[b, max(b - 1, a)]] = "last"
+    iv = np.diff(tt)
+    loc = np.array([np.mean([iv[m] for m in (k - 1, k) if 0 <= m < iv.size and iv[m] < 1.6] or [0.0]) for k in range(tt.size)])
+    place[(place == "mid") & (loc > 0.7)] = "slow"
+    if gyro is not None:
+        tg, ag = resample_uniform(t, np.column_stack([acc, gyro]), 50.0)
+        w_up = np.abs(np.einsum("ij,ij->i", ag[:, 3:], gravity_direction(ag[:, :3], 50.0)))
+        turn = np.interp(tt, tg, centered_moving_average(w_up, 50)) > 0.5
+        place[np.isin(place, ["mid", "slow"]) & turn] = "turn"
+    tp, tg = tr["candidates_t_s"], tr["t_s"]
+    ipk = np.clip(np.searchsorted(tg, tp), 0, tg.size - 1)
+    gate = np.full(tp.size, "not chosen", object)
+    if tr["gravity_turn_deg"] is not None:
+        gate[tr["gravity_turn_deg"][ipk] > det.handling_max_deg] = "handling gate"
+    gate[tr["activity_rms"][ipk] < det.activity_rms_mps2] = "activity gate"
+    if tr["periodicity"] is not None:
+        gate[tr["periodicity"][ipk] < det.periodicity_min] = "periodicity gate"
+    sig = np.interp(tp, tg, tr["signal"])
+    out = {"miss": {}, "cause": {}, "false": {}}
+    for k in np.nonzero(~mt)[0]:
+        timing = bool(np.any(~md & (np.abs(d - tt[k]) < 0.5)))
+        c = np.nonzero(np.abs(tp - tt[k]) <= 0.25)[0]
+        cause = "no candidate" if c.size == 0 else gate[c[np.argmax(sig[c])]]
+        key = "timing" if timing else place[k]
+        out["miss"][key] = out["miss"].get(key, 0) + 1
+        if not timing:
+            out["cause"][cause] = out["cause"].get(cause, 0) + 1
+    for i in np.nonzero(~md)[0]:
+        key = ("timing" if np.any(~mt & (np.abs(tt - d[i]) < 0.5)) else "before first" if d[i] < tt[0]
+               else "after last" if d[i] > tt[-1] else "inside")
+        out["false"][key] = out["false"].get(key, 0) + 1
+    ok = iv[iv < 1.6]
+    off = np.array([d[i] - tt[j] for i, j in pairs])
+    out.update(id=trial.id, set=trial.set, mount=trial.mount, n_true=int(tt.size), n_det=int(d.size),
+               f1=2.0 * len(pairs) / max(d.size + tt.size, 1), cadence=float(1.0 / np.median(ok)) if ok.size else np.nan,
+               offset_ms=float(1e3 * np.median(off)) if off.size else np.nan)
+    return out
+
+
+def anatomy(by_set: dict, pool) -> None:
+    """Print the error anatomy of the robust default per set (``anatomy_of_trial``)."""
+    trials = [t for s in by_set.values() for t in s if t.t_steps is not None]
+    res = pool.map(anatomy_of_trial, trials)
+    sets = [s for s in by_set if any(r["set"] == s for r in res)]
+    tot = {s: {"miss": {}, "cause": {}, "false": {}} for s in sets}
+    for r in res:
+        for part in ("miss", "cause", "false"):
+            for k, v in r[part].items():
+                tot[r["set"]][part][k] = tot[r["set"]][part].get(k, 0) + v
+    print("\n### Error anatomy of the robust default (true steps missed / false steps, counts per set)\n")
+    print("| class | " + " | ".join(sets) + " |")
+    print("|---|" + "---|" * len(sets))
+    print("| true steps / detected | " + " | ".join(
+        f"{sum(r['n_true'] for r in res if r['set'] == s)} / {sum(r['n_det'] for r in res if r['set'] == s)}" for s in sets) + " |")
+    for part, label in (("miss", "missed"), ("cause", "miss cause (non-timing)"), ("false", "false")):
+        for k in sorted({k for s in sets for k in tot[s][part]}):
+            print(f"| {label}: {k} | " + " | ".join(str(tot[s][part].get(k, 0)) for s in sets) + " |")
+    print("\n| recording | mount | cadence steps/s | true | detected | F1 | median offset ms |")
+    print("|---|---|---|---|---|---|---|")
+    for r in res:
+        print(f"| {r['id']} | {r['mount']} | {r['cadence']:.2f} | {r['n_true']} | {r['n_det']} | {r['f1']:.3f} | {r['offset_ms']:+.0f} |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--datasets", default=os.environ.get("BOOTNAV_DATASETS",
                                                         str(Path(__file__).resolve().parents[2] / "shared" / "datasets")))
     ap.add_argument("--grid", nargs="*", default=None, help=f"grids to run (default: all of {sorted(GRIDS)})")
     ap.add_argument("--processes", type=int, default=2)
+    ap.add_argument("--anatomy", action="store_true", help="print the robust default's error anatomy and stop")
     a = ap.parse_args(argv)
     trials = list_trials(a.datasets)
     by_set = {s: [t for t in trials if t.set == s] for s in PDR_SETS}
     with Pool(a.processes) as pool:
+        if a.anatomy:
+            anatomy(by_set, pool)
+            return 0
         for name in a.grid if a.grid is not None else GRIDS:
             det, base, pname, values = GRIDS[name]
             print_grid(name, evaluate_grid(by_set, det, base, pname, values, pool))
