@@ -291,3 +291,52 @@ def check_path_finite(name: str, t_s: np.ndarray, pos_n: np.ndarray, offset: int
     if len(bad):
         raise InputError(f"{name}: the filter diverged at sample {bad[0] + offset} (t = {t_s[bad[0]]:.3f} s); "
                          "check the sensor ranges and the input units")
+
+
+class ClipRails:
+    """``clipping_bits`` of a recording read in blocks: two cheap passes before the bits are known.
+
+    ``clipped_samples`` compares every sample with the per-axis extremes of the whole record and counts the
+    samples at them; here ``add_peaks`` (first pass) and ``add_counts`` (second pass) see every block, and
+    ``bits`` then gives exactly ``clipping_bits`` for any block.
+    """
+
+    REL_TOL = 1e-6  # clipped_samples' defaults
+    MIN_REPEATS = 3
+
+    def __init__(self):
+        self.pos = np.full(6, -np.inf)  # max of x per axis (acc x/y/z, gyro x/y/z)
+        self.neg = np.full(6, -np.inf)  # max of -x
+        self.count_pos = np.zeros(6, np.int64)
+        self.count_neg = np.zeros(6, np.int64)
+        self.n = 0
+        self.rail_pos = self.rail_neg = None
+
+    def add_peaks(self, acc_b: np.ndarray, gyro_b: np.ndarray) -> None:
+        x = np.hstack((acc_b, gyro_b))
+        with np.errstate(invalid="ignore"):
+            self.pos = np.fmax(self.pos, np.nanmax(x, axis=0, initial=-np.inf))
+            self.neg = np.fmax(self.neg, np.nanmax(-x, axis=0, initial=-np.inf))
+
+    def _at(self, acc_b, gyro_b):
+        x = np.hstack((acc_b, gyro_b))
+        return x >= self.pos * (1.0 - self.REL_TOL), -x >= self.neg * (1.0 - self.REL_TOL)
+
+    def add_counts(self, acc_b: np.ndarray, gyro_b: np.ndarray) -> None:
+        p, q = self._at(acc_b, gyro_b)
+        self.count_pos += p.sum(axis=0)
+        self.count_neg += q.sum(axis=0)
+        self.n += len(acc_b)
+
+    def finish(self) -> None:
+        def rail(count, peak, other):
+            return (count >= self.MIN_REPEATS) & (count < 0.5 * self.n) & (peak > 0) & (peak >= other * (1.0 - 1e-3))
+
+        self.rail_pos = rail(self.count_pos, self.pos, self.neg)
+        self.rail_neg = rail(self.count_neg, self.neg, self.pos)
+
+    def bits(self, acc_b: np.ndarray, gyro_b: np.ndarray) -> np.ndarray:
+        """Saturation bitmask (bits as ``clipping_bits``') of one block."""
+        p, q = self._at(acc_b, gyro_b)
+        on = (p & self.rail_pos) | (q & self.rail_neg)
+        return (on.astype(np.uint8) << np.arange(6, dtype=np.uint8)).sum(axis=1, dtype=np.uint8)

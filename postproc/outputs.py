@@ -21,13 +21,19 @@
 * ``results.h5``: a copy of the input recording (the imported recording for a non-HDF5 input) plus
   ``/results/<name>`` with every setting used as group attributes; its ``t_s`` (and ``steps/t_s``) is the
   dimension scale of the first axis of every array, ``axis``/``q_component`` of the second, so netCDF
-  readers (xarray with h5netcdf) see named dimensions, as in ``/imu``. The input itself is never written to,
+  readers (xarray with h5netcdf) see named dimensions, as in ``/imu``. The per-sample arrays are resizable
+  (``ResultsWriter``: a chunked run appends them as they come); the float ones are stored uncompressed
+  (``ResultsWriter``). The input itself is never written to,
   except with ``into_recording=True`` (``bootnav process --into-recording``), and then atomically: the
   results go into a copy beside it, which is flushed to disk and renamed over the original, so a crash or a
   full disk leaves either the old or the new recording, never a damaged one.
 
 No file is overwritten unless ``force=True`` (``--force``), and no output may be one of the inputs
 (``check_outputs``).
+
+Speed: the CSV files are formatted by numpy (``format_column``: the same text as Python's ``%``), the HDF5
+results are written on a thread meanwhile, and the charts are drawn by a forked process on another core
+(``_start_plots``).
 """
 
 from __future__ import annotations
@@ -50,28 +56,133 @@ from bootnav.errors import InputError
 from .strides import STEP_COLUMNS, footprints
 
 TRAJECTORY_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance")
+RESULTS_CHUNK_ROWS = 65_536  # rows per HDF5 chunk of the per-sample results (about 0.5-2 MB per chunk)
 WGS84_A_M = 6378137.0
 WGS84_E2 = 6.69437999014e-3
 
 
+_PAD = 0  # byte that fills unused field positions; removed before writing (never in CSV text)
+_BLOCK_ROWS = 100_000  # rows formatted per numpy pass: bounds the temporary character matrices (~10 MB)
+
+
+def _decimals(fmt: str) -> int:
+    """Decimals of a ``%.Nf`` format, -1 for ``%d``."""
+    if fmt == "%d":
+        return -1
+    if not (fmt.startswith("%.") and fmt.endswith("f") and fmt[2:-1].isdigit()):
+        raise ValueError(f"CSV column format {fmt!r}: only %d and %.Nf are supported")
+    return int(fmt[2:-1])
+
+
+_DIGITS4 = np.frombuffer("".join(f"{i:04d}" for i in range(10_000)).encode("ascii"), np.uint32)  # "0000".."9999"
+
+
+def _put_digits(out: np.ndarray, n: np.ndarray, col_end: int, width: int) -> None:
+    """Write the ``width`` last decimal digits of non-negative int64 ``n`` (zero-padded) into
+    ``out[:, col_end - width:col_end]``, four digits per table look-up (one division per four digits)."""
+    k = col_end
+    rest = n
+    while k > col_end - width:
+        rest, group = np.divmod(rest, 10_000)
+        take = min(4, k - (col_end - width))
+        out[:, k - take : k] = _DIGITS4[group].view(np.uint8).reshape(-1, 4)[:, 4 - take :]  # 1-D gather
+        k -= take
+
+
+def _int_width(n: np.ndarray) -> int:
+    """Decimal digits of the largest of the non-negative ints ``n`` (1 for none)."""
+    return len(str(int(n.max()))) if len(n) else 1
+
+
+def _blank_leading_zeros(out: np.ndarray, n: np.ndarray, col0: int, width: int) -> None:
+    """Replace the leading zeros of the integer digits ``out[:, col0:col0 + width]`` of ``n`` by ``_PAD``
+    (the units digit always stays)."""
+    if width < 2:
+        return
+    nd = 1 + sum((n >= 10**k).astype(np.uint8) for k in range(1, width))  # digits of each value
+    keep = (np.arange(width, dtype=np.uint8)[None, :] >= (width - nd)[:, None]).view(np.uint8)
+    np.multiply(out[:, col0 : col0 + width], keep, out=out[:, col0 : col0 + width])  # _PAD is 0
+
+
+def format_column(x: np.ndarray, fmt: str) -> np.ndarray:
+    """Text of ``fmt % value`` for every value, as an (N, W) byte matrix right-aligned with ``_PAD`` bytes.
+
+    ``%.Nf``: sign, integer digits, point and N decimals from the rounded integer ``rint(|x| 10^N)``; values
+    whose rounding the float product cannot decide (within a few ulp of a half, |x| >= 1e15, NaN, inf) are
+    formatted by Python's ``%``, so every field equals ``fmt % value`` exactly (tests/test_long_csv.py).
+    ``%d``: the integer part (truncated towards zero, as ``%d`` does).
+    """
+    dec = _decimals(fmt)
+    if dec < 0:
+        v = np.asarray(x).astype(np.int64)
+        mag = np.abs(v)
+        width = _int_width(mag)
+        out = np.full((len(v), 1 + width), _PAD, np.uint8)
+        out[:, 0] = np.where(v < 0, ord("-"), _PAD)
+        _put_digits(out, mag, 1 + width, width)
+        _blank_leading_zeros(out, mag, 1, width)
+        return out
+    x = np.asarray(x, dtype=np.float64)
+    ax = np.abs(x)
+    with np.errstate(invalid="ignore"):
+        v = ax * 10.0**dec
+        frac = v - np.floor(v)
+        slow = ~np.isfinite(x) | (ax >= 1e15) | (np.abs(frac - 0.5) <= v * 2.0**-48 + 1e-9)
+    n = np.rint(np.where(slow, 0.0, v)).astype(np.int64)
+    ip, fp = np.divmod(n, np.int64(10**dec))
+    width = _int_width(ip)
+    rows = np.flatnonzero(slow)
+    text = [(fmt % float(x[i])).encode("ascii") for i in rows]  # rare: a few ties per million values
+    w_num = 1 + width + (1 + dec if dec else 0)
+    w = max([w_num] + [len(t) for t in text])
+    out = np.full((len(x), w), _PAD, np.uint8)
+    c0 = w - w_num  # the numbers are right-aligned; wider Python fields use the extra columns on the left
+    out[:, c0] = np.where(np.signbit(x), ord("-"), _PAD)
+    _put_digits(out, ip, c0 + 1 + width, width)
+    _blank_leading_zeros(out, ip, c0 + 1, width)
+    if dec:
+        out[:, c0 + 1 + width] = ord(".")
+        _put_digits(out, fp, w, dec)
+    for i, t in zip(rows, text):
+        out[i] = _PAD
+        out[i, w - len(t) :] = np.frombuffer(t, np.uint8)
+    return out
+
+
 def _write_csv(path: Path, header: tuple[str, ...], columns: list[np.ndarray], fmts: list[str]) -> None:
-    """Write columns fast: one C-level %-format per block of rows (np.savetxt loops per row in Python).
-    Rows are stacked block by block, so no full (N, k) copy of the data is ever made."""
-    row = ",".join(fmts) + "\n"
-    n = len(columns[0])
-    with open(path, "w", newline="") as f:
-        f.write(",".join(header) + "\n")
-        block = 20_000  # rows per format call: bounds the temporary Python floats (~5 MB)
-        for i in range(0, n, block):
-            chunk = np.column_stack([np.asarray(c[i : i + block], dtype=np.float64) for c in columns])
-            f.write((row * len(chunk)) % tuple(chunk.ravel()))
+    """Write columns as CSV, ``fmt % value`` per field, formatted by numpy in blocks of rows (no Python loop
+    per row; ``format_column``), so no full (N, k) copy of the data or of the text is ever made."""
+    with open(path, "wb") as f:
+        f.write((",".join(header) + "\n").encode("ascii"))
+        append_csv_rows(f, columns, fmts)
+
+
+def append_csv_rows(f, columns: list[np.ndarray], fmts: list[str]) -> None:
+    """Append rows (one per element of the equal-length ``columns``) to the open binary file ``f``."""
+    for i in range(0, len(columns[0]), _BLOCK_ROWS):
+        fields = [format_column(np.asarray(c[i : i + _BLOCK_ROWS]), fmt) for c, fmt in zip(columns, fmts)]
+        text = np.empty((len(fields[0]), sum(fl.shape[1] + 1 for fl in fields)), np.uint8)
+        k = 0
+        for field in fields:
+            text[:, k : k + field.shape[1]] = field
+            text[:, k + field.shape[1]] = ord(",")
+            k += field.shape[1] + 1
+        text[:, -1] = ord("\n")
+        text = text.ravel()
+        f.write(text[text != _PAD].tobytes())
+
+
+TRAJECTORY_FORMATS = ["%.6f"] + ["%.4f"] * 6 + ["%d"]
+
+
+def trajectory_columns(t_s, pos_n, vel_n, stance) -> list[np.ndarray]:
+    """The columns of trajectory.csv (``TRAJECTORY_COLUMNS``) of some rows."""
+    return [t_s, pos_n[:, 0], pos_n[:, 1], pos_n[:, 2], vel_n[:, 0], vel_n[:, 1], vel_n[:, 2], stance.astype(np.int8)]
 
 
 def write_trajectory_csv(path: Path, result) -> Path:
-    p, v = result.pos_n, result.vel_n
-    _write_csv(path, TRAJECTORY_COLUMNS,
-               [result.t_s, p[:, 0], p[:, 1], p[:, 2], v[:, 0], v[:, 1], v[:, 2], result.stance.astype(np.int8)],
-               ["%.6f"] + ["%.4f"] * 6 + ["%d"])
+    _write_csv(path, TRAJECTORY_COLUMNS, trajectory_columns(result.t_s, result.pos_n, result.vel_n, result.stance),
+               TRAJECTORY_FORMATS)
     return path
 
 
@@ -282,6 +393,51 @@ def _replace_atomically(tmp: Path, target: Path) -> None:
     _fsync(target.parent)
 
 
+class ResultsWriter:
+    """Per-sample results of ``/results/<name>`` appended block by block to resizable datasets.
+
+    The group is created empty (an existing one is replaced); ``append`` adds rows to every array (created on
+    the first call, chunks of up to ``RESULTS_CHUNK_ROWS`` rows). Only integer arrays (the stance mask) are
+    gzip-compressed: they shrink a hundredfold, while the float results, noise in their low mantissa bits,
+    shrink by 10-40 % at ten times the writing time (``docs/tuning-log.md``, "Long recordings").
+    """
+
+    def __init__(self, path: Path, group: str, n_rows: int, units: dict[str, str]):
+        import h5py
+
+        from bootnav.logger.recording import LIBVER
+
+        self._file = h5py.File(path, "r+", libver=LIBVER)
+        if group in self._file:
+            del self._file[group]
+        self.group = self._file.create_group(group)
+        self.chunk_rows = int(min(RESULTS_CHUNK_ROWS, max(n_rows, 1)))
+        self.units = units
+
+    def append(self, arrays: dict[str, np.ndarray]) -> None:
+        """Append the same number of rows to every array (the first call fixes the set of arrays)."""
+        for key, value in arrays.items():
+            value = np.asarray(value)
+            if key not in self.group:
+                kw = dict(compression="gzip", compression_opts=4, shuffle=True) if value.dtype.kind in "iub" else {}
+                ds = self.group.create_dataset(key, shape=(0,) + value.shape[1:], maxshape=(None,) + value.shape[1:],
+                                               dtype=value.dtype, chunks=(self.chunk_rows,) + value.shape[1:], **kw)
+                ds.attrs["units"] = self.units.get(key, "1")
+            ds = self.group[key]
+            n0 = ds.shape[0]
+            ds.resize(n0 + len(value), axis=0)
+            ds[n0:] = value
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
 def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, force: bool = False) -> tuple[Path, str]:
     """Write ``/results/<name>`` (+ ``/steps``) into ``out_dir/results.h5`` or, when asked, the input recording.
 
@@ -325,6 +481,8 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
                 write_recording(tmp, rec.t_s, rec.acc_mps2, rec.gyro_radps, events=rec.events, meta=meta,
                                 saturated=rec.saturated)
         arrays, units = results_arrays(result)
+        with ResultsWriter(tmp, group, len(result.t_s), units) as writer:
+            writer.append(arrays)
         attrs = {
             "software": f"bootnav {__version__}",
             "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -335,7 +493,7 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
             "stance_threshold": json.dumps(result.summary["stance"]["threshold"]),
             **{f"convention_{k}": v for k, v in CONVENTIONS.items()},
         }
-        write_group(tmp, group, arrays, attrs, units)
+        write_group(tmp, group, {}, attrs, replace=False)
         step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
                       "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1"}
         steps = {**{k: np.asarray(v) for k, v in result.steps.items()}, **heading_columns(result.steps["yaw_enu_rad"])}
@@ -347,6 +505,59 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
     finally:
         tmp.unlink(missing_ok=True)
     return target, group
+
+
+def _draw(result, out: Path) -> dict[str, str]:
+    """Charts 1-7 and path.html; {kind: path}."""
+    from .plots import make_html, make_plots
+
+    files = {f"plot_{key}": str(path) for key, path in make_plots(result, out).items()}
+    files["html"] = str(make_html(result, out))
+    return files
+
+
+def _plot_child(result, out: Path, conn) -> None:
+    """Body of the plotting process: draw, send back {kind: path} or the error's one-line message."""
+    try:
+        conn.send(("ok", _draw(result, out)))
+    except BaseException as exc:  # reported by the parent as its own error
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+    finally:
+        conn.close()
+
+
+def _start_plots(result, out: Path):
+    """Start drawing in a forked process (it inherits ``result``, nothing is pickled), so the charts are drawn
+    on the second core while this one writes the CSV and HDF5 files. None where fork is unavailable: the
+    charts are then drawn in this process by ``_finish_plots``."""
+    import multiprocessing as mp
+
+    if "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:  # a daemon may not fork
+        return None
+    ctx = mp.get_context("fork")
+    parent, child = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_plot_child, args=(result, out, child), daemon=True)
+    proc.start()
+    child.close()
+    return proc, parent
+
+
+def _finish_plots(plotter, result, out: Path) -> dict[str, str]:
+    """Wait for the plotting process (or draw here without one); {kind: path} of the charts and path.html."""
+    if plotter is None:
+        return _draw(result, out)
+    proc, conn = plotter
+    try:
+        status, value = conn.recv()
+    except EOFError:  # the child died without a word (killed, out of memory)
+        proc.join()
+        status, value = "error", f"the plotting process ended with exit code {proc.exitcode}"
+    finally:
+        conn.close()
+    proc.join()
+    if status != "ok":
+        raise RuntimeError(f"{out}: drawing the charts failed: {value}")
+    return value
 
 
 def write_outputs(result, out_dir: str | Path, into_recording: bool = False, force: bool = False) -> dict[str, str]:
@@ -375,27 +586,30 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
     result.summary["settings"] = result.settings.to_dict()  # output options may have changed since process()
     files: dict[str, str] = {}
     t0 = time.perf_counter()
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        # HDF5 compression runs outside the GIL: overlap it with the CSV formatting (1 h: 3.8 s -> 2.2 s)
-        h5_job = pool.submit(write_hdf5_results, result, out, into_recording, force) if opts.write_hdf5 else None
-        files["trajectory"] = str(write_trajectory_csv(out / "trajectory.csv", result))
-        files["steps"] = str(write_steps_csv(out / "steps.csv", result.steps))
-        if opts.geojson and opts.geo_anchor:  # without an anchor, GIS tools would draw local metres at 0° N 0° E
-            p = out / "path.geojson"
-            p.write_text(json.dumps(geojson_path(result, opts.geo_anchor)))
-            files["geojson"] = str(p)
-        if h5_job is not None:
-            h5, group = h5_job.result()
-            files["hdf5"] = f"{h5}:{group}"
+    plotter = _start_plots(result, out) if opts.plots else None  # before any thread: fork copies one thread
+    try:
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            # HDF5 compression runs outside the GIL: overlap it with the CSV formatting
+            h5_job = pool.submit(write_hdf5_results, result, out, into_recording, force) if opts.write_hdf5 else None
+            files["trajectory"] = str(write_trajectory_csv(out / "trajectory.csv", result))
+            files["steps"] = str(write_steps_csv(out / "steps.csv", result.steps))
+            if opts.geojson and opts.geo_anchor:  # without an anchor, GIS tools would draw local metres at 0° N 0° E
+                p = out / "path.geojson"
+                p.write_text(json.dumps(geojson_path(result, opts.geo_anchor)))
+                files["geojson"] = str(p)
+            if h5_job is not None:
+                h5, group = h5_job.result()
+                files["hdf5"] = f"{h5}:{group}"
+    except BaseException:
+        if plotter is not None:
+            plotter[0].terminate()
+            plotter[0].join()
+        raise
     result.summary["timings_s"]["write"] = time.perf_counter() - t0
     if opts.plots:
-        from .plots import make_html, make_plots
-
         t1 = time.perf_counter()
-        for key, path in make_plots(result, out).items():
-            files[f"plot_{key}"] = str(path)
-        files["html"] = str(make_html(result, out))
-        result.summary["timings_s"]["plots"] = time.perf_counter() - t1
+        files.update(_finish_plots(plotter, result, out))
+        result.summary["timings_s"]["plots"] = time.perf_counter() - t1  # the wait after writing (0 if done)
     files["summary"] = str(out / "summary.json")
     result.summary["files"] = files
     result.summary["warnings"] = list(result.warnings)

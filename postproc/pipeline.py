@@ -22,12 +22,16 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
+
+``process_chunked`` (``bootnav process --chunk-s S``) is the same pipeline for recordings of many hours, with
+memory bounded by the chunk: it reads the recording block by block, makes the whole-recording decisions in
+passes over the blocks, and writes the outputs as it goes (its docstring says what it leaves out).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -36,12 +40,12 @@ import numpy as np
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
-from .checks import (check_path_finite, check_samples, clipping_bits, refuse_fatal, saturation_intervals,
-                     saturation_warnings, stride_findings)
+from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
+                     saturation_intervals, saturation_warnings, stride_findings)
 from .navigate import navigate
 from .selftune import TINY
 from .settings import ProcessSettings
-from .source import crop, load_source
+from .source import crop, is_hdf5, load_source
 from .strides import path_summary, segment_strides
 from .summary import build_summary
 
@@ -187,3 +191,303 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     )
     result.summary = build_summary(result, path_stats, timings)
     return result
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Chunked run: bounded memory for recordings of a whole shift
+
+
+def process_chunked(source: str | Path, settings: ProcessSettings | None, out_dir: str | Path, chunk_s: float,
+                    force: bool = False, progress: Progress | None = None) -> tuple[dict, dict[str, str]]:
+    """``process`` + ``outputs.write_outputs`` of an HDF5 recording in chunks of ``chunk_s`` seconds.
+
+    Memory is bounded by the chunk (and the smoother's open segment), not by the recording's length: the
+    recording is read block by block from the file, and every per-sample output is appended to
+    ``trajectory.csv`` and ``results.h5`` as the navigator makes it final. The path is the same for every
+    chunk size (to rounding, 1e-9 m: ``tests/test_long_chunked.py``). The decisions ``process`` makes on the
+    whole arrays are made by passes over the blocks before the final one:
+
+    1. the adaptive detector's noise floor F: one pass of ``StreamStance`` (its histogram quantile over the
+       whole recording, then fixed, so every chunking gets the same stance mask);
+    2. the vertical timing calibration τ (``selftune.level_timing_offset``): one pass of the two probe
+       filters (±δ, no smoother) with their footprints accumulated (``strides.FootprintAccumulator``);
+    3. the final pass: stance, the filter + smoother on the specific force rotated by τ, the outputs.
+
+    The clipping rails (``checks.ClipRails``) take two cheap passes (extremes, then the samples at them); the
+    checks run per block; the initial alignment reads the first seconds (``calibration.still_search_s`` +
+    ``max_still_s``); the nominal period is the median step of the first 65 536 samples. Not done in chunks
+    (refused, or left out with a warning): the plausibility checks of the stance mask, the truth-free
+    fallback and its confidence figure (the configured detector is always used), the per-stride quality
+    flags, charts 1-7 and path.html, the detector statistic in ``results.h5``, crop, reference,
+    accelerometer calibration file, non-HDF5 inputs. F is a histogram quantile (1e-3 decade bins): the stance
+    mask can differ from the whole-array run's in samples where F + δ decides (none on the test walks).
+
+    Parameters
+    ----------
+    source
+        A bootnav HDF5 recording.
+    settings
+        Every tunable (defaults when None).
+    out_dir
+        Output directory (``check_outputs`` rules).
+    chunk_s
+        Seconds of samples per block (> 0).
+    force
+        Replace existing output files.
+    progress
+        ``progress(stage, fraction)``.
+
+    Returns
+    -------
+    (summary, files)
+        The summary written to summary.json and {kind: path} of every file written.
+
+    Raises
+    ------
+    InputError
+        As ``process``, plus an option not available in chunks or a detector that cannot stream.
+    """
+    import json
+    import os
+    import shutil
+
+    import h5py
+
+    from bootnav.core.conventions import CONVENTIONS, __version__
+    from bootnav.core.jsonio import to_jsonable
+    from bootnav.logger.recording import attach_dimension_scales, write_group
+
+    from . import selftune
+    from .calibration import initial_alignment
+    from .detectors.stream import StreamStance
+    from .ins.stream import StreamNavigator
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _replace_atomically,
+                          append_csv_rows, check_outputs, heading_columns, trajectory_columns, write_steps_csv)
+    from .strides import FootprintAccumulator, footprint_strides, footprint_summary
+
+    settings = settings or ProcessSettings()
+    settings.validate()
+    path, out = Path(source), Path(out_dir)
+    name = str(path)
+    if not (chunk_s > 0 and np.isfinite(chunk_s)):
+        raise InputError(f"--chunk-s must be a positive number of seconds, got {chunk_s}")
+    for what, bad in (("--crop", settings.crop_s), ("--reference/--closed-loop", settings.reference),
+                      ("--accel-calibration", settings.calibration.accel_calibration_file)):
+        if bad:
+            raise InputError(f"{name}: {what} is not available with --chunk-s; run without --chunk-s")
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if not is_hdf5(path):
+        raise InputError(f"{path}: --chunk-s reads HDF5 recordings; `bootnav import` it first")
+    warnings: list[str] = []
+    if settings.output.plots:
+        warnings.append("charts and path.html are not drawn in chunks (--chunk-s); run without it for them")
+    settings.output.plots = False
+    check_outputs(settings, out, [path], False, force)
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+        _call_progress(progress, stage, 1.0)
+
+    with h5py.File(path, "r") as f:
+        if "imu" not in f:
+            raise InputError(f"{path}: no /imu group; not a bootnav recording")
+        imu = f["imu"]
+        device = f["meta"].attrs.get("device") if "meta" in f else None
+        n = min(imu[k].shape[0] for k in ("t_s", "acc", "gyro"))
+        t_all = imu["t_s"]
+        if n < 3:
+            raise InputError(f"{name}: only {n} samples; nothing to process")
+        cal = settings.calibration
+        gravity = cal.gravity()
+        t_head = t_all[: min(n, 1 << 16)].astype(np.float64)
+        dt0 = float(np.median(np.diff(t_head)))
+        rows = max(int(round(chunk_s / dt0)), 2)
+        n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
+                                + 1)))
+        blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
+
+        def read(i0: int, i1: int):
+            def si(k):
+                return (imu[k][i0:i1].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
+                        + float(imu[k].attrs.get("offset_to_si", 0.0)))
+
+            sat = np.asarray(imu["saturated"][i0:i1] if "saturated" in imu else np.zeros(i1 - i0), np.uint8)
+            t, acc, gyro = imu["t_s"][i0:i1].astype(np.float64), si("acc"), si("gyro")
+            if rails is not None and rails.rail_pos is not None:
+                sat = sat | rails.bits(acc, gyro)
+            return t, acc, gyro, sat
+
+        rails = None
+        if settings.detector.detect_clipping:  # the extremes of the whole record, then the samples at them
+            rails = ClipRails()
+            for i0, i1 in blocks:
+                rails.add_peaks(*read(i0, i1)[1:3])
+            for i0, i1 in blocks:
+                rails.add_counts(*read(i0, i1)[1:3])
+            rails.finish()
+        duration = float(t_all[n - 1] - t_all[0])
+        if duration < settings.checks.min_duration_s:  # as check_samples refuses it
+            raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
+                             " s: a still period plus a few strides)")
+        block_checks = replace(settings.checks, min_duration_s=0.0)
+        for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
+            t, acc, gyro, _ = read(max(i0 - 2, 0), i1)
+            warnings.extend(w for w in check_samples(name, t, acc, gyro, max(i0 - 2, 0), block_checks)
+                            if w not in warnings)
+
+        t0_, a0_, g0_, _ = read(0, n_init)
+        init = initial_alignment(t0_, a0_, g0_, cal, gravity)
+        warnings += list(init.warnings)
+        del t0_, a0_, g0_
+        lap("load")
+        rate = 1.0 / dt0
+
+        floor = None
+        if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
+            probe = StreamStance(settings.detector, rate, gravity)
+            for i0, i1 in blocks:
+                probe.push(*read(i0, i1))
+            probe.finish()
+            floor = _stream_noise_floor(probe)
+        lap("stance_floor")
+
+        def stance_stream():
+            """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking)."""
+            det = StreamStance(settings.detector, rate, gravity, noise_floor_log10=floor)
+            for i0, i1 in blocks:
+                yield from det.push(*read(i0, i1))
+            yield from det.finish()
+
+        st = settings.selftune
+        timing: dict = {}
+        tau = 0.0
+        if st.timing_calibration:  # pass 2: the two probe filters of the vertical timing calibration
+            probe_filter = replace(settings.filter, smoother="none")
+            navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, probe_filter) for s in (-1, 1)}
+            fps = {s: FootprintAccumulator() for s in (-1, 1)}
+            for ch in stance_stream():
+                for s in (-1, 1):
+                    f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s)
+                    r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
+                    fps[s].push(r.t_s, r.pos_n, r.stance)
+            for s in (-1, 1):
+                r = navs[s].finish()
+                fps[s].push(r.t_s, r.pos_n, r.stance)
+            timing["m_minus"], n_level = selftune.footprint_level_dz(*fps[-1].finish())
+            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fps[1].finish())
+            timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
+                                                 st.timing_min_level_strides)
+            tau = timing["tau_s"]
+        lap("timing")
+
+        # pass 3: the final filter + smoother, outputs appended as rows become final
+        out.mkdir(parents=True, exist_ok=True)
+        opts = settings.output
+        group = f"/results/{opts.results_name}"
+        target = out / "results.h5"
+        tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+        nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
+        fp_acc = FootprintAccumulator()
+        units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
+                 "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m"}
+        n_rows = n_stance = 0
+        writer = None
+        try:
+            if opts.write_hdf5:
+                shutil.copy2(path, tmp)
+            writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
+            with open(out / "trajectory.csv", "wb") as csv:
+                csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
+
+                def emit(r) -> None:
+                    nonlocal n_rows, n_stance
+                    if not len(r):
+                        return
+                    if not np.all(np.isfinite(r.pos_n)):
+                        check_path_finite(name, r.t_s, r.pos_n, r.start)
+                    append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance), TRAJECTORY_FORMATS)
+                    if writer is not None:
+                        writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
+                                       "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
+                                       "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n})
+                    fp_acc.push(r.t_s, r.pos_n, r.stance)
+                    n_rows += len(r)
+                    n_stance += int(np.count_nonzero(r.stance))
+
+                for ch in stance_stream():
+                    acc_used = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
+                    emit(nav.push(ch.t_s, acc_used, ch.gyro_b, ch.stance, ch.saturated))
+                    _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
+                emit(nav.finish())
+            lap("navigation")
+
+            t_mid, fp = fp_acc.finish()
+            min_stride = settings.selftune.min_stride_m
+            steps = footprint_strides(t_mid, fp, min_stride)
+            if len(steps["t_s"]) == 0:
+                raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
+                                 "(is the sensor on a walking foot?)")
+            path_stats = footprint_summary(fp, settings.floor_settings(), min_stride, fp_acc.walked_s)
+            lap("strides")
+            summary = {
+                "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
+                          "duration_s": float(t_all[n - 1] - t_all[0]), "rate_hz": float(rate),
+                          "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
+                "software": f"bootnav {__version__}",
+                "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
+                           "phases": int(len(fp)), "noise_floor_log10": floor},
+                "navigation": {"stance_choice": f"configured ({settings.detector.method})", "chunked": True,
+                               "timing_offset": to_jsonable(timing)},
+                "filter": to_jsonable(nav.info),
+                "path": path_stats,
+                **{k: path_stats[k] for k in ("distance_m", "closure_pct") if k in path_stats},
+                "timings_s": timings,
+                "conventions": dict(CONVENTIONS),
+                "settings": settings.to_dict(),
+                "warnings": warnings,
+            }
+            files = {"trajectory": str(out / "trajectory.csv")}
+            files["steps"] = str(write_steps_csv(out / "steps.csv", steps))
+            if writer is not None:
+                writer.close()
+                attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
+                         "summary": json.dumps(to_jsonable(summary)), "sample_index_start": 0,
+                         "stance_method": settings.detector.method,
+                         **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
+                write_group(tmp, group, {}, attrs, replace=False)
+                step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
+                              "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg"}
+                write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
+                            {"description": "one row per stride, see postproc/strides.py"}, step_units)
+                attach_dimension_scales(tmp, group)
+                attach_dimension_scales(tmp, f"{group}/steps")
+                _replace_atomically(tmp, target)
+                files["hdf5"] = f"{target}:{group}"
+            lap("write")
+        finally:
+            if writer is not None:
+                writer.close()
+            tmp.unlink(missing_ok=True)
+    files["summary"] = str(out / "summary.json")
+    summary["files"] = files
+    (out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
+    return summary, files
+
+
+def _stream_noise_floor(stance) -> float | None:
+    """The running noise floor F of an adaptive ``StreamStance`` after every sample was pushed: the
+    ``noise_quantile`` of its histogram of log10 T (``detectors.stream``), None before any decision."""
+    from .detectors import stream as ds
+
+    hist = stance._hist
+    cum = np.cumsum(hist)
+    if cum[-1] == 0:
+        return None
+    k = int(np.searchsorted(cum, stance.detector.noise_quantile * cum[-1], side="left"))
+    return ds._HIST_LO + (k + 0.5) * ds._HIST_STEP

@@ -12,7 +12,9 @@
 Plus ``path.html`` (``make_html``): the path from above as a small self-contained interactive SVG page.
 
 Time charts shade stance (green) and saturated intervals (red). Long signals are decimated for drawing
-only (``OutputSettings.plot_max_points``); every number in the files comes from the full data.
+only, to at most ``OutputSettings.plot_max_points`` points per line: time charts keep the minimum and the
+maximum of every time column (``minmax_columns``), so a one-sample peak stays visible; the path charts
+take every k-th sample. Every number in the files comes from the full data.
 """
 
 from __future__ import annotations
@@ -53,6 +55,38 @@ def gravity_free_acc_n(q_nb: np.ndarray, acc_b: np.ndarray, gravity: float) -> n
 
     rot = Rotation.from_quat(np.asarray(q_nb)[:, [1, 2, 3, 0]])  # scipy wants xyzw
     return rot.apply(acc_b) - np.array([0.0, 0.0, gravity])
+
+
+def minmax_columns(t: np.ndarray, y: np.ndarray, n_cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """Decimate a time series for drawing without losing its peaks: min and max of each time column.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Non-decreasing times, s.
+    y : (N,) or (N, k) array
+        The signals.
+    n_cols : int
+        Columns of equal duration over [t[0], t[-1]] (about the chart's width in pixels, or more).
+
+    Returns
+    -------
+    (t2, y2)
+        Two points per non-empty column at its mid time, its minimum then its maximum (per signal), so the
+        line sweeps the column's whole range as a rasteriser would; ``t, y`` unchanged when N <= 2 n_cols.
+    """
+    t = np.asarray(t)
+    y = np.asarray(y)
+    if len(t) <= 2 * n_cols:
+        return t, y
+    starts = np.unique(np.searchsorted(t, np.linspace(t[0], t[-1], n_cols + 1)[:-1], side="left"))
+    ends = np.r_[starts[1:], len(t)] - 1
+    lo = np.minimum.reduceat(y, starts, axis=0)
+    hi = np.maximum.reduceat(y, starts, axis=0)
+    t_mid = 0.5 * (t[starts] + t[ends])
+    y2 = np.empty((2 * len(starts),) + y.shape[1:], dtype=y.dtype)
+    y2[0::2], y2[1::2] = lo, hi
+    return np.repeat(t_mid, 2), y2
 
 
 def _shade(ax, t, mask, color, label):
@@ -104,11 +138,15 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     plt = _pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    step = max(1, int(np.ceil(len(result.t_s) / max(result.settings.output.plot_max_points, 100))))
-    d = slice(None, None, step)
-    t = result.t_s[d]
-    stance = result.stance[d]
-    sat = result.saturated[d]
+    max_points = max(result.settings.output.plot_max_points, 100)
+    step = max(1, int(np.ceil(len(result.t_s) / max_points)))
+    d = slice(None, None, step)  # path charts: every step-th sample
+    t_full, stance, sat = result.t_s, result.stance, result.saturated  # shading max-pools the full masks
+
+    def mm(y):  # time charts: min and max per column, at most max_points points per line
+        return minmax_columns(t_full, y, max_points // 2)
+
+    t = mm(t_full[:, None])[0]
     src = Path(str(result.summary["input"]["source"])).name
     paths: dict[str, Path] = {}
 
@@ -120,13 +158,13 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
 
     # 1 raw IMU + stance
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1]})
-    _lines(a1, t, result.acc_b[d], ["acc x", "acc y", "acc z"])
-    _time_axes(a1, t, stance, sat, "specific force (m/s²)", first=True)
+    _lines(a1, t, mm(result.acc_b)[1], ["acc x", "acc y", "acc z"])
+    _time_axes(a1, t_full, stance, sat, "specific force (m/s²)", first=True)
     _legend(a1, loc="upper right", ncol=5)
-    _lines(a2, t, result.gyro_b[d], ["gyro x", "gyro y", "gyro z"])
-    _time_axes(a2, t, stance, sat, "angular rate (rad/s)")
+    _lines(a2, t, mm(result.gyro_b)[1], ["gyro x", "gyro y", "gyro z"])
+    _time_axes(a2, t_full, stance, sat, "angular rate (rad/s)")
     _legend(a2, loc="upper right", ncol=3)
-    a3.step(t, stance.astype(int), where="mid", color="k", lw=0.8)
+    a3.plot(t, mm(stance.astype(np.int8))[1], color="k", lw=0.8)
     a3.set_ylim(-0.2, 1.2)
     a3.set_yticks([0, 1])
     a3.set_ylabel("stance")
@@ -142,18 +180,18 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
             ax.plot(t, extra, color="k", lw=0.6, alpha=0.6, label="|a|")
         if reference is not None:
             reference(ax)
-        _time_axes(ax, t, stance, sat, ylabel, first=True)
+        _time_axes(ax, t_full, stance, sat, ylabel, first=True)
         ax.set_xlabel("time (s)")
         ax.set_title(title)
         _legend(ax, loc=loc, ncol=6 if extra is not None else 5)
         save(fig, key)
 
     # 2 gravity-free acceleration, 3 velocity, 4 position vs time
-    acc_n = gravity_free_acc_n(result.q_nb[d], result.acc_b[d], result.gravity_mps2)
-    time_chart("acc_gravity_free", acc_n, ["a east", "a north", "a up"], "acceleration (m/s²)",
-               "Acceleration in the navigation frame, gravity removed", "upper right",
-               extra=np.linalg.norm(acc_n, axis=1))
-    time_chart("velocity", result.vel_n[d], ["v east", "v north", "v up"], "velocity (m/s)",
+    acc_n = gravity_free_acc_n(result.q_nb, result.acc_b, result.gravity_mps2)
+    acc_n = mm(np.column_stack((acc_n, np.linalg.norm(acc_n, axis=1))))[1]
+    time_chart("acc_gravity_free", acc_n[:, :3], ["a east", "a north", "a up"], "acceleration (m/s²)",
+               "Acceleration in the navigation frame, gravity removed", "upper right", extra=acc_n[:, 3])
+    time_chart("velocity", mm(result.vel_n)[1], ["v east", "v north", "v up"], "velocity (m/s)",
                "Velocity of the boot (zero in stance: ZUPT)", "upper right")
     # aligned path + reference (when given) for charts 4-7
     pos = result.pos_n
@@ -176,14 +214,14 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
         for k in axes:
             name = "reference" if k == axes[0] else None
             if ref_t is not None:
-                inside = (ref_t >= t[0]) & (ref_t <= t[-1])
+                inside = (ref_t >= t_full[0]) & (ref_t <= t_full[-1])
                 ax.plot(ref_t[inside], ref_est[inside, k] - offset[k], ":", color=AXIS_COLORS[k] if len(axes) > 1
                         else "k", lw=1.6, label=name)
             else:
-                ax.plot([t[-1]], [ref_est[-1, k] - offset[k]], "*", ms=11, mec="k",
+                ax.plot([t_full[-1]], [ref_est[-1, k] - offset[k]], "*", ms=11, mec="k",
                         color=AXIS_COLORS[k] if len(axes) > 1 else "k", label=name and "reference end")
 
-    time_chart("position", result.pos_n[d], ["x (east)", "y (north)", "z (up)"], "position (m)",
+    time_chart("position", mm(result.pos_n)[1], ["x (east)", "y (north)", "z (up)"], "position (m)",
                "Position vs time" + ("" if ref_est is None else " (dotted: reference)" if ref_t is not None
                                      else " (stars: the reference's end point)"), "upper left",
                reference=reference_vs_time)
@@ -243,7 +281,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     floors = result.settings.floor_settings()
     fig, ax = plt.subplots(figsize=(10, 4.5))
     z0 = float(fp[0, 2]) if len(fp) else float(result.pos_n[0, 2])
-    ax.plot(t, result.pos_n[d, 2] - z0, color="tab:blue", lw=0.9, label="height of the boot")
+    ax.plot(t, mm(result.pos_n[:, 2])[1] - z0, color="tab:blue", lw=0.9, label="height of the boot")
     if len(fp):
         t_fp, fp_raw = footprints(result.t_s, result.pos_n, result.stance)
         z_fp = fp_raw[:, 2] - z0
@@ -259,10 +297,10 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
     for k in range(k_lo, k_hi + 1):
         ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
-        ax.text(t[-1], k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
+        ax.text(t_full[-1], k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
                 ha="right", fontsize=8, color="grey")
     reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
-    _time_axes(ax, t, stance, sat, "height above start (m)", first=True)
+    _time_axes(ax, t_full, stance, sat, "height above start (m)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
                  f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")

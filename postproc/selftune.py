@@ -482,9 +482,16 @@ def level_stride_dz(t_s, pos_n, stance, max_dz_m: float = 0.1, min_length_m: flo
     -------
     (median Δz in m, NaN without level strides; number of level strides).
     """
-    from bootnav.postproc.strides import segment_strides
+    from bootnav.postproc.strides import footprints
 
-    st = segment_strides(t_s, pos_n, stance)
+    return footprint_level_dz(*footprints(t_s, pos_n, stance), max_dz_m, min_length_m)
+
+
+def footprint_level_dz(t_mid, fp, max_dz_m: float = 0.1, min_length_m: float = 0.3) -> tuple[float, int]:
+    """``level_stride_dz`` from the stance phases' mid times and footprints (``strides.footprints``)."""
+    from bootnav.postproc.strides import footprint_strides
+
+    st = footprint_strides(t_mid, fp)
     lev = (np.abs(st["dz_m"]) < max_dz_m) & (st["stride_length_m"] > min_length_m)
     return (float(np.median(st["dz_m"][lev])) if lev.sum() else float("nan")), int(lev.sum())
 
@@ -523,6 +530,12 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
         v = onset_innovations(t_s, nav.vel_n, stance, filter_settings)
         e2.append(float(np.mean(np.sum(v**2, axis=1))) if len(v) else float("inf"))
     out["innovation_rms_mps"] = float(np.sqrt(np.mean(e2)))
+    return timing_from_probes(out, delta_s, max_abs_s, min_level_strides)
+
+
+def timing_from_probes(out: dict, delta_s: float, max_abs_s: float, min_level_strides: int) -> dict:
+    """τ* (``tau_s``) and ``applied`` from the probes' ``m_minus``, ``m_plus``, ``n_level`` (``level_timing_offset``);
+    updates and returns ``out``."""
     slope = (out["m_plus"] - out["m_minus"]) / (2 * delta_s)
     ok = out["n_level"] >= min_level_strides and np.isfinite(slope) and abs(slope) > 0
     m0 = 0.5 * (out["m_plus"] + out["m_minus"])

@@ -52,6 +52,60 @@ def footprints(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> tuple[
     return t_mid, mean
 
 
+class FootprintAccumulator:
+    """``footprints`` of a path pushed in consecutive chunks (bounded memory: one open stance phase).
+
+    Each phase's sum of positions is accumulated chunk by chunk, so its mean equals ``footprints``' (a
+    difference of cumulative sums over the whole path) to rounding (1e-12 m at hours of walking).
+    """
+
+    def __init__(self):
+        self.t_mid: list[float] = []
+        self.fp: list[np.ndarray] = []
+        self._open: tuple | None = None  # (first time, position sum, samples, last time) of the open phase
+        self.first_stop_t: float | None = None  # time of the last sample of the first stance phase
+        self.last_start_t: float | None = None  # time of the first sample of the last stance phase
+
+    def push(self, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> None:
+        """Add consecutive samples (s, m ENU, bool)."""
+        m = len(t_s)
+        if m == 0:
+            return
+        starts, stops = runs(stance)
+        if self._open is not None and (starts.size == 0 or starts[0] > 0):
+            self._close()  # the open phase ended with the previous chunk
+        for a, b in zip(starts.tolist(), stops.tolist()):  # one iteration per stance phase, not per sample
+            psum = pos_n[a:b].sum(axis=0)
+            if a == 0 and self._open is not None:
+                t0, s0, n0, _ = self._open
+                self._open = (t0, s0 + psum, n0 + b, float(t_s[b - 1]))
+            else:
+                self._open = (float(t_s[a]), psum, b - a, float(t_s[b - 1]))
+                self.last_start_t = float(t_s[a])
+            if b < m:
+                self._close()
+
+    def _close(self) -> None:
+        if self._open is None:
+            return
+        t0, psum, n, t1 = self._open
+        self.t_mid.append(0.5 * (t0 + t1))
+        self.fp.append(psum / n)
+        if self.first_stop_t is None:
+            self.first_stop_t = t1
+        self._open = None
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray]:
+        """Mid times (K,) and footprints (K, 3), as ``footprints`` returns them."""
+        self._close()
+        return np.asarray(self.t_mid, float), np.asarray(self.fp, float).reshape(-1, 3)
+
+    @property
+    def walked_s(self) -> float:
+        """From the end of the first stance phase to the start of the last one, s (``path_summary``)."""
+        return 0.0 if self.first_stop_t is None else float(self.last_start_t - self.first_stop_t)
+
+
 def stride_footprints(fp: np.ndarray, min_stride_m: float) -> np.ndarray:
     """Indices of the footprints that start or end a stride: the first, then each footprint at least
     ``min_stride_m`` (3-D) away from the last one kept.
@@ -87,6 +141,12 @@ def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_
         ``selftune.stride_quality``); a kept stride carries the OR of the raw strides it spans.
     """
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
+    return footprint_strides(t_mid, fp, min_stride_m, flags)
+
+
+def footprint_strides(t_mid: np.ndarray, fp: np.ndarray, min_stride_m: float = 0.0,
+                      flags: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """``segment_strides`` from the stance phases' mid times (K,) and footprints (K, 3)."""
     keep = stride_footprints(fp, min_stride_m)
     t_k, fp_k = t_mid[keep], fp[keep]
     d = np.diff(fp_k, axis=0)
@@ -180,6 +240,13 @@ def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors:
     heights use every footprint."""
     starts, stops = runs(stance)
     _, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
+    walked = float(t_s[starts[-1]] - t_s[stops[0] - 1]) if starts.size else 0.0
+    return footprint_summary(fp, floors, min_stride_m, walked)
+
+
+def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float, walked_s: float) -> dict:
+    """``path_summary`` from the footprints (K, 3) and the time from the end of the first stance phase to the
+    start of the last one (``walked_s``, s): what a chunked run keeps of the path (``FootprintAccumulator``)."""
     keep = stride_footprints(fp, min_stride_m)
     out: dict = {"stance_phases": int(len(fp)), "strides": max(int(len(keep)) - 1, 0)}
     if len(fp) < 2:
@@ -202,7 +269,7 @@ def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors:
         height_max_m=float(z_rel.max()),
         height_min_m=float(z_rel.min()),
         mean_stride_length_m=float(np.hypot(d[:, 0], d[:, 1]).mean()),
-        duration_walked_s=float(t_s[starts[-1]] - t_s[stops[0] - 1]),
+        duration_walked_s=walked_s,
     )
     out.update(count_floors(z_rel, floors))
     return out

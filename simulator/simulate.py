@@ -5,13 +5,16 @@ the profile's 1 kHz; ``ideal``: m = 1), passed through the error model in blocks
 random walk carry their state across blocks, so the result does not depend on the block size) and
 decimated to the output rate. One ``numpy.random.Generator(seed)`` makes every random draw, in this
 order: scenario choices, turn-on constants, per-block noise and bias walks, timestamps, drops.
+
+``LongSimulation`` generates recordings of any length (a whole shift) block by block without keeping them:
+``writers.write_long_h5`` appends each block to the HDF5 file as it comes.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -177,3 +180,168 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     return SimResult(sc.name, int(seed), prof, mnt, float(rate_hz), m, kept_t, acc[idx], gyro[idx], saturated,
                      t_device, seq, temp, make_events(events), truth, steps, attrs, traj)
 
+
+
+def shift_segment(pb, rng: np.random.Generator) -> None:
+    """One piece of a long shift: a lap of a 20 m x 10 m loop with an 8-riser flight up and down, then a pause.
+
+    The lap starts and ends with the foot at rest near the origin; the pause is 2-30 s, one time in five a
+    long wait of 1-5 min (standing by at a door), so long recordings have the still phases of real shifts.
+    """
+    pb.walk_to(20.0, 0.0).walk_to(20.0, 10.0).stairs(8, 0.17, 0.28, up=True).turn_in_place(math.pi)
+    pb.stairs(8, 0.17, 0.28, up=False).walk_to(0.0, 10.0).walk_to(0.0, 0.0)
+    pb.stand(float(rng.uniform(60.0, 300.0)) if rng.random() < 0.2 else float(rng.uniform(2.0, 30.0)))
+
+
+@dataclass
+class SimBlock:
+    """One block of a long simulated recording, as ``RecordingWriter.append`` takes it (delivered samples)."""
+
+    t_s: np.ndarray  # (n,) recorded time since the first sample, s
+    acc: np.ndarray  # (n, 3) int16 counts, or m/s^2 for the ideal profile
+    gyro: np.ndarray  # (n, 3) int16 counts, or rad/s
+    saturated: np.ndarray  # (n,) uint8 bitmask
+    t_device: np.ndarray | None
+    seq: np.ndarray | None
+    temp: np.ndarray | None
+    events: list  # dicts with sample_index in the whole recording
+
+
+class LongSimulation:
+    """A recording of any length generated block by block, memory bounded by ``block_s`` (not the length).
+
+    Each block builds the trajectory of whole ``segment`` calls (default ``shift_segment``) continuing the
+    previous block's end state (time, foot position, yaw), synthesises it at the internal rate, and passes it
+    through one ``ErrorModel`` whose DLPF and bias-walk states carry over. The clock (drift, jitter, monotone
+    device time) and the drop bursts carry over too. Three independent generators spawned from ``seed`` draw
+    the path choices, the sensor errors and the clock/drops, so the path does not depend on ``block_s``
+    (the noise draws do). Per-sample truth is not kept (3 GB at 24 h); the per-stride truth is
+    (``steps``, complete after iterating ``blocks``). A saturation burst that spans a block boundary is
+    reported as two events.
+    """
+
+    def __init__(self, duration_s: float, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
+                 rate_hz: float = 200.0, mount: str | Mount = "right_boot", block_s: float = 600.0,
+                 segment=shift_segment):
+        if not (rate_hz > 0 and math.isfinite(rate_hz)):
+            raise ValueError(f"rate must be a positive number of Hz, got {rate_hz}")
+        if not (duration_s > 20.0 and block_s > 0):
+            raise ValueError(f"need duration_s > 20 s and block_s > 0, got {duration_s}, {block_s}")
+        self.duration_s, self.block_s, self.segment = float(duration_s), float(block_s), segment
+        self.scenario, self.seed = "shift", int(seed)
+        self.profile = get_profile(profile)
+        self.mount = MOUNTS[mount] if isinstance(mount, str) else mount
+        self.rate_hz = float(rate_hz)
+        self.decimation = 1 if self.profile.ideal else max(1, int(round(self.profile.internal_rate_hz / rate_hz)))
+        self.rng_path, rng_model, self.rng_clock = (np.random.default_rng(s)
+                                                    for s in np.random.SeedSequence(seed).spawn(3))
+        f_int = self.rate_hz * self.decimation
+        self.model = None if self.profile.ideal else ErrorModel(self.profile, f_int, rng_model)
+        self.steps: dict[str, np.ndarray] = {}
+        self.gaits: dict = {}
+        self.attrs = {"scenario": self.scenario, "scenario_description": "long shift: laps of a 20 m x 10 m loop "
+                      "with a stair flight, pauses of 2 s to 5 min (simulate.shift_segment)", "seed": self.seed,
+                      "rate_hz": self.rate_hz, "internal_rate_hz": f_int, "decimation": self.decimation,
+                      "block_s": self.block_s, "sensor_profile": json.dumps(self.profile.to_dict()),
+                      "drawn_constants": json.dumps(self.model.constants() if self.model else {}),
+                      "step_kind_codes": json.dumps(GAIT_CODES), **describe_mount(self.mount)}
+
+    @property
+    def counts(self) -> bool:
+        return not self.profile.ideal
+
+    def blocks(self):
+        """Yield ``SimBlock``s in time order; afterwards ``steps`` and ``attrs`` describe the whole run."""
+        from bootnav.simulator.gait import PathBuilder
+
+        prof, rate, m = self.profile, self.rate_hz, self.decimation
+        f_int = rate * m
+        drift = self.rng_clock.normal() * prof.clock_error_ppm_sigma * 1e-6
+        offset_us = int(self.rng_clock.integers(1_000_000, 4_000_000))
+        res_us = max(prof.timestamp_resolution_s, 1e-6) * 1e6
+        p_drop = 0.0 if prof.ideal else prof.drop_burst_rate_hz / rate
+        t0_us = last_us = None
+        drop_left = 0  # samples of a drop burst still to drop at the start of the next block
+        n_kept = 0
+        last_idx = -1
+        state = (0.0, np.zeros(3), 0.0)  # time, foot position, yaw at the end of the previous block
+        step_parts: list[dict] = []
+        j0, final = 0, False
+        while not final:
+            t_start, pos, yaw = state
+            pb = PathBuilder(yaw0_rad=yaw, t=t_start, pos=pos.copy(), gaits=self.gaits)
+            if t_start == 0.0:
+                pb.stand(10.0)  # still start: the initial alignment
+            while pb.t < min(t_start + self.block_s, self.duration_s - 10.0):
+                self.segment(pb, self.rng_path)
+            final = pb.t >= self.duration_s - 10.0
+            if final:
+                pb.stand(10.0)
+            traj = pb.build()
+            n_end = int(math.floor(pb.t * rate + 1e-9))  # last sample index inside this block's trajectory
+            j1 = n_end + 1 if final else n_end
+            step_parts.append({**pb.step_table(), "foot_pos_n_m": traj.evaluate(np.array(
+                [s["t_end_s"] for s in pb.steps]))[0][:, :3] if pb.steps else np.zeros((0, 3))})
+            state = (pb.t, pb.pos.copy(), pb.yaw)
+            i_end = (j1 - 1) * m + 1 if final else j1 * m
+            kin = synthesize(traj, np.arange(j0 * m, i_end) / f_int, self.mount)
+            sl = slice(None, None, m)
+            if self.model is None:
+                acc, gyro = kin.f_b[sl], kin.omega_b[sl]
+                saturated = np.zeros(j1 - j0, np.uint8)
+            else:
+                a, g, _, _ = self.model.process(kin.f_b, kin.omega_b)
+                acc, sat_a = quantize(a[sl], prof.accel_lsb_mps2)
+                gyro, sat_g = quantize(g[sl], prof.gyro_lsb_radps)
+                saturated = np.zeros(j1 - j0, dtype=np.uint8)
+                for ax in range(3):
+                    saturated |= (sat_a[:, ax].astype(np.uint8) << ax) | (sat_g[:, ax].astype(np.uint8) << (ax + 3))
+            n = j1 - j0
+            t_true = np.arange(j0, j1) / rate
+            if prof.ideal:
+                t_us = np.rint(t_true * 1e6).astype(np.int64)
+            else:
+                jit = np.clip(self.rng_clock.normal(0.0, 1.0, n), -3, 3) * prof.timestamp_jitter_s
+                t_us = (offset_us + res_us * np.rint((t_true * (1 + drift) + jit) * 1e6 / res_us)).astype(np.int64)
+                t_us = np.maximum.accumulate(t_us if last_us is None else np.maximum(t_us, last_us))
+            last_us = int(t_us[-1])
+            keep = np.ones(n, dtype=bool)
+            keep[:drop_left] = False
+            drop_left = max(0, drop_left - n)
+            if p_drop > 0:
+                starts = np.flatnonzero(self.rng_clock.random(n) < p_drop)
+                starts = starts[starts + j0 > 0]  # the first sample always arrives
+                lengths = self.rng_clock.geometric(1.0 / max(prof.drop_burst_mean, 1.0), starts.size)
+                for s, L in zip(starts, lengths):  # one iteration per burst (a few per hour), not per sample
+                    keep[s : s + L] = False
+                    drop_left = max(drop_left, int(s + L - n))
+            sel = np.flatnonzero(keep)
+            idx = j0 + sel
+            if t0_us is None:
+                t0_us = int(t_us[sel[0]])
+            kept_t = (t_us[sel] - t0_us) / 1e6
+            sat = saturated[sel]
+            events = []
+            jumps = np.diff(np.concatenate(([last_idx], idx))) if last_idx >= 0 else np.diff(idx, prepend=idx[0])
+            for i in np.flatnonzero(jumps > 1):
+                events.append(dict(t_s=kept_t[i], sample_index=int(n_kept + i), kind="gap", count=int(jumps[i] - 1),
+                                   detail="simulated dropped samples (SD write stall)"))
+            for axis in range(6):
+                s0, s1 = runs((sat >> axis) & 1)
+                for s, L in zip(s0, s1 - s0):
+                    events.append(dict(t_s=kept_t[s], sample_index=int(n_kept + s), kind="saturation", count=int(L),
+                                       axis=axis, detail="at full scale"))
+            events.sort(key=lambda e: e["sample_index"])
+            temp = t_device = seq = None
+            if not prof.ideal:
+                warm = prof.temp_degc + 3.0 * (1 - np.exp(-t_true[sel] / 300.0))
+                temp = np.rint((warm - 36.53) * 340.0).astype(np.int16)
+                t_device = (t_us[sel] % (1 << 32)).astype(np.uint32)
+                seq = (idx % (1 << 16)).astype(np.uint16)
+            n_kept += sel.size
+            last_idx = int(idx[-1])
+            yield SimBlock(kept_t, acc[sel], gyro[sel], sat, t_device, seq, temp, events)
+            j0 = j1
+        self.steps = {k: np.concatenate([p[k] for p in step_parts]) for k in step_parts[0]}
+        self.attrs.update(duration_s=float(state[0]), n_nominal_samples=j0, n_dropped=int(j0 - n_kept),
+                          gait_parameters=json.dumps([asdict(g) for g in sorted(self.gaits, key=self.gaits.get)]))

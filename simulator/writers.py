@@ -13,7 +13,7 @@ from bootnav.errors import InputError
 from bootnav.logger.crc import crc16_ccitt_false_rows
 from bootnav.logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code
 from bootnav.logger.recording import counts_channel, si_channel, write_group, write_recording
-from bootnav.simulator.simulate import SimResult
+from bootnav.simulator.simulate import LongSimulation, SimResult
 
 SIM_DEVICE_ID = 0x00051A00  # "SIM" device id in headers
 
@@ -89,6 +89,58 @@ def write_h5(res: SimResult, path: str | os.PathLike) -> Path:
     arrays = {**res.truth, **_step_arrays(res)}
     attrs = {**res.attrs, "description": TRUTH_DESCRIPTION}
     write_group(path, "truth", arrays, attrs=attrs, units=TRUTH_UNITS)
+    return path
+
+
+def write_long_h5(sim: LongSimulation, path: str | os.PathLike, progress=None) -> Path:
+    """Write a ``LongSimulation`` block by block (memory bounded by its ``block_s``, not by the length).
+
+    The recording is the same layout as ``write_h5``'s; ``/truth`` holds the per-stride table and the
+    attributes only (``LongSimulation`` keeps no per-sample truth). ``progress(t_s)`` after each block.
+    The measured rate and jitter in ``/meta`` are accumulated over the blocks (the nominal period from the
+    first block, as ``timing_summary`` would take it from the whole time vector).
+    """
+    from bootnav.core.timebase import GAP_FACTOR, nominal_period
+    from bootnav.logger.recording import RecordingWriter
+
+    path = Path(path)
+    p = sim.profile
+    if sim.counts:
+        acc_ch, gyro_ch = counts_channel("acc", p.accel_lsb_mps2), counts_channel("gyro", p.gyro_lsb_radps)
+        temp_ch = counts_channel("temp", 1.0 / TEMP_LSB_PER_DEGC)
+    else:
+        acc_ch, gyro_ch, temp_ch = si_channel("acc"), si_channel("gyro"), None
+    writer = RecordingWriter(path, acc_ch, gyro_ch, temp=temp_ch, device_time=sim.counts, seq=sim.counts,
+                             meta=recording_meta(sim), swmr=False)
+    try:
+        period = None
+        t_last = None
+        s1 = s2 = 0.0
+        k = 0
+        for block in sim.blocks():
+            optional = dict(temp=block.temp, t_device=block.t_device, seq=block.seq) if sim.counts else {}
+            writer.append(block.t_s, block.acc, block.gyro, saturated=block.saturated, **optional)
+            writer.add_events(block.events)
+            dt = np.diff(block.t_s if t_last is None else np.concatenate(([t_last], block.t_s)))
+            t_last = float(block.t_s[-1])
+            dt = dt[np.isfinite(dt) & (dt > 0)]
+            period = period if period is not None else nominal_period(dt)
+            dt = dt[dt < GAP_FACTOR * period]
+            s1, s2, k = s1 + float(dt.sum()), s2 + float(np.square(dt).sum()), k + dt.size
+            if progress:
+                progress(t_last)
+        jitter = float(np.sqrt(max(s2 / k - (s1 / k) ** 2, 0.0))) if k else float("nan")
+        writer.close(final_meta={"rate_measured_hz": 1.0 / period, "jitter_s": jitter})
+    except BaseException:
+        writer.abort()
+        raise
+    steps = {"step_t_s": sim.steps["t_end_s"], "step_t_start_s": sim.steps["t_start_s"],
+             "step_t_toe_off_s": sim.steps["t_toe_off_s"], "step_t_heel_strike_s": sim.steps["t_heel_strike_s"],
+             "step_foot_pos_n_m": sim.steps["foot_pos_n_m"],
+             **{"step_" + key: sim.steps[key] for key in ("length_m", "dz_m", "heading_rad", "turn_rad",
+                                                           "chord_heading_rad", "gait", "kind")}}
+    write_group(path, "truth", steps, attrs={**sim.attrs, "description": "per-stride truth of a long simulated "
+                "recording (no per-sample truth); step_*: see write_h5"}, units=TRUTH_UNITS)
     return path
 
 
