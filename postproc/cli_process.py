@@ -72,6 +72,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="overwrite existing output files (and an existing /results/NAME with --into-recording); "
                         "an input is never overwritten")
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
+    p.add_argument("--chunk-s", type=float, metavar="S",
+                   help="read and process an HDF5 recording in chunks of S seconds: memory bounded for recordings "
+                        "of many hours, the same path; no charts, no stance fallback (pipeline.process_chunked)")
     p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
     p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
     g = p.add_argument_group("algorithm")
@@ -108,6 +111,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     w.add_argument("--no-hdf5", action="store_true", help="do not write results.h5 (nor the results group)")
     w.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
     w.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    from bootnav.postproc.twoboots.cli import add_arguments as add_two_boot_arguments
+
+    add_two_boot_arguments(p)
 
 
 def build_settings(args):
@@ -181,6 +187,10 @@ class StageProgress:
             self.shown.update(f"bootnav process: {stage} done ({time.perf_counter() - self.t0:.1f} s)", force=True)
         else:
             self.shown.update(f"bootnav process: {stage} {100 * fraction:3.0f} %")
+
+    def compiling(self) -> None:
+        """numba compiles the filter kernels (a first run on this machine): say so, it takes seconds."""
+        self.shown.update("bootnav process: compiling numerical kernels (first run only)", force=True)
 
     def done(self) -> None:
         """Clear the tty line before the report is printed."""
@@ -316,6 +326,10 @@ def run(args) -> int:
     from bootnav.postproc.summary import endpoint_label
 
     settings = build_settings(args)
+    from bootnav.postproc.twoboots import cli as two_boots
+
+    if two_boots.wanted(args):
+        return two_boots.run(args, settings, StageProgress(quiet=args.quiet))
     outs = [args.out] if len(args.input) == 1 else [str(Path(args.out) / n) for n in output_names(args.input)]
     others = [settings.reference if _is_file(settings.reference) else None, args.settings, args.accel_calibration]
     if len(args.input) > 1 and Path(args.out).exists() and not Path(args.out).is_dir():
@@ -327,8 +341,20 @@ def run(args) -> int:
         settings.save(args.save_settings)
     if len(args.input) == 1:
         progress = StageProgress(quiet=args.quiet)
+        from bootnav.postproc.ins.fast import compile_notice
+
         try:
-            summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording, args.force)
+            with compile_notice(progress.compiling):
+                if args.chunk_s is not None:
+                    if args.into_recording:
+                        raise InputError("--into-recording is not available with --chunk-s")
+                    from bootnav.postproc.pipeline import process_chunked
+
+                    summary, files = process_chunked(args.input[0], settings, args.out, args.chunk_s, args.force,
+                                                     progress)
+                else:
+                    summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording,
+                                          args.force)
         finally:
             progress.done()
         print(format_summary(summary, files))

@@ -20,6 +20,12 @@ def add_arguments(parser) -> None:
                         help="output format (default: from the file extension, .txt -> sd-txt, else h5)")
     parser.add_argument("--out", help="output file")
     parser.add_argument("--plot", metavar="PNG", help="also save a figure of the truth and the signals")
+    parser.add_argument("--two-boots", action="store_true",
+                        help="both feet of one walker (right foot half a stride behind, independent sensor errors) "
+                             "into one multi-boot recording (simulator/twoboots.py)")
+    parser.add_argument("--two-files", action="store_true",
+                        help="with --two-boots: two single-boot files OUT_left.h5 and OUT_right.h5 instead")
+    parser.add_argument("--force", action="store_true", help="with --two-boots: overwrite existing output files")
 
 
 def _list() -> int:
@@ -53,6 +59,10 @@ def run(args) -> int:
     for target in filter(None, (args.out, args.plot)):
         if not Path(target).resolve().parent.is_dir():
             raise InputError(f"{target}: the directory {Path(target).resolve().parent} does not exist")
+    if args.two_boots:
+        from bootnav.simulator.twoboots import run_cli
+
+        return run_cli(args)
     if args.mount not in MOUNTS:
         raise InputError(f"unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
     fmt = args.format or ("sd-txt" if str(args.out).lower().endswith(".txt") else "h5")

@@ -161,17 +161,27 @@ def shuffle(rng: np.random.Generator, duration=60.0) -> PathBuilder:
     return pb.stand(5.0)
 
 
-def mixed(rng: np.random.Generator, duration=1800.0) -> PathBuilder:
+MIXED_KINDS = ("walk", "walk", "walk", "stand", "shuffle", "turn", "stairs", "run")
+
+
+def mixed(rng: np.random.Generator, duration=1800.0, kinds=MIXED_KINDS, walk_turn_deg: float | None = None) -> PathBuilder:
     """Random mix (seeded): walks with turns, standing, shuffling, turning on the spot, stair flights up
-    and back down, short runs, walks at different cadences and stride lengths."""
+    and back down, short runs, walks at different cadences and stride lengths (``kinds``: the draw's choices;
+    ``walk_turn_deg``: a walk first turns on the spot to within that angle of its leg, so no stride goes
+    sideways; None: the whole turn happens while walking)."""
     pb = PathBuilder().stand(10.0)
     flights = []  # flights climbed so far; going down repeats the last one, so floors stay consistent
     while pb.t < duration - 10.0:
-        kind = rng.choice(["walk", "walk", "walk", "stand", "shuffle", "turn", "stairs", "run"])
+        kind = rng.choice(list(kinds))
         if kind == "walk":
             g = replace(WALK, stride_length_m=float(rng.uniform(1.0, 1.6)), cadence_spm=float(rng.uniform(90, 125)))
             heading = pb.yaw + float(rng.uniform(-math.pi, math.pi))
             d = float(rng.uniform(3.0, 25.0))
+            if walk_turn_deg is not None:
+                dyaw = (heading - pb.yaw + math.pi) % (2 * math.pi) - math.pi
+                limit = math.radians(walk_turn_deg)
+                if abs(dyaw) > limit:
+                    pb.turn_in_place(dyaw - math.copysign(limit, dyaw))
             pb.walk_to(pb.pos[0] + d * math.cos(heading), pb.pos[1] + d * math.sin(heading), g)
         elif kind == "stand":
             pb.stand(float(rng.uniform(1.0, 20.0)))
@@ -220,6 +230,9 @@ SCENARIOS: dict[str, Scenario] = {
                  three_floors),
         Scenario("mixed-30min", "seeded random mix of walking, turns, standing, shuffling, stairs up/down, "
                  "running (30 min)", mixed, 1800.0),
+        Scenario("mixed-walk", "the mixed draw without running: walking, turns, standing, shuffling, stairs "
+                 "up/down, a walk turns on the spot first (10 min; two-boot benchmark)",
+                 lambda rng, duration: mixed(rng, duration, MIXED_KINDS[:-1], 20.0), 600.0),
         Scenario("running", "running laps of a 60 m x 30 m rectangle (60 s; 2.6 m strides, 170 steps/min)",
                  running, 60.0),
         Scenario("long", "benchmark: walking laps of a 20 m x 10 m loop with a stair flight, 1 h", long_loop, 3600.0),

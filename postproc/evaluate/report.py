@@ -60,6 +60,9 @@ def plot_trial(result: TrialResult, out_dir: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(6, 5))
         est = np.asarray(data["est_xy"])
         ax.plot(est[:, 0], est[:, 1], "-", lw=1.2, label="bootnav estimate")
+        if "single_xy" in data:  # a fused foot (two boots): the same foot processed alone
+            single = np.asarray(data["single_xy"])
+            ax.plot(single[:, 0], single[:, 1], ":", lw=0.9, color="tab:gray", label="this foot alone")
         ax.plot(est[0, 0], est[0, 1], "go", label="start")
         ax.plot(est[-1, 0], est[-1, 1], "rs", label="end")
         if "truth_xy" in data:
@@ -111,6 +114,37 @@ def write_report(results: list[TrialResult], doc: dict, out_dir: Path, header: s
         if failed:
             lines += ["", "Failures:"] + [f"- `{r.id}`: {r.reason}" for r in failed]
         lines.append("")
+    lines += two_boot_section(doc)
     path = out_dir / "report.md"
     path.write_text("\n".join(lines))
     return path
+
+
+TWO_BOOT_METRICS = ("abs_distance_err_pct", "distance_err_pct", "stride_mae_m", "armse_2d", "closure_pct",
+                    "final_fp_err_pct")
+
+
+def two_boot_section(doc: dict) -> list[str]:
+    """Report lines: per dataset with two feet per trial, each foot alone (mean of both) vs both fused
+    (``bootnav.postproc.twoboots``), and the fusion's truth-free figures."""
+    lines = []
+    for set_name, s in doc["datasets"].items():
+        if "two_boots_checks" not in s:
+            continue
+        if not lines:
+            lines += ["## Two boots: each foot alone vs both feet fused", "",
+                      "Trials with a left and a right foot file: both feet fused with the maximum-separation bound "
+                      "(`bootnav process --two-boots`, default `TwoBootSettings`); alone = the mean over the two "
+                      "feet of the single-foot figures above.", "",
+                      "| dataset | metric | alone | fused |", "|---|---|---|---|"]
+        for key in TWO_BOOT_METRICS:
+            alone = s.get(f"foot_{key}", s.get(key))  # a trial whose main mount is not a foot keeps foot_*
+            if alone is not None and f"two_boots_{key}" in s:
+                lines.append(f"| {set_name} | {key} | {_fmt(alone)} | {_fmt(s[f'two_boots_{key}'])} |")
+        lines.append(f"| {set_name} | climb difference left-right, m | {_fmt(s.get('two_boots_climb_single_diff_m'))} | "
+                     f"{_fmt(s.get('two_boots_climb_fused_diff_m'))} |")
+        lines.append(f"| {set_name} | constraint updates / checks | | {_fmt(s.get('two_boots_active_updates'))} / "
+                     f"{_fmt(s.get('two_boots_checks'))} |")
+        lines.append(f"| {set_name} | gait-symmetry clock offset (residual), ms | | "
+                     f"{_fmt(s.get('two_boots_clock_offset_ms'))} ({_fmt(s.get('two_boots_clock_residual_ms'))}) |")
+    return lines + ([""] if lines else [])

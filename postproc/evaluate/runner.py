@@ -35,6 +35,7 @@ class FootEstimate:
     pos_n: np.ndarray
     stance: np.ndarray
     seconds: float
+    result: object = None  # the pipeline.ProcessResult (two-boot fusion of a trial's two feet)
 
 
 @dataclass
@@ -89,7 +90,26 @@ def estimate_foot(path: Path, settings) -> FootEstimate:
 
     t0 = time.perf_counter()
     result = process(path, settings)
-    return FootEstimate(result.t_s, result.pos_n, np.asarray(result.stance, bool), time.perf_counter() - t0)
+    return FootEstimate(result.t_s, result.pos_n, np.asarray(result.stance, bool), time.perf_counter() - t0, result)
+
+
+TWO_BOOT_FILES = ("imu_left.csv.gz", "imu_right.csv.gz")
+
+
+def estimate_two_boots(estimates: dict, settings) -> dict:
+    """Both feet of one trial fused (``bootnav.postproc.twoboots``), when the trial has a left and a right
+    foot file: ``{name: FootEstimate}`` of the fused feet plus ``"metrics"`` (truth-free figures); {} else."""
+    if not all(estimates.get(n, ("",))[0] == "foot" for n in TWO_BOOT_FILES):
+        return {}
+    from bootnav.postproc.settings import ProcessSettings
+    from bootnav.postproc.twoboots.run import fuse_for_evaluation
+
+    fused = fuse_for_evaluation(estimates[TWO_BOOT_FILES[0]][1].result, estimates[TWO_BOOT_FILES[1]][1].result,
+                                settings or ProcessSettings())
+    out = {name: FootEstimate(*fused[label], fused["seconds"]) for name, label in zip(TWO_BOOT_FILES, ("left", "right"))}
+    out["metrics"] = fused["metrics"]
+    out["single_xy"] = {name: fused["single_xy"][label] for name, label in zip(TWO_BOOT_FILES, ("left", "right"))}
+    return out
 
 
 def estimate_pdr(path: Path, settings) -> PdrEstimate:
@@ -239,6 +259,10 @@ def evaluate_trial(trial: dict, root: str, foot_settings=None, pdr_settings=None
                 estimates[name] = ("pdr", estimate_pdr(path, pdr_settings))
         if not estimates:
             raise ValueError(f"no IMU file with a mount bootnav processes: {imu_files}")
+        try:  # a failed fusion never costs the trial its single-foot figures
+            two_boots, two_boots_error = estimate_two_boots(estimates, foot_settings), None
+        except Exception as exc:
+            two_boots, two_boots_error = {}, f"{type(exc).__name__}: {exc}"
         # --- estimates are final; from here on truth may be read ---
         groups: dict[str, list[dict]] = {"foot": [], "pdr": []}
         for name, (kind, est) in estimates.items():
@@ -257,6 +281,16 @@ def evaluate_trial(trial: dict, root: str, foot_settings=None, pdr_settings=None
             if kind == main:
                 res.metrics.update(means)
             res.metrics.update({f"{kind}_{k}": v for k, v in means.items()} if kind != main else {})
+        if two_boots:  # the fused feet, beside the single-foot figures: keys two_boots_*
+            rows = []
+            for name in TWO_BOOT_FILES:
+                scored, plot = score_foot(two_boots[name], folder, kinds, name)
+                res.files[f"{name} (two boots)"] = scored
+                res.plot_data[f"{name} (two boots)"] = {**plot, "single_xy": two_boots["single_xy"][name]}
+                rows.append(scored)
+            res.metrics.update({f"two_boots_{k}": v for k, v in {**_mean_metrics(rows), **two_boots["metrics"]}.items()})
+        if two_boots_error:
+            res.files["two boots"] = {"error": two_boots_error}
     except Exception as exc:  # a failure is reported with its reason, never skipped
         res.status = "failed"
         res.reason = f"{type(exc).__name__}: {exc}"

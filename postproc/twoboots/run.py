@@ -1,0 +1,260 @@
+"""``process_two_boots``: two foot recordings of one walker → both fused foot paths, the walker's path, gait.
+
+Stages:
+
+1. **each foot alone**: ``pipeline.process`` (load, checks, calibration, stance detection with its fallback,
+   the vertical timing calibration, filter + smoother, strides): the single-foot results, kept for comparison,
+   and the stance mask, specific force and initial state the fusion reuses, so the only difference between a
+   foot's single and fused path is the constraint;
+2. **one clock** (``align.gait_clock_offset``): the right foot's ``t_s`` + ``right_offset_s``; the gait-symmetry
+   offset is always reported, and added with ``clock="gait"``;
+3. **one frame** (``align.heading_offset_rad``): the right foot's initial yaw turned onto the left's;
+4. **fusion** (``fusion.fuse``): both navigators in lockstep with the maximum-separation constraint [Skog2012];
+5. **walker and gait** (``gaitmetrics``): the midpoint path, per-foot strides with step width, distance,
+   floors (``strides.path_summary``) of each foot and of the walker.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from bootnav.core.conventions import CONVENTIONS, __version__
+from bootnav.logger.recording import Recording
+
+from . import align
+from .fusion import FootInput, FusionOutput, check_filter, fuse
+from .gaitmetrics import gait_table, walker_path
+from .settings import TwoBootSettings
+
+LABELS = ("left", "right")
+
+
+@dataclass
+class TwoBootResult:
+    """Everything a two-boot run produced (SI, ENU, the left foot's frame and the session clock)."""
+
+    single: dict[str, Any]  # label -> pipeline.ProcessResult (each foot alone, its own frame and clock)
+    fused: FusionOutput
+    walker_t_s: np.ndarray
+    walker_pos_n: np.ndarray
+    gait: dict  # label -> stride table with step_width_m (gaitmetrics.gait_table)
+    clock: dict
+    heading: dict
+    settings: Any  # ProcessSettings of both feet
+    two_boot: TwoBootSettings
+    summary: dict = field(default_factory=dict)
+    names: dict = field(default_factory=dict)  # label -> input name
+
+
+def _saturation_bits(res) -> np.ndarray:
+    """The saturation bits the single-foot filter got (as ``pipeline.process`` builds them)."""
+    from bootnav.postproc.checks import clipping_bits
+    from bootnav.postproc.source import crop
+
+    samples = crop(res.recording, res.settings.crop_s, "recording")
+    bits = samples.saturated
+    if res.settings.detector.detect_clipping:
+        bits = bits | clipping_bits(samples.acc_b, samples.gyro_b)
+    return bits
+
+
+def foot_input(label: str, res, offset_s: float = 0.0, yaw_rad: float = 0.0, start_n=None,
+               yaw_sigma_rad: float | None = None) -> FootInput:
+    """The fusion's inputs of one foot from its single-foot ``ProcessResult`` (clock shift, frame yaw, start)."""
+    init = dataclasses.replace(res.init, q_nb=align.rotate_yaw_quat(res.init.q_nb, yaw_rad)) if yaw_rad else res.init
+    return FootInput(label, np.asarray(res.t_s, float) + offset_s, np.asarray(res.navigation.acc_used_b, float),
+                     np.asarray(res.gyro_b, float), np.asarray(res.stance, bool), init, float(res.gravity_mps2),
+                     _saturation_bits(res), np.zeros(3) if start_n is None else np.asarray(start_n, float),
+                     yaw_sigma_rad)
+
+
+def _name(src) -> str:
+    return Path(src.path).name if isinstance(src, Recording) and src.path else Path(str(src)).name
+
+
+def process_two_boots(left: str | Path | Recording, right: str | Path | Recording, settings=None,
+                      two_boot: TwoBootSettings | None = None,
+                      progress: Callable[[str, float], None] | None = None) -> TwoBootResult:
+    """Run the stages of the module docstring on a left and a right foot recording; writes nothing.
+
+    Parameters
+    ----------
+    left, right
+        Each foot's recording (a path ``process`` reads, or a ``Recording``, e.g. one boot of a multi-boot file).
+    settings
+        ``ProcessSettings`` of both feet (default ``ProcessSettings()``).
+    two_boot
+        ``TwoBootSettings`` (default ``TwoBootSettings()``).
+    progress
+        ``progress(stage, fraction)``.
+
+    Returns
+    -------
+    TwoBootResult
+
+    Raises
+    ------
+    InputError
+        Whatever ``process`` refuses for either foot (the message names the file), recordings that do not
+        overlap in time, the paper (riccati) mode.
+    """
+    from bootnav.postproc.pipeline import process
+    from bootnav.postproc.settings import ProcessSettings
+
+    settings = settings or ProcessSettings()
+    tb = two_boot or TwoBootSettings()
+    tb.validate()
+    check_filter(settings.filter)  # before the long single-foot runs
+    t0 = time.perf_counter()
+    single = {}
+    for label, src in zip(LABELS, (left, right)):
+        sub = None if progress is None else (lambda stage, f, label=label: progress(f"{label}: {stage}", f))
+        single[label] = process(src, settings, sub)
+    result = fuse_results(single, settings, tb, {"left": _name(left), "right": _name(right)}, progress)
+    result.summary["timings_s"]["each_foot_s"] = time.perf_counter() - t0 - result.summary["timings_s"]["total_s"]
+    return result
+
+
+def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None = None,
+                 progress: Callable[[str, float], None] | None = None) -> TwoBootResult:
+    """Stages 2-5 (module docstring) from the two feet's single-foot ``ProcessResult`` s.
+
+    Parameters
+    ----------
+    single
+        ``{"left": ProcessResult, "right": ProcessResult}`` of ``pipeline.process`` with ``settings``.
+    settings, tb
+        ``ProcessSettings`` of both feet and ``TwoBootSettings``.
+    names
+        How the summary names the inputs.
+    progress
+        ``progress(stage, fraction)``.
+
+    Returns
+    -------
+    TwoBootResult
+    """
+    from bootnav.postproc.strides import path_summary
+
+    tb.validate()
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    L, R = single["left"], single["right"]
+    clock = align.gait_clock_offset(L.t_s, L.stance, R.t_s + tb.right_offset_s, R.stance)
+    clock.update(mode=tb.clock, right_offset_s=tb.right_offset_s)
+    offset = tb.right_offset_s + (clock["offset_s"] if tb.clock == "gait" and math.isfinite(clock["offset_s"]) else 0.0)
+    clock["applied_offset_s"] = offset
+    heading = align.heading_offset_rad(L.t_s, L.pos_n, R.t_s + offset, R.pos_n, tb.heading_alignment_m)
+    fwd, lat = tb.right_start_m
+    psi = heading["walk_yaw_rad"] if tb.right_start_frame == "walk" else 0.0
+    right_start = np.array([fwd * math.cos(psi) - lat * math.sin(psi), fwd * math.sin(psi) + lat * math.cos(psi), 0.0])
+    feet = (foot_input("left", L),
+            foot_input("right", R, offset, heading["yaw_rad"], right_start, tb.heading_alignment_sigma_rad))
+    t1 = time.perf_counter()
+    fused = fuse(*feet, settings.filter, tb, None if progress is None else (lambda f: progress("fusion", f)))
+    timings["fusion_s"] = time.perf_counter() - t1
+
+    fl, fr = fused.left, fused.right
+    walker = walker_path(fl.t_s, fl.pos_n, fr.t_s, fr.pos_n)
+    min_stride = settings.selftune.min_stride_m
+    gait = gait_table({"t_s": fl.t_s, "pos_n": fl.pos_n, "stance": fl.stance},
+                      {"t_s": fr.t_s, "pos_n": fr.pos_n, "stance": fr.stance}, min_stride)
+    result = TwoBootResult(single, fused, fl.t_s, walker, gait, clock, heading, settings, tb,
+                           names=dict(names or {label: label for label in LABELS}))
+    floors = settings.floor_settings()
+    feet_summary = {}
+    for label, f in (("left", fl), ("right", fr)):
+        s = single[label]
+        feet_summary[label] = {
+            "input": result.names[label],
+            "single": path_summary(s.t_s, s.pos_n, s.stance, floors, min_stride),
+            "fused": path_summary(f.t_s, f.pos_n, f.stance, floors, min_stride),
+            "mean_step_width_m": _nanmean(gait[label]["step_width_m"]),
+            "mean_stride_length_m": _nanmean(gait[label]["stride_length_m"]),
+            "stance_choice": s.navigation.choice,
+            "confidence": s.navigation.confidence,
+        }
+    timings["total_s"] = time.perf_counter() - t0
+    result.summary = {
+        "software": f"bootnav {__version__}",
+        "conventions": CONVENTIONS,
+        "method": "maximum-separation constraint between two foot-mounted ZUPT filters [Skog2012]",
+        "engine": "fast (StreamNavigator in lockstep; the reference engine cannot be driven incrementally)",
+        "feet": feet_summary,
+        "walker": {"distance_m": 0.5 * sum(feet_summary[k]["fused"].get("distance_m", 0.0) for k in LABELS),
+                   "distance_rule": "mean of the two fused feet's stride distances"},
+        "constraint": {"checks": fused.n_checks, "active_updates": fused.n_active,
+                       "max_separation_before_m": fused.max_separation_before_m,
+                       "bound_m": tb.max_separation_m},
+        "clock": clock,
+        "heading_alignment": heading,
+        "two_boot_settings": tb.to_dict(),
+        "settings": settings.to_dict(),
+        "timings_s": timings,
+        "warnings": [f"{label}: {w}" for label in LABELS for w in single[label].warnings],
+    }
+    return result
+
+
+def _nanmean(a) -> float:
+    a = np.asarray(a, float)
+    return float(np.nanmean(a)) if np.isfinite(a).any() else math.nan
+
+
+def fuse_for_evaluation(left_result, right_result, settings, tb: TwoBootSettings | None = None) -> dict:
+    """The fused feet of a dataset trial whose left and right foot files were processed alone (``bootnav eval``).
+
+    Returns
+    -------
+    dict
+        ``{"left": (t_s, pos_n, stance), "right": (...), "seconds": s, "metrics": {...}}``: each fused foot's
+        path for the trial's METRICS.md scoring, and truth-free figures of the pair: the height change of
+        each foot alone and fused (``climb_*``: both feet of one walker climb the same), the constraint
+        updates, the clock check.
+    """
+    from bootnav.postproc.strides import path_summary
+
+    t0 = time.perf_counter()
+    res = fuse_results({"left": left_result, "right": right_result}, settings, tb or TwoBootSettings())
+    floors, min_stride = settings.floor_settings(), settings.selftune.min_stride_m
+    climb = {}
+    for kind in ("single", "fused"):
+        for label in LABELS:
+            r = res.single[label] if kind == "single" else getattr(res.fused, label)
+            stats = path_summary(r.t_s, r.pos_n, r.stance, floors, min_stride)
+            climb[(kind, label)] = stats.get("height_change_m", math.nan)
+    metrics = {
+        "climb_single_diff_m": abs(climb[("single", "left")] - climb[("single", "right")]),
+        "climb_fused_m": 0.5 * (climb[("fused", "left")] + climb[("fused", "right")]),
+        "climb_fused_diff_m": abs(climb[("fused", "left")] - climb[("fused", "right")]),
+        "active_updates": res.fused.n_active,
+        "checks": res.fused.n_checks,
+        "clock_offset_ms": 1e3 * res.clock["offset_s"],
+        "clock_residual_ms": 1e3 * res.clock["residual_s"],
+        "frame_yaw_deg": math.degrees(res.heading["yaw_rad"]),
+        "mean_step_width_m": _nanmean(np.concatenate([res.gait[k]["step_width_m"] for k in LABELS])),
+    }
+    out = {label: (getattr(res.fused, label).t_s, getattr(res.fused, label).pos_n, getattr(res.fused, label).stance)
+           for label in LABELS}
+    out.update(seconds=time.perf_counter() - t0, metrics=metrics,
+               single_xy={label: single_in_common_frame(res, label)[:, :2] for label in LABELS})
+    return out
+
+
+def single_in_common_frame(result: TwoBootResult, label: str) -> np.ndarray:
+    """A foot's single-foot path (N, 3) in the fused frame: the right one turned by the frame alignment and
+    moved to its assumed start (for plots that compare a foot alone with the fused feet)."""
+    p = np.asarray(result.single[label].pos_n, float)
+    if label == "left":
+        return p
+    yaw = result.heading["yaw_rad"]
+    c, s = math.cos(yaw), math.sin(yaw)
+    turned = np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]])
+    return turned + getattr(result.fused, label).pos_n[0] - turned[0]
