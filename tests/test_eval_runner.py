@@ -71,9 +71,13 @@ def test_estimates_are_made_before_any_truth_file_is_read(datasets, monkeypatch)
     assert result.status == "ok", result.reason
     first_truth = next(i for i, (kind, name) in enumerate(order) if kind == "read" and name.startswith("truth"))
     assert all(kind != "estimate" for kind, _ in order[first_truth:])
-    # pyshoe's own published ARMSE on this trial family is ~0.05-0.4 m; a working filter is well under 0.5 m.
-    assert 0.0 < result.metrics["armse_2d"] < 0.5
-    assert np.isfinite(result.metrics["stance_recall"])
+    # This family's documented accuracy (README): median armse_2d 0.055 m over 16 trials; this short walk is
+    # an ordinary one, so twice the median bounds it.
+    assert 0.0 < result.metrics["armse_2d"] < 0.11
+    # Stance against mocap: a ZUPT must almost never fall in a swing (precision), and must cover at least the
+    # core of the foot-flat time the mocap marks as still (recall: half of it).
+    assert result.metrics["stance_precision"] >= 0.95
+    assert 0.5 <= result.metrics["stance_recall"] <= 1.0
 
 
 def test_dataset_summary_means_and_medians():
@@ -83,3 +87,17 @@ def test_dataset_summary_means_and_medians():
     summary = runner.dataset_summary(rows)["s"]
     assert summary["x"] == pytest.approx(2.0) and summary["median_x"] == pytest.approx(2.0)
     assert summary["n_trials"] == 3 and summary["n_failed"] == 1
+
+
+def test_footprint_error_is_a_percentage_of_the_walked_polyline():
+    """An L-shaped walk, 3 m east then 4 m north (polyline 7 m, start-to-end 5 m), every footprint exact but
+    the last 0.7 m off: final_fp_err_pct = 100 * 0.7 / 7 = 10 % (14 % if the chord were used)."""
+    from bootnav.postproc.evaluate.metrics import footprint_metrics
+
+    fp_xy = np.array([[0, 0], [1, 0], [2, 0], [3, 0], [3, 1], [3, 2], [3, 3], [3, 4]], float)
+    fp_t = np.arange(len(fp_xy), dtype=float)
+    est = np.column_stack([fp_xy, np.zeros(len(fp_xy))])
+    est[-1, 0] += 0.7
+    m = footprint_metrics(fp_t, est, fp_t, fp_xy)
+    assert m["final_fp_err_m"] == pytest.approx(0.7, abs=1e-12)
+    assert m["final_fp_err_pct"] == pytest.approx(10.0, abs=1e-9)

@@ -14,11 +14,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from bootnav import simulator as sim
 from bootnav.errors import InputError
 from bootnav.postproc.pipeline import process
 from bootnav.postproc.settings import ProcessSettings
-
-sim = pytest.importorskip("bootnav.simulator")
 
 
 def _sim(tmp_path, scenario, profile="ideal", seed=0, duration_s=None, with_truth=False):
@@ -71,7 +70,11 @@ def test_clipping_sensor_is_processed_with_a_low_confidence(tmp_path):
     confidence must say instead of a refusal or a confident wrong answer."""
     r = process(_sim(tmp_path, "running", "mpu6050-2g-250dps", duration_s=30.0), ProcessSettings(reference="truth"))
     assert r.summary["confidence"] < 0.3
-    assert r.summary["navigation"]["implausible_stride_fraction"] is not None
+    # the strides flagged in steps.csv are the fraction the summary reports, and clipping flags more of them
+    # than the 10 % a working detection may have (the self-tuning's failure bound)
+    flagged = float(np.mean(np.asarray(r.steps["quality_flags"]) != 0))
+    assert r.summary["navigation"]["implausible_stride_fraction"] == pytest.approx(flagged, abs=1e-12)
+    assert flagged > r.settings.selftune.max_bad_fraction
 
 
 def test_standing_still_is_refused_with_a_reason(tmp_path):

@@ -20,7 +20,7 @@ XIO = {"straightLine": ((6.0, 26.0), 14), "stairsAndCorridor": ((5.0, 53.0), 36)
 
 
 def _simulated(scenario, seed):
-    sim = pytest.importorskip("bootnav.simulator.simulate")
+    from bootnav import simulator as sim
     return sim.simulate(scenario, seed=seed)
 
 

@@ -134,7 +134,6 @@ def test_linear_acceleration_input_gets_gravity_back():
 def test_phyphox_export_step_counts(datasets):
     # raw phyphox "Linear Acceleration" exports; truth = the step counts in the folder names (84, 100).
     # Bound: the Oxford reference app's windowed peak detector errs by 6.6 % on average (issue 6 anchors)
-    pytest.importorskip("bootnav.logger.importers")
     from bootnav.postproc.pdr.io import load_input
 
     for folder, n_true in (("test1-84step", 84), ("test2-100steps", 100)):
@@ -173,7 +172,6 @@ def test_cli_on_importer_formats(tmp_path, name, n_steps):
     src = REPO / "tests" / "data" / name
     if not src.exists():
         pytest.skip(f"{src} not present")
-    pytest.importorskip("bootnav.logger.importers")
     out = tmp_path / "o"
     proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "pdr", str(src), "--no-plots", "--out", str(out)],
                           capture_output=True, text=True, cwd=REPO, timeout=120)

@@ -320,8 +320,8 @@ def test_results_of_csv_input_go_to_results_h5(tmp_path, datasets):
 
 # ------------------------------------------------------------------------- simulated truth (simulator/)
 def _simulate(tmp_path, scenario, profile="mpu6050-16g-2000dps", seed=0):
-    sim = pytest.importorskip("bootnav.simulator.simulate")
-    writers = pytest.importorskip("bootnav.simulator.writers")
+    from bootnav import simulator as sim
+    from bootnav.simulator import writers
     res = sim.simulate(scenario, seed=seed, profile=profile)
     return res, writers.write_h5(res, tmp_path / f"{scenario}-{seed}.h5")
 

@@ -13,9 +13,9 @@ from bootnav.postproc.calibration import CalibrationSettings, initial_alignment
 from bootnav.postproc.detectors import DetectorSettings, detect_stance
 from bootnav.postproc.ins import FilterSettings, run_filter
 
-sim = pytest.importorskip("bootnav.simulator.simulate")
-gait = pytest.importorskip("bootnav.simulator.gait")
-scenarios = pytest.importorskip("bootnav.simulator.scenarios")
+from bootnav import simulator as sim
+from bootnav.simulator import gait
+from bootnav.simulator import scenarios
 
 G = CalibrationSettings().gravity()
 # a fast run whose foot never rests: the heel rocker rolls straight into the toe-off (no foot-flat)
