@@ -786,6 +786,24 @@ def boot_labels(path: str | os.PathLike) -> list[str]:
         return _boots_attr(f, path)
 
 
+def sample_count(path: str | os.PathLike) -> int:
+    """Number of IMU samples of a single-boot recording, read from the layout without loading any data.
+
+    Raises
+    ------
+    InputError
+        The file is missing, not HDF5, or has no ``/imu/t_s``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    with _open_for_read(path) as f:
+        t = f.get("imu/t_s")
+        if not isinstance(t, h5py.Dataset) or t.ndim != 1:
+            raise InputError(f"{path}: dataset /imu/t_s is missing or not one-dimensional")
+        return int(t.shape[0])
+
+
 def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None) -> Recording:
     """Open a recording and return it in SI units (the one function every consumer uses).
 

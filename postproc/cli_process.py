@@ -75,6 +75,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--chunk-s", type=float, metavar="S",
                    help="read and process an HDF5 recording in chunks of S seconds: memory bounded for recordings "
                         "of many hours, the same path; no charts, no stance fallback (pipeline.process_chunked)")
+    p.add_argument("--memory-limit", type=float, metavar="MB",
+                   help="memory the whole-array run may use (default: half of the available memory); a recording "
+                        "that would need more is processed in chunks of 600 s, as with --chunk-s 600")
     p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
     p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
     g = p.add_argument_group("algorithm")
@@ -316,6 +319,59 @@ def _check_save_settings(args, others) -> None:
         raise InputError(f"{dest} exists; use --force to overwrite it")
 
 
+# Peak memory of the whole-array run: base + per sample (1, 3, 12 h at 200 Hz: 634, 1417, 4815 MB; the slope is
+# 377 MB per hour = 524 B per sample; docs/tuning-log.md "Long recordings")
+WHOLE_RUN_BASE_BYTES = 300e6
+WHOLE_RUN_BYTES_PER_SAMPLE = 530.0
+AUTO_CHUNK_S = 600.0
+
+
+def available_memory_bytes() -> float:
+    """Memory available to a new process (Linux ``MemAvailable``; else free physical pages), bytes."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    import os
+
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return float("inf")
+
+
+def _auto_chunk_s(args, settings) -> float | None:
+    """Chunk length when the whole-array run of this one HDF5 input would exceed the memory limit, else None.
+
+    Only for what the chunked run supports (an HDF5 recording, no crop, reference, accelerometer calibration or
+    ``--into-recording``); it warns on stderr, because the chunked run draws no charts and uses no stance fallback.
+    """
+    from pathlib import Path
+
+    from bootnav.errors import InputError
+    from bootnav.logger.recording import sample_count
+    from bootnav.postproc.source import is_hdf5
+
+    if args.memory_limit is not None and not args.memory_limit > 0:
+        raise InputError(f"--memory-limit must be a positive number of MB, got {args.memory_limit}")
+    path = Path(args.input[0])
+    if (args.into_recording or settings.crop_s or settings.reference or settings.calibration.accel_calibration_file
+            or not path.is_file() or not is_hdf5(path)):
+        return None
+    limit = (args.memory_limit * 1e6 if args.memory_limit is not None else 0.5 * available_memory_bytes())
+    n = sample_count(path)
+    need = WHOLE_RUN_BASE_BYTES + WHOLE_RUN_BYTES_PER_SAMPLE * n
+    if need <= limit:
+        return None
+    print(f"bootnav process: warning: {path}: {n} samples would need about {need / 1e9:.1f} GB in one piece "
+          f"(limit {limit / 1e9:.1f} GB): processed in chunks of {AUTO_CHUNK_S:.0f} s with bounded memory (no "
+          "charts, no stance fallback); give --memory-limit MB to change the limit", file=sys.stderr)
+    return AUTO_CHUNK_S
+
+
 def run(args) -> int:
     """Process one input (report on stdout) or several in parallel (one line each); exit code 1 if any failed."""
     import os
@@ -345,12 +401,13 @@ def run(args) -> int:
 
         try:
             with compile_notice(progress.compiling):
-                if args.chunk_s is not None:
+                chunk_s = args.chunk_s if args.chunk_s is not None else _auto_chunk_s(args, settings)
+                if chunk_s is not None:
                     if args.into_recording:
                         raise InputError("--into-recording is not available with --chunk-s")
                     from bootnav.postproc.pipeline import process_chunked
 
-                    summary, files = process_chunked(args.input[0], settings, args.out, args.chunk_s, args.force,
+                    summary, files = process_chunked(args.input[0], settings, args.out, chunk_s, args.force,
                                                      progress)
                 else:
                     summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording,

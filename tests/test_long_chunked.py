@@ -65,3 +65,20 @@ def test_cli_refuses_what_chunks_cannot_do(walk, tmp_path):
     csv.write_text("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n0,0,0,9.8,0,0,0\n")
     p = run(csv, "--out", tmp_path / "o2", "--chunk-s", "10")
     assert p.returncode == 1 and "`bootnav import` it first" in p.stderr
+
+
+def test_a_recording_too_big_for_the_memory_limit_is_processed_in_chunks(walk, tmp_path):
+    """The whole-array run's memory estimate (cli_process.WHOLE_RUN_*) against --memory-limit picks the mode."""
+    d, rec, whole = walk
+    run = lambda *a: subprocess.run([sys.executable, "-m", "bootnav", "process", str(rec), *map(str, a)],  # noqa: E731
+                                    capture_output=True, text=True, timeout=180)
+    p = run("--out", tmp_path / "small", "--memory-limit", "1")  # 1 MB: far below the base alone
+    assert p.returncode == 0, p.stderr
+    assert "processed in chunks of 600 s" in p.stderr and "Traceback" not in p.stderr
+    assert not list((tmp_path / "small").glob("*.png"))  # the chunked run draws no charts
+    assert np.abs(results(tmp_path / "small")["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    p = run("--out", tmp_path / "big", "--memory-limit", "1e6", "--no-plots")  # 1 TB: the whole-array run
+    assert p.returncode == 0, p.stderr
+    assert "processed in chunks" not in p.stderr
+    p = run("--out", tmp_path / "bad", "--memory-limit", "-1")
+    assert p.returncode == 1 and "--memory-limit must be a positive number of MB" in p.stderr
