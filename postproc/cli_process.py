@@ -362,7 +362,10 @@ def _auto_chunk_s(args, settings) -> float | None:
             or not path.is_file() or not is_hdf5(path)):
         return None
     limit = (args.memory_limit * 1e6 if args.memory_limit is not None else 0.5 * available_memory_bytes())
-    n = sample_count(path)
+    try:
+        n = sample_count(path)
+    except InputError:
+        return None  # a damaged layout: the normal load names what is wrong
     need = WHOLE_RUN_BASE_BYTES + WHOLE_RUN_BYTES_PER_SAMPLE * n
     if need <= limit:
         return None

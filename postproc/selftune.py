@@ -462,12 +462,20 @@ def rotate_specific_force(acc_b: np.ndarray, gyro_b: np.ndarray, tau_s: float) -
     -------
     (N, 3) rotated specific force (exact rotation by the angle ‖ω‖ τ, Rodrigues' formula).
     """
+    even, odd, axial = _rotation_terms(acc_b, gyro_b, tau_s)
+    return even + odd + axial
+
+
+def _rotation_terms(acc_b, gyro_b, tau_s: float):
+    """The terms f c, (u × f) s and u (u·f)(1 − c) of ``rotate_specific_force`` (angle ‖ω τ‖ about
+    u = −ω τ / ‖ω τ‖): their sum is the rotation by τ; negating the odd one gives the rotation by −τ, bit for bit
+    (IEEE rounding is symmetric in sign), for the price of one."""
     th = -np.asarray(gyro_b, float) * tau_s
     a = np.linalg.norm(th, axis=1)
     u = th / np.where(a > 0, a, 1.0)[:, None]
     c, sn = np.cos(a)[:, None], np.sin(a)[:, None]
     f = np.asarray(acc_b, float)
-    return f * c + np.cross(u, f) * sn + u * np.sum(u * f, axis=1)[:, None] * (1.0 - c)
+    return f * c, np.cross(u, f) * sn, u * np.sum(u * f, axis=1)[:, None] * (1.0 - c)
 
 
 def level_stride_dz(t_s, pos_n, stance, max_dz_m: float = 0.1, min_length_m: float = 0.3) -> tuple[float, int]:
@@ -502,7 +510,9 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
 
     Two forward filter runs (no smoother: it moves τ* by < 0.3 ms and triples the cost) at τ = ±``delta_s``
     give the line m(τ); τ* is its zero crossing, clipped to ±``max_abs_s``. Apply it with
-    ``rotate_specific_force(acc_b, gyro_b, tau_s)`` before the final filter run.
+    ``rotate_specific_force(acc_b, gyro_b, tau_s)`` before the final filter run. The two runs are independent
+    and run in two threads (the filter kernel releases the GIL): two free cores give both for about the time
+    of one.
 
     Parameters
     ----------
@@ -518,18 +528,25 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
     dict with ``tau_s`` (τ*), ``m_minus`` / ``m_plus`` (median level-stride Δz at −δ / +δ, m), ``n_level``,
     ``innovation_rms_mps`` (RMS ZUPT-onset innovation of the two runs, for ``confidence``) and ``applied`` (False when τ* = 0 for lack of level strides or a flat m(τ)).
     """
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
     from bootnav.postproc.ins import run_filter
 
-    out = {}
-    e2 = []
-    for sign, key in ((-1, "m_minus"), (1, "m_plus")):
-        f = rotate_specific_force(acc_b, gyro_b, sign * delta_s)
-        nav = run_filter(t_s, f, gyro_b, stance, init, gravity, replace(filter_settings, smoother="none"),
-                         saturated=saturated)
-        out[key], out["n_level"] = level_stride_dz(t_s, np.asarray(nav.pos_n), stance)
+    even, odd, axial = _rotation_terms(acc_b, gyro_b, -delta_s)  # sum: τ = −δ; odd term negated: τ = +δ
+    probe_settings = replace(filter_settings, smoother="none")
+
+    def probe(sign: int) -> tuple[float, int, float]:
+        f = (even + odd if sign < 0 else even - odd) + axial
+        nav = run_filter(t_s, f, gyro_b, stance, init, gravity, probe_settings, saturated=saturated)
+        m, n_level = level_stride_dz(t_s, np.asarray(nav.pos_n), stance)
         v = onset_innovations(t_s, nav.vel_n, stance, filter_settings)
-        e2.append(float(np.mean(np.sum(v**2, axis=1))) if len(v) else float("inf"))
-    out["innovation_rms_mps"] = float(np.sqrt(np.mean(e2)))
+        return m, n_level, (float(np.mean(np.sum(v**2, axis=1))) if len(v) else float("inf"))
+
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:  # one CPU: one after the other
+        (m_minus, _, e2_minus), (m_plus, n_level, e2_plus) = pool.map(probe, (-1, 1))
+    out = {"m_minus": m_minus, "n_level": n_level, "m_plus": m_plus,
+           "innovation_rms_mps": float(np.sqrt(np.mean([e2_minus, e2_plus])))}
     return timing_from_probes(out, delta_s, max_abs_s, min_level_strides)
 
 

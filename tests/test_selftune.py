@@ -137,3 +137,24 @@ def test_level_timing_offset_finds_the_half_sample_lead_and_an_injected_delay():
     tau0 = 1e-3
     shifted = S.level_timing_offset(t, S.rotate_specific_force(a, w, tau0), w, stance, init, G, FilterSettings())
     assert clean["tau_s"] - shifted["tau_s"] == pytest.approx(tau0, abs=3e-4)
+
+
+def test_timing_probes_in_threads_equal_serial_runs_bit_for_bit(walk):
+    # the two probes run in two threads (the kernel releases the GIL) on force terms shared between ±δ: the
+    # result must be exactly that of two serial runs on rotate_specific_force(±δ)
+    from bootnav.postproc.ins import fast
+
+    assert fast.filter_chunk.targetoptions.get("nogil") and fast.close_segment.targetoptions.get("nogil")
+    t, a, w = _arrays(walk)
+    init = initial_alignment(t, a, w, CalibrationSettings(), G)
+    stance = detect_stance(t, a, w, DetectorSettings(), G).stance
+    fs = FilterSettings()
+    got = S.level_timing_offset(t, a, w, stance, init, G, fs, delta_s=0.002)
+    serial = {}
+    for d, key in ((-0.002, "m_minus"), (0.002, "m_plus")):
+        nav = run_filter(t, S.rotate_specific_force(a, w, d), w, stance, init, G, replace(fs, smoother="none"))
+        serial[key], serial["n_level"] = S.level_stride_dz(t, np.asarray(nav.pos_n), stance)
+        serial[key + "_e2"] = np.mean(np.sum(S.onset_innovations(t, nav.vel_n, stance, fs) ** 2, axis=1))
+    assert got["m_minus"] == serial["m_minus"] and got["m_plus"] == serial["m_plus"]
+    assert got["n_level"] == serial["n_level"]
+    assert got["innovation_rms_mps"] == float(np.sqrt(np.mean([serial["m_minus_e2"], serial["m_plus_e2"]])))

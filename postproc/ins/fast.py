@@ -19,6 +19,8 @@ b̂ += δb, δx ← 0. The "+ k_n v_n" of [Heidari2019, eq. 3] is this with the 
 Python drives the kernel through ``stream.StreamNavigator`` (the one incremental engine; ``stream.run_fast``
 pushes a whole record through it): ``filter_chunk`` filters a chunk and carries the filter state and the
 smoother's open segment to the next call; ``close_segment`` smooths the last segment at the end of the record.
+Both release the GIL (``nogil``), so independent runs in threads use separate cores (the two timing probes
+of ``selftune.level_timing_offset``).
 
 Numba's on-disk cache of a function is stamped with the hash of its own source file only, while the cached
 code contains the jitted functions it calls from other modules (``measurements.py``, ``kalman.py``,
@@ -32,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -88,7 +91,7 @@ def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
             P[DBG + i, DBG + i] += qbg * dt
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def close_segment(n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx, seg, counters, next_row):
     """Smooth the open segment (``smoother.rts_backward`` corrects its output rows in place) and open the next
     one at output row ``next_row``."""
@@ -100,7 +103,7 @@ def close_segment(n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx, 
     seg[1] = next_row
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active, n, ric_u, ric_lam, ric_t, st, P,
                  pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, applied, counters):
     """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
@@ -262,6 +265,7 @@ def kernel_sources(module_file=__file__) -> list[Path]:
 key_cache_on_sources((filter_chunk, close_segment, rts_backward, _propagate_cov), kernel_sources())
 
 _compile_listeners: list = []
+_compile_lock = threading.Lock()  # one compilation (and one notice) when threads start engines at once
 
 
 @contextmanager
@@ -295,6 +299,13 @@ def ensure_compiled(nav) -> float:
     ``stream.StreamNavigator``) passes; returns the seconds spent. The ``compile_notice`` listeners are told
     first when a real compilation is due."""
     t0 = time.perf_counter()
+    with _compile_lock:
+        _compile(nav)
+    return time.perf_counter() - t0
+
+
+def _compile(nav) -> None:
+    """``ensure_compiled``'s work (called under ``_compile_lock``)."""
     if _needs_compiling():
         for cb in list(_compile_listeners):
             cb()
@@ -309,4 +320,3 @@ def ensure_compiled(nav) -> float:
                      nav._buf_dx, seg, np.zeros(N_KINDS, dtype=np.int64), counters)
         close_segment(n, none3, none3.copy(), none4, none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred,
                       nav._buf_fpar, nav._buf_dx, seg, counters, 0)
-    return time.perf_counter() - t0
