@@ -4,6 +4,11 @@ Everything is computed from the data and the events table (not only from ``/meta
 works for a file whose recorder was killed before writing its final metadata, and for imported or
 simulated recordings. ``FILE`` is what ``bootnav process`` reads: a recording, or any file ``bootnav
 import`` reads (e.g. a canonical ``imu.csv.gz``), summarised as the recording ``import`` would write.
+
+The samples are read in blocks of ``BLOCK_ROWS`` rows and their figures accumulated, so memory does not
+grow with the length of the recording (a 24 h shift at 200 Hz is 17 M rows). The median step, which
+the rate and the gap rule need, is kept exact: the distinct step lengths are counted (a clock quantised
+to µs has a few thousand), and gap candidates are kept per block against a bound checked at the end.
 """
 
 from __future__ import annotations
@@ -12,8 +17,20 @@ import argparse
 import json
 import math
 import sys
+from contextlib import contextmanager
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
+#: Rows read at a time: a multiple of the writer's chunk (``recording.CHUNK_ROWS`` = 4096 rows) so no chunk
+#: is decompressed twice; about 60 MB of float64 working arrays.
+BLOCK_ROWS = 1 << 20
+#: Distinct step lengths counted for the exact median; timestamps with more (a float host clock) keep their
+#: positive steps instead (8 bytes a sample).
+MAX_DISTINCT_STEPS = 1 << 20
+#: Gap candidates kept per block; a block with more is read again once the median is known.
+MAX_GAP_CANDIDATES = 1 << 16
+#: Below these the sensor did not move at all (a still boot still shows > 0.3 rad/s peaks when walking).
+STILL_GYRO_RADPS = 0.05
+STILL_ACC_STD_MPS2 = 0.05
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,73 +39,114 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print a machine-readable summary")
 
 
-def load_any(path, boot=None):
-    """A recording, or any other file through ``bootnav import``'s reader, as the ``Recording`` that
-    ``import`` would store (written to a temporary file and loaded back, so ``info FILE`` and ``info`` of
-    the imported recording agree). A ``.h5``/``.hdf5`` name is always read as a recording, so a damaged
-    recording is reported as such rather than as an unreadable CSV.
+def summarize(path, boot=None, *, block_rows: int = BLOCK_ROWS) -> dict:
+    """The summary ``bootnav info`` prints (also used by tests and other tools).
 
     Parameters
     ----------
     path
-        The file ``bootnav info`` was given.
+        A recording, or any other file through ``bootnav import``'s reader, summarised as the recording
+        ``import`` would store (written to a temporary file and read back, so ``info FILE`` and ``info`` of
+        the imported recording agree). A ``.h5``/``.hdf5`` name is always read as a recording, so a damaged
+        recording is reported as such rather than as an unreadable CSV.
+    boot
+        The boot of a multi-boot recording (``bootnav.logger.recording.boot_labels``).
+    block_rows
+        Rows read at a time (bounds the memory).
 
     Returns
     -------
-    Recording
-        Without ``/truth``.
+    dict
+        Timing, gaps, link errors, saturation, ranges, events, device metadata and data warnings.
+
+    Raises
+    ------
+    InputError
+        As ``bootnav.logger.recording.load``: missing, unreadable or damaged file, unknown boot.
     """
     import tempfile
     from pathlib import Path
 
     import h5py
 
-    from bootnav.logger.recording import load
-
     p = Path(path)
     if p.is_file() and p.suffix.lower() not in (".h5", ".hdf5") and not h5py.is_hdf5(p):
         from bootnav.logger.importers import read_any, write_result
 
         with tempfile.TemporaryDirectory(prefix="bootnav-info-") as tmp:
-            return load(write_result(read_any(p), Path(tmp) / "imported.h5"), with_truth=False)
-    return load(p, with_truth=False, boot=boot)
+            return _summarize_recording(write_result(read_any(p), Path(tmp) / "imported.h5"), path, None,
+                                        block_rows)
+    return _summarize_recording(p, path, boot, block_rows)
 
 
-def summarize(path, boot=None) -> dict:
-    """The summary ``bootnav info`` prints (also used by tests and other tools).
+@contextmanager
+def _recording_group(path, boot):
+    """The open group holding ``imu``/``events``/``meta`` of a recording (or of one boot), with the checks
+    and messages of ``recording.load``; a read error inside the block becomes the same InputError."""
+    from bootnav.errors import InputError
+    from bootnav.logger.recording import _boots_attr, _check_layout, _open_for_read
 
-    Parameters
-    ----------
-    path
-        A recording or any file ``bootnav import`` reads (``load_any``).
-    boot
-        The boot of a multi-boot recording (``bootnav.logger.recording.boot_labels``).
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a recording file")
+    with _open_for_read(path) as f:
+        labels = _boots_attr(f, path)
+        if labels and boot is None:
+            raise InputError(f"{path}: a multi-boot recording (boots {', '.join(labels)}); read one boot with "
+                             f"load(path, boot={labels[0]!r}), or use a command's two-boot mode")
+        if boot is not None and boot not in labels:
+            raise InputError(f"{path}: no boot {boot!r} in this recording"
+                             + (f" (boots: {', '.join(labels)})" if labels else " (a single-boot recording)"))
+        if boot is not None and f"boots/{boot}" not in f:
+            raise InputError(f"{path}: group /boots/{boot} is missing although the root attribute boots lists it")
+        g = f[f"boots/{boot}"] if boot is not None else f
+        try:
+            _check_layout(f, path, g)
+            yield g
+        except (OSError, RuntimeError) as exc:  # a damaged chunk ("filter returned failure") or header
+            text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
+                from exc
 
-    Returns
-    -------
-    dict
-        Timing, gaps, link errors, saturation, ranges, events, device metadata and data warnings.
-    """
+
+def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
+    """``summarize`` of a recording file ``path``, reported under the name ``shown``."""
     import numpy as np
 
-    from bootnav.core.timebase import gap_mask, missing_samples, nominal_period, timing_summary
+    from bootnav.logger.recording import EVENT_DTYPE, _decode
 
-    rec = load_any(path, boot)
-    t = rec.t_s
-    dt = np.diff(t)
-    good = dt[np.isfinite(dt) & (dt > 0)]
-    med = nominal_period(dt)
-    timing = timing_summary(t)
-    kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in rec.events["kind"]]
+    with _recording_group(path, boot) as g:
+        imu = g["imu"]
+        names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
+        n = min(imu[k].shape[0] for k in names)  # a killed writer may leave unequal lengths: the common prefix
+        events = g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE)
+        meta = {k: _decode(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
+        acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
+        has_seq = "seq" in imu
+        gyro_present = str(meta.get("gyro_present", 1)) not in ("0", "False")
+        steps = _Steps()
+        channels = {"acc": _Channel(imu["acc"])} | ({"gyro": _Channel(imu["gyro"])} if gyro_present else {})
+        sat_hist = np.zeros(256, np.int64)
+        for a in range(0, n, block_rows):
+            b = min(a + block_rows, n)
+            steps.add(imu["t_s"][a:b].astype(np.float64), a)
+            for ch in channels.values():
+                if ch.undecided(_moving(channels)):
+                    ch.add(a, b)
+            if "saturated" in imu:
+                sat_hist += np.bincount(imu["saturated"][a:b].astype(np.uint8), minlength=256)
+        med = steps.median()
+        time_gaps = [{"t_s": float(t), "sample_index": int(i), "missing": int(m)}
+                     for i, t, m in zip(*steps.gaps(imu["t_s"], med, n))]
+    t_first, t_last = steps.t_first, steps.t_last
+    kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in events["kind"]]
     count_of = {k: kinds.count(k) for k in sorted(set(kinds))}
-    gap_events = rec.events_of("gap")
-    idx = np.flatnonzero(gap_mask(dt, med))  # holes in the time stamps, by the one gap rule
-    time_gaps = [{"t_s": float(t[i + 1]), "sample_index": int(i + 1), "missing": int(m)}
-                 for i, m in zip(idx, missing_samples(dt[idx], med))]
-    if gap_events.size or rec.seq is not None:  # sequence numbers: the recorder's gap events are exact
+    gap_events = events[events["kind"] == b"gap"]
+    if gap_events.size or has_seq:  # sequence numbers: the recorder's gap events are exact
         gaps = [{"t_s": float(e["t_s"]), "sample_index": int(e["sample_index"]), "missing": int(e["count"])}
                 for e in gap_events]
-        gap_source = "sequence numbers" if rec.seq is not None else "events"
+        gap_source = "sequence numbers" if has_seq else "events"
         # a device that rebooted at a reconnect counts seq from 0 again: no seq gap, but a hole in time
         counted = {g["sample_index"] for g in gaps}
         restarts = [g for g in time_gaps if g["sample_index"] not in counted]
@@ -97,9 +155,7 @@ def summarize(path, boot=None) -> dict:
             gap_source += f" + timestamps ({len(restarts)} hole(s) across a device restart)"
     else:  # no seq numbers (imported data): gaps from the time stamps
         gaps, gap_source = time_gaps, "timestamps"
-    sat = rec.saturated.astype(np.uint8)
-    sat_counts = {a: int(((sat >> i) & 1).sum()) for i, a in enumerate(AXES)}
-    meta = rec.meta
+    sat_counts = {a: int(sat_hist[(np.arange(256) >> i) & 1 == 1].sum()) for i, a in enumerate(AXES)}
 
     def range_of(key, channel_attrs, scale_name):
         if meta.get(key) not in (None, ""):
@@ -110,16 +166,15 @@ def summarize(path, boot=None) -> dict:
         si = fs * float(channel_attrs.get("scale_to_si", 1.0))
         return si / 9.80665 if scale_name == "g" else math.degrees(si)
 
-    duration = float(t[-1] - t[0]) if rec.n > 1 else 0.0
     summary = {
-        "file": str(path),
-        "frames": rec.n,
-        "duration_s": duration,
-        "rate_hz": timing["rate_measured_hz"],
+        "file": str(shown),
+        "frames": n,
+        "duration_s": float(t_last - t_first) if n > 1 else 0.0,
+        "rate_hz": 1.0 / med if steps.count else float("nan"),
         "rate_nominal_hz": _num(meta.get("rate_nominal_hz")),
-        "jitter_s": timing["jitter_s"],
-        "dt_min_s": float(good.min()) if good.size else float("nan"),
-        "dt_max_s": float(good.max()) if good.size else float("nan"),
+        "jitter_s": steps.jitter(med),
+        "dt_min_s": steps.min(),
+        "dt_max_s": steps.max(),
         "gaps": len(gaps),
         "gap_source": gap_source,
         "dropped": int(sum(g["missing"] for g in gaps)),
@@ -129,10 +184,10 @@ def summarize(path, boot=None) -> dict:
         "reconnects": count_of.get("reconnect", 0),
         "skipped_lines": count_of.get("skipped_line", 0),
         "saturated_samples": sat_counts,
-        "saturated_any": int((sat != 0).sum()),
-        "accel_range_g": range_of("accel_range_g", rec.raw["acc_attrs"], "g"),
-        "gyro_range_dps": range_of("gyro_range_dps", rec.raw["gyro_attrs"], "dps"),
-        "raw_units": {"acc": _text(rec.raw["acc_attrs"].get("units")), "gyro": _text(rec.raw["gyro_attrs"].get("units"))},
+        "saturated_any": int(sat_hist[1:].sum()),
+        "accel_range_g": range_of("accel_range_g", acc_attrs, "g"),
+        "gyro_range_dps": range_of("gyro_range_dps", gyro_attrs, "dps"),
+        "raw_units": {"acc": _text(acc_attrs.get("units")), "gyro": _text(gyro_attrs.get("units"))},
         "events": count_of,
         "device": meta.get("device", ""),
         "device_id": meta.get("device_id", ""),
@@ -140,42 +195,192 @@ def summarize(path, boot=None) -> dict:
         "mount": meta.get("mount", ""),
         "start_utc": meta.get("start_utc", ""),
         "complete": "stop_reason" in meta or "rate_measured_hz" in meta,
-        "data_warnings": data_warnings(rec),
+        "data_warnings": _data_warnings(channels, n),
         "gap_list": gaps[:100],
     }
     if boot is not None:  # the boot's place on the session clock (docs/recording-format.md)
-        summary.update(boot=boot, start_s=float(t[0]) if rec.n else float("nan"),
+        summary.update(boot=boot, start_s=float(t_first) if n else float("nan"),
                        **{k: meta.get(k) for k in ("clock_alignment", "clock_offset_s", "clock_scale",
                                                    "clock_residual_s")})
     return summary
 
 
-#: Below these the sensor did not move at all (a still boot still shows > 0.3 rad/s peaks when walking).
-STILL_GYRO_RADPS = 0.05
-STILL_ACC_STD_MPS2 = 0.05
+class _Steps:
+    """The time steps ``dt[i] = t[i+1] - t[i]``, fed block by block (``add``): the positive finite ones as
+    distinct values with counts (exact median, extremes and jitter), and per block the steps above a bound,
+    ``GAP_FACTOR`` times the block's own middle step, as gap candidates. Those hold every gap of the block
+    when its bound does not exceed ``GAP_FACTOR`` times the recording's median; else ``gaps`` reads the
+    block again (a block at a lower rate than the rest)."""
+
+    def __init__(self):
+        import numpy as np
+
+        self.values, self.counts = np.zeros(0), np.zeros(0, np.int64)  # distinct positive finite steps, sorted
+        self.raw: list | None = None  # the steps themselves, once there are more than MAX_DISTINCT_STEPS distinct
+        self.blocks: list = []  # (first step, end step, bound, candidates or None)
+        self.t_first = self.t_last = float("nan")
+
+    def add(self, t, start: int) -> None:
+        """Rows ``start .. start + len(t)`` of ``t_s`` (float64); blocks come in order."""
+        import numpy as np
+
+        from bootnav.core.timebase import GAP_FACTOR
+
+        t_ext = np.concatenate(([self.t_last], t)) if start else t
+        first = start - 1 if start else 0  # index of the first step of this block
+        if not start and t.size:
+            self.t_first = t[0]
+        if t.size:
+            self.t_last = t[-1]
+        dt = np.diff(t_ext)
+        pos = dt[np.isfinite(dt) & (dt > 0)]
+        v, c = np.unique(pos.view(np.int64), return_counts=True)  # positive floats sort as their bits, faster
+        v = v.view(np.float64)
+        bound = GAP_FACTOR * _kth(v, np.cumsum(c), (pos.size - 1) // 2) if pos.size else float("nan")
+        idx = np.flatnonzero(dt > bound)
+        cand = (first + idx, t_ext[idx + 1], dt[idx]) if idx.size <= MAX_GAP_CANDIDATES else None
+        self.blocks.append((first, first + dt.size, bound, cand))
+        if self.raw is not None:
+            self.raw.append(pos)
+            return
+        u, inv = np.unique(np.concatenate((self.values, v)), return_inverse=True)
+        self.values, self.counts = u, np.bincount(inv, weights=np.concatenate((self.counts, c))).astype(np.int64)
+        if u.size > MAX_DISTINCT_STEPS:
+            self.raw, self.values, self.counts = [np.repeat(u, self.counts)], np.zeros(0), np.zeros(0, np.int64)
+
+    @property
+    def count(self) -> int:
+        return sum(x.size for x in self.raw) if self.raw is not None else int(self.counts.sum())
+
+    def median(self) -> float:
+        """``timebase.nominal_period`` of all steps: NaN without a positive step."""
+        import numpy as np
+
+        from bootnav.core.timebase import nominal_period
+
+        if self.raw is not None:
+            return nominal_period(np.concatenate(self.raw))
+        p, cum = int(self.counts.sum()), np.cumsum(self.counts)
+        if p == 0:
+            return float("nan")
+        if p % 2:
+            return float(_kth(self.values, cum, (p - 1) // 2))
+        return float((_kth(self.values, cum, p // 2 - 1) + _kth(self.values, cum, p // 2)) / 2)
+
+    def jitter(self, med: float) -> float:
+        """``timebase.timing_summary``'s jitter: std of the positive steps below ``GAP_FACTOR * med``."""
+        import numpy as np
+
+        from bootnav.core.timebase import GAP_FACTOR
+
+        if self.count == 0:
+            return float("nan")
+        if self.raw is not None:
+            x = np.concatenate(self.raw)
+            return float(np.std(x[x < GAP_FACTOR * med]))
+        keep = self.values < GAP_FACTOR * med
+        v, c = self.values[keep], self.counts[keep]
+        mean = float((v * c).sum() / c.sum())
+        return float(np.sqrt((c * (v - mean) ** 2).sum() / c.sum()))
+
+    def min(self) -> float:
+        if self.count == 0:
+            return float("nan")
+        return float(min(x.min() for x in self.raw if x.size)) if self.raw is not None else float(self.values[0])
+
+    def max(self) -> float:
+        if self.count == 0:
+            return float("nan")
+        return float(max(x.max() for x in self.raw if x.size)) if self.raw is not None else float(self.values[-1])
+
+    def gaps(self, t_ds, med: float, n: int):
+        """Sample index, time and missing samples of every gap (``timebase.gap_mask``) given the median."""
+        import numpy as np
+
+        from bootnav.core.timebase import GAP_FACTOR, gap_mask, missing_samples
+
+        parts = []
+        for first, end, bound, cand in self.blocks if math.isfinite(med) else []:
+            if cand is None or not bound <= GAP_FACTOR * med:  # candidates may miss a gap: read the block again
+                t = t_ds[first:min(end + 1, n)].astype(np.float64)
+                cand = (first + np.arange(t.size - 1), t[1:], np.diff(t))
+            keep = gap_mask(cand[2], med)
+            parts.append((cand[0][keep] + 1, cand[1][keep], missing_samples(cand[2][keep], med)))
+        if not parts:
+            return (), (), ()
+        return tuple(np.concatenate(x) for x in zip(*parts))
 
 
-def data_warnings(rec) -> list[str]:
+def _kth(values, cum_counts, k: int):
+    """The ``k``-th smallest (0-based) of values repeated by counts, given their cumulative counts."""
+    return values[cum_counts.searchsorted(k, side="right")]
+
+
+class _Channel:
+    """An (N, 3) sensor dataset read block by block in SI units (as ``recording.load`` scales it): non-finite
+    rows, whether any finite value is non-zero, per-axis std (Chan's parallel update) and largest |value|.
+
+    Only blocks that can still change a warning are read (``undecided``): integer counts cannot be non-finite,
+    so a walking recording stored as counts is settled by its first block."""
+
+    def __init__(self, ds):
+        import numpy as np
+
+        self.ds = ds
+        self.scale = float(ds.attrs.get("scale_to_si", 1.0))
+        self.offset = float(ds.attrs.get("offset_to_si", 0.0))
+        self.nonfinite, self.first_bad = 0, -1
+        self.any_finite = self.any_nonzero = False
+        self.n, self.mean, self.m2, self.absmax = 0, np.zeros(3), np.zeros(3), 0.0
+
+    def undecided(self, moving: bool) -> bool:
+        """Whether the next block can still change a figure ``_data_warnings`` uses (``moving``: the gyro has
+        shown motion, so the no-motion check is decided)."""
+        return self.ds.dtype.kind == "f" or not self.any_nonzero or not moving
+
+    def add(self, a: int, b: int) -> None:
+        import numpy as np
+
+        x = self.ds[a:b].astype(np.float64) * self.scale + self.offset
+        finite = x
+        if self.ds.dtype.kind == "f":  # integer counts times a finite scale cannot be non-finite
+            ok = np.isfinite(x)
+            bad = ~np.all(ok, axis=1)
+            if bad.any():
+                self.first_bad = a + int(np.argmax(bad)) if self.first_bad < 0 else self.first_bad
+                self.nonfinite += int(bad.sum())
+                finite = x[ok]
+        self.any_finite |= bool(finite.size)
+        self.any_nonzero |= bool(np.any(finite != 0))
+        if self.nonfinite or not x.size:
+            return
+        nb, mean_b = x.shape[0], x.mean(axis=0)
+        delta, tot = mean_b - self.mean, self.n + nb
+        self.m2 += ((x - mean_b) ** 2).sum(axis=0) + delta ** 2 * self.n * nb / tot
+        self.mean += delta * nb / tot
+        self.n = tot
+        self.absmax = max(self.absmax, float(np.abs(x).max()))
+
+    def std(self):
+        return (self.m2 / self.n) ** 0.5
+
+
+def _moving(channels: dict) -> bool:
+    """The gyro (when present) has exceeded the no-motion bound in the blocks read so far."""
+    return "gyro" in channels and channels["gyro"].absmax >= STILL_GYRO_RADPS
+
+
+def _data_warnings(channels: dict, n: int) -> list[str]:
     """What makes a recording useless or suspicious though it opens: non-finite samples, all-zero
     channels, no motion at all. Empty when nothing is wrong."""
-    import numpy as np
-
     out = []
-    gyro_present = str(rec.meta.get("gyro_present", 1)) not in ("0", "False")
-    channels = {"acc": rec.acc_mps2} | ({"gyro": rec.gyro_radps} if gyro_present else {})
-    for name, arr in channels.items():
-        bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-        if bad.size:
-            out.append(f"{name}: {bad.size} non-finite samples (first at sample {int(bad[0])})")
-        finite = arr[np.isfinite(arr)]
-        if finite.size and np.all(finite == 0):
+    for name, ch in channels.items():
+        if ch.nonfinite:
+            out.append(f"{name}: {ch.nonfinite} non-finite samples (first at sample {ch.first_bad})")
+        if ch.any_finite and not ch.any_nonzero:
             out.append(f"{name}: all zero (sensor not delivering data?)")
-    if rec.n > 1 and not out:
-        still = np.nanstd(rec.acc_mps2, axis=0).max() < STILL_ACC_STD_MPS2
-        if gyro_present:
-            still = still and np.nanmax(np.abs(rec.gyro_radps)) < STILL_GYRO_RADPS
-        if still:
-            out.append("no motion: the sensor stayed still for the whole recording")
+    if n > 1 and not out and not _moving(channels) and channels["acc"].std().max() < STILL_ACC_STD_MPS2:
+        out.append("no motion: the sensor stayed still for the whole recording")
     return out
 
 
