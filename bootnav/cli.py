@@ -28,6 +28,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "process": ("bootnav.postproc.cli_process", "reconstruct the 3-D path from a recording (ZUPT Kalman filter)"),
     "pdr": ("bootnav.postproc.pdr.cli", "step-and-heading dead reckoning for waist/phone sensors"),
     "eval": ("bootnav.postproc.evaluate.cli", "accuracy and speed on the public datasets, with a report"),
+    "live": ("bootnav.postproc.live.cli", "record boots and watch their paths live in the browser, or replay recordings"),
 }
 
 
