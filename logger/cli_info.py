@@ -17,7 +17,6 @@ import argparse
 import json
 import math
 import sys
-from contextlib import contextmanager
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 #: Rows read at a time: a multiple of the writer's chunk (``recording.CHUNK_ROWS`` = 4096 rows) so no chunk
@@ -79,44 +78,13 @@ def summarize(path, boot=None, *, block_rows: int = BLOCK_ROWS) -> dict:
     return _summarize_recording(p, path, boot, block_rows)
 
 
-@contextmanager
-def _recording_group(path, boot):
-    """The open group holding ``imu``/``events``/``meta`` of a recording (or of one boot), with the checks
-    and messages of ``recording.load``; a read error inside the block becomes the same InputError."""
-    from bootnav.errors import InputError
-    from bootnav.logger.recording import _boots_attr, _check_layout, _open_for_read
-
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
-    if path.is_dir():
-        raise InputError(f"{path}: is a directory, expected a recording file")
-    with _open_for_read(path) as f:
-        labels = _boots_attr(f, path)
-        if labels and boot is None:
-            raise InputError(f"{path}: a multi-boot recording (boots {', '.join(labels)}); read one boot with "
-                             f"load(path, boot={labels[0]!r}), or use a command's two-boot mode")
-        if boot is not None and boot not in labels:
-            raise InputError(f"{path}: no boot {boot!r} in this recording"
-                             + (f" (boots: {', '.join(labels)})" if labels else " (a single-boot recording)"))
-        if boot is not None and f"boots/{boot}" not in f:
-            raise InputError(f"{path}: group /boots/{boot} is missing although the root attribute boots lists it")
-        g = f[f"boots/{boot}"] if boot is not None else f
-        try:
-            _check_layout(f, path, g)
-            yield g
-        except (OSError, RuntimeError) as exc:  # a damaged chunk ("filter returned failure") or header
-            text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
-                from exc
-
-
 def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     """``summarize`` of a recording file ``path``, reported under the name ``shown``."""
     import numpy as np
 
-    from bootnav.logger.recording import EVENT_DTYPE, _decode
+    from bootnav.logger.recording import EVENT_DTYPE, _decode, recording_group
 
-    with _recording_group(path, boot) as g:
+    with recording_group(path, boot) as (_, g):
         imu = g["imu"]
         names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
         n = min(imu[k].shape[0] for k in names)  # a killed writer may leave unequal lengths: the common prefix

@@ -16,6 +16,7 @@ import errno
 import json
 import os
 import re
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
@@ -823,6 +824,18 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
         The file is missing, cut short, unreadable, or its layout is not a recording's; the message
         names the file and the dataset path. A multi-boot file without ``boot`` (or an unknown label).
     """
+    with recording_group(path, boot) as (f, g):
+        return _read(f, Path(path), with_truth, g)
+
+
+@contextmanager
+def recording_group(path: str | os.PathLike, boot: str | None = None):
+    """Open a recording and yield ``(file, group)``: the group holding ``imu``/``events``/``meta`` of the
+    recording (the root) or of one boot (``/boots/<boot>``), its layout checked.
+
+    The checks and messages of ``load``; a read error inside the ``with`` block (a damaged chunk or header)
+    becomes the same one-line ``InputError``.
+    """
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
@@ -841,7 +854,7 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
         g = f[f"boots/{boot}"] if boot is not None else f
         try:
             _check_layout(f, path, g)
-            return _read(f, path, with_truth, g)
+            yield f, g
         except (OSError, RuntimeError) as exc:  # a damaged chunk ("filter returned failure") or header
             text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
