@@ -87,6 +87,21 @@ def _call_progress(progress: Progress | None, stage: str, fraction: float) -> No
         progress(stage, fraction)
 
 
+class _StageClock:
+    """Wall time of each stage since the previous one (``timings``, s), reported to ``progress`` as done."""
+
+    def __init__(self, progress: Progress | None):
+        self.progress = progress
+        self.timings: dict[str, float] = {}
+        self._clock = time.perf_counter()
+
+    def __call__(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.timings[stage] = now - self._clock
+        self._clock = now
+        _call_progress(self.progress, stage, 1.0)
+
+
 def process(source: str | Path | Recording, settings: ProcessSettings | None = None,
             progress: Progress | None = None) -> ProcessResult:
     """Run every stage (module docstring) on one input and return the result; writes nothing.
@@ -119,15 +134,8 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
 
     settings = settings or ProcessSettings()
     settings.validate()
-    timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
-    def lap(stage: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[stage] = now - clock
-        clock = now
-        _call_progress(progress, stage, 1.0)
+    lap = _StageClock(progress)
+    timings = lap.timings
 
     ref = None
     if settings.reference and settings.reference != "truth":  # a bad reference fails before any work
@@ -284,15 +292,8 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
         warnings.append("charts and path.html are not drawn in chunks (--chunk-s); run without it for them")
     settings.output.plots = False
     check_outputs(settings, out, [path], False, force)
-    timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
-    def lap(stage: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[stage] = now - clock
-        clock = now
-        _call_progress(progress, stage, 1.0)
+    lap = _StageClock(progress)
+    timings = lap.timings
 
     with h5py.File(path, "r") as f:
         if "imu" not in f:
