@@ -226,20 +226,7 @@ class ProcessSettings:
     @classmethod
     def from_file(cls, path: str | Path) -> "ProcessSettings":
         """``from_dict`` of a JSON file; errors name the file (and the line of a JSON syntax error)."""
-        from bootnav.core.jsonio import read_json_file
-
-        path = Path(path)
-        try:
-            data = read_json_file(path, "settings file")
-        except UnicodeDecodeError as exc:
-            raise InputError(f"{path}: settings file is not UTF-8 text (byte {exc.start}: "
-                             f"{exc.object[exc.start:exc.start + 1]!r}); save it as UTF-8 JSON") from None
-        except IsADirectoryError:
-            raise InputError(f"{path}: is a directory, expected a settings JSON file") from None
-        try:
-            return cls.from_dict(data)
-        except InputError as exc:
-            raise InputError(f"{path}: {exc}") from None
+        return settings_from_file(cls, path, "settings file")
 
     def save(self, path: str | Path) -> Path:
         """Write ``to_json`` to ``path``; returns the path."""
@@ -325,3 +312,22 @@ def _is_tuple_hint(hint) -> bool:
     if typing.get_origin(hint) is tuple:
         return True
     return any(typing.get_origin(a) is tuple or a is tuple for a in typing.get_args(hint))
+
+
+def settings_from_file(cls, path: str | Path, what: str):
+    """``cls.from_dict`` of a JSON settings file; every error is one line naming the file (``what`` says which
+    kind of settings it holds)."""
+    from bootnav.core.jsonio import read_json_file
+
+    path = Path(path)
+    try:
+        data = read_json_file(path, what)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: {what} is not UTF-8 text (byte {exc.start}: "
+                         f"{exc.object[exc.start:exc.start + 1]!r}); save it as UTF-8 JSON") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, expected a settings JSON file") from None
+    try:
+        return cls.from_dict(data)
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None

@@ -191,20 +191,9 @@ class PdrSettings:
     @classmethod
     def from_file(cls, path) -> "PdrSettings":
         """``from_dict`` of a JSON file; errors name the file."""
-        from bootnav.core.jsonio import read_json_file
+        from bootnav.postproc.settings import settings_from_file
 
-        path = Path(path)
-        try:
-            data = read_json_file(path, "PDR settings file")
-        except UnicodeDecodeError as exc:
-            raise InputError(f"{path}: settings file is not UTF-8 text (byte {exc.start}); save it as UTF-8 JSON") \
-                from None
-        except IsADirectoryError:
-            raise InputError(f"{path}: is a directory, expected a settings JSON file") from None
-        try:
-            return cls.from_dict(data)
-        except InputError as exc:
-            raise InputError(f"{path}: {exc}") from None
+        return settings_from_file(cls, path, "PDR settings file")
 
     def save(self, path) -> Path:
         """Write ``to_dict`` as JSON to ``path`` (temp file + rename: never a half-written file); returns it."""
