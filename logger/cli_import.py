@@ -119,9 +119,10 @@ def _run_two(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from bootnav.errors import BootnavError, DiskFullError
+    from bootnav.errors import BootnavError
     from bootnav.logger.importers import read_any
-    from bootnav.logger.recording import check_boot_label, is_disk_full, make_events, write_group, write_multi_boot
+    from bootnav.logger.importers.core import write_atomically, write_aux
+    from bootnav.logger.recording import check_boot_label, make_events, write_multi_boot
 
     files = [args.file, args.second]
     labels = [x.strip() for x in args.labels.split(",")]
@@ -167,24 +168,13 @@ def _run_two(args: argparse.Namespace) -> int:
     attrs = {"session_start_unix_s": s0 if epoch else float("nan"),
              "session_clock": "seconds since the first sample of any boot", "clock_alignment": rule}
     out = args.out
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")  # crash-safe: written beside, synced, renamed
-    try:
+
+    def write(tmp):
         write_multi_boot(tmp, boots, attrs=attrs)
         for label, r in zip(labels, results):
-            if r.aux:
-                write_group(tmp, f"boots/{label}/aux", r.aux, attrs={"description": "extra input columns, one per "
-                            "dataset, row-aligned with imu/t_s"}, units=r.aux_units)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, out)
-    except (DiskFullError, OSError) as exc:
-        tmp.unlink(missing_ok=True)
-        if isinstance(exc, DiskFullError) or is_disk_full(exc):
-            raise DiskFullError(f"disk full at {out}: 0 frames written (an import writes all or nothing)") from exc
-        raise BootnavError(f"{out}: cannot write ({exc}); choose a writable place") from exc
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+            write_aux(tmp, f"boots/{label}/aux", r)
+
+    write_atomically(out, write)
     if not args.quiet:
         for f, label, r in zip(files, labels, results):
             for line in r.messages:

@@ -685,22 +685,24 @@ def _channel(kind: str, raw: np.ndarray, unit: str, range_: float | None, path: 
     return raw.astype(np.float64), Channel("deg/s", "rad/s", math.pi / 180.0, 0.0, fs)
 
 
-def write_result(result: ImportResult, out) -> Path:
-    """Write an ``ImportResult`` as a bootnav recording (``/aux`` holds the extra columns)."""
+def write_aux(path, group: str, result: ImportResult) -> None:
+    """Write the extra input columns of ``result`` (if any) as ``group`` (e.g. ``aux``) of the file ``path``."""
+    if result.aux:
+        write_group(path, group, result.aux, attrs={"description": "extra input columns, one per dataset, "
+                    "row-aligned with imu/t_s"}, units=result.aux_units)
+
+
+def write_atomically(out, write) -> Path:
+    """Call ``write(tmp)`` on a file beside ``out``, sync it and rename it over ``out``; returns ``out``.
+
+    Crash-safe: a crash or a full disk leaves either the old file or the complete new one, never a
+    half-written recording (an import writes all or nothing). Errors become one line naming ``out``.
+    """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
-    opt = dict(result.optional)
-    # crash-safe: the whole file is written beside the target, synced, then renamed over it, so a crash or a
-    # full disk leaves either the old file or the complete new one, never a half-written recording
     tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
     try:
-        write_recording(tmp, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
-                        gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
-                        saturated=result.saturated, **opt)
-        if result.aux:
-            write_group(tmp, "aux", result.aux, attrs={"description": "extra input columns, one per dataset, "
-                        "row-aligned with /imu/t_s"}, units=result.aux_units)
+        write(tmp)
         with open(tmp, "rb") as fh:
             os.fsync(fh.fileno())
         os.replace(tmp, out)
@@ -718,6 +720,19 @@ def write_result(result: ImportResult, out) -> Path:
         tmp.unlink(missing_ok=True)
         raise
     return out
+
+
+def write_result(result: ImportResult, out) -> Path:
+    """Write an ``ImportResult`` as a bootnav recording (``/aux`` holds the extra columns), crash-safe."""
+    events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
+
+    def write(tmp):
+        write_recording(tmp, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
+                        gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
+                        saturated=result.saturated, **result.optional)
+        write_aux(tmp, "aux", result)
+
+    return write_atomically(out, write)
 
 
 def import_file(path, out, profile: str | Path | Profile | None = None, **overrides) -> Path:
