@@ -67,12 +67,7 @@ def run(args) -> int:
         session_notes=args.notes,
     )
     recorder = SerialRecorder(settings, status_stream=None if args.quiet else sys.stderr)
-    # SIGTERM and Ctrl-C end the loop cleanly: the pending block is written and the file closed.
-    signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
-    signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
-    stats = recorder.run()
-    if recorder.disk_full is not None:
-        raise recorder.disk_full
+    stats = _run_until_stopped(recorder)
     if not recorder.wrote_file:
         if stats.bytes_in:
             raise BootnavError(f"no valid frame in {stats.bytes_in} bytes from {args.port} (wrong --baud, or not "
@@ -81,6 +76,17 @@ def run(args) -> int:
     print(f"{args.out}: {stats.frames} frames, {stats.dropped} dropped, {stats.crc_errors} CRC errors, "
           f"{stats.resyncs} resyncs, {stats.disconnects} disconnects ({stats.stop_reason})", file=sys.stderr)
     return 0
+
+
+def _run_until_stopped(recorder):
+    """Run a recorder until its end; SIGTERM and Ctrl-C end the loop cleanly (the pending block is written
+    and the file closed); a full disk is raised after the file is closed. Returns the recorder's stats."""
+    signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
+    signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
+    stats = recorder.run()
+    if recorder.disk_full is not None:
+        raise recorder.disk_full
+    return stats
 
 
 def _run_multi(args) -> int:
@@ -109,11 +115,7 @@ def _run_multi(args) -> int:
         flush_interval_s=args.flush_interval, header_wait_s=args.header_wait, connect_timeout_s=args.connect_timeout,
         mounts=[f"{label}_boot" for label in labels], subject=args.subject, session_notes=args.notes)
     recorder = MultiBootRecorder(settings, status_stream=None if args.quiet else sys.stderr)
-    signal.signal(signal.SIGTERM, lambda *_: recorder.stop("SIGTERM"))
-    signal.signal(signal.SIGINT, lambda *_: recorder.stop("interrupted (Ctrl-C)"))
-    all_stats = recorder.run()
-    if recorder.disk_full is not None:
-        raise recorder.disk_full
+    all_stats = _run_until_stopped(recorder)
     if not recorder.wrote_file:
         got = sum(st.bytes_in for st in all_stats)
         raise BootnavError((f"no valid frame in {got} bytes from {', '.join(ports)} (wrong --baud?)" if got else
