@@ -141,7 +141,8 @@ def _run(t_s, acc_b, gyro_b, stance, init, gravity, settings: ProcessSettings, s
         timing = selftune.level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity, settings.filter,
                                               saturated=saturated, delta_s=st.timing_probe_s,
                                               max_abs_s=st.timing_max_abs_s,
-                                              min_level_strides=st.timing_min_level_strides)
+                                              min_level_strides=st.timing_min_level_strides,
+                                              max_level_strides=st.timing_max_level_strides)
         if timing["tau_s"] != 0.0:
             acc_used = selftune.rotate_specific_force(acc_b, gyro_b, timing["tau_s"])
     nav = run_filter(t_s, acc_used, gyro_b, stance, init, gravity, settings.filter, progress=filter_progress,

@@ -69,11 +69,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.ndimage import label
-from scipy.signal import find_peaks
 
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
+from bootnav.errors import InputError
 from bootnav.postproc.strides import footprints
 
 FAST, MISSED, VERTICAL, ROLLING, TINY = 1, 2, 4, 8, 16
@@ -99,6 +98,13 @@ class SelfTuneSettings:
     timing_probe_s, timing_max_abs_s: the probe offsets ±δ and the bound of τ, s. The bound was chosen by
         leave-one-dataset-out validation among ±1.5 / 3 / 5 ms (docs/tuning-log.md).
     timing_min_level_strides: fewer level strides than this: τ = 0 (no calibration).
+    timing_max_level_strides: τ is estimated from the first this many level strides (None: all), so the probe
+        filters of a long recording run over its first part only (``level_timing_offset``). τ is a property
+        of the sensor, constant over a recording, and 500 level strides make the standard error of τ*,
+        1.2533 σ_dz / (√K |dm/dτ|) (of a median), 0.1-0.3 ms with the public foot walks' spread of level-stride
+        height changes (σ_dz 6-10 mm) and slopes (dm/dτ 1.9-3.2 mm per ms): 5-15 % of the probe offset δ
+        (docs/tuning-log.md, "Long recordings"). No public recording has as many strides: their results do
+        not depend on it.
     """
 
     alphas: tuple[float, ...] = (0.2, 0.4)
@@ -120,6 +126,7 @@ class SelfTuneSettings:
     timing_probe_s: float = 0.002
     timing_max_abs_s: float = 0.003
     timing_min_level_strides: int = 10
+    timing_max_level_strides: int | None = 500
 
 
 @dataclass
@@ -177,10 +184,39 @@ def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: 
     lo, hi = int(min_s / dt), min(int(max_s / dt), n - 1)
     if hi <= lo + 2:
         return float("nan")
-    peaks, props = find_peaks(ac[lo:hi], height=0.2)
+    peaks = local_maxima(ac[lo:hi])
+    peaks = peaks[ac[lo:hi][peaks] >= 0.2]
     if peaks.size == 0:
         return float("nan")
-    return float((lo + peaks[np.argmax(props["peak_heights"])]) * dt)
+    return float((lo + peaks[np.argmax(ac[lo:hi][peaks])]) * dt)
+
+
+def local_maxima(x: np.ndarray) -> np.ndarray:
+    """Indices of the local maxima of ``x``, the peaks ``scipy.signal.find_peaks(x)`` returns (no condition).
+
+    A peak is a sample, or a run of equal samples (its middle index, rounded down), higher than both
+    neighbours; the first and last samples are never peaks. Written with numpy because importing
+    ``scipy.signal`` costs ~0.7 s (it loads ``scipy.stats``), more than all of ``bootnav process``'s other imports.
+
+    Parameters
+    ----------
+    x : (N,) float array.
+
+    Returns
+    -------
+    (K,) int64 array of indices, increasing.
+    """
+    x = np.asarray(x)
+    n = len(x)
+    if n < 3:
+        return np.zeros(0, np.int64)
+    change = np.flatnonzero(x[1:] != x[:-1]) + 1  # first index of each run of equal values but the first
+    first = np.concatenate(([0], change))
+    last = np.concatenate((change, [n])) - 1
+    inner = (first > 0) & (last < n - 1)
+    first, last = first[inner], last[inner]
+    peak = (x[first - 1] < x[first]) & (x[last + 1] < x[first])
+    return ((first[peak] + last[peak]) // 2).astype(np.int64)
 
 
 def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, detector_settings,
@@ -206,6 +242,9 @@ def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, de
     -------
     (N,) bool stance mask.
     """
+    from scipy.ndimage import label
+    from scipy.signal import find_peaks
+
     from bootnav.postproc.detectors.shoe import shoe_statistic
 
     s = settings or SelfTuneSettings()
@@ -236,6 +275,8 @@ def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, de
 
 def _uncovered(windows: np.ndarray, stance: np.ndarray, t_s: np.ndarray, half_s: float) -> np.ndarray:
     """The runs of ``windows`` with no ``stance`` sample within ± half_s of them (cycles the mask missed)."""
+    from scipy.ndimage import label
+
     if not windows.any() or not np.isfinite(half_s):
         return np.zeros_like(windows)
     st_t = t_s[stance]
@@ -478,34 +519,40 @@ def _rotation_terms(acc_b, gyro_b, tau_s: float):
     return f * c, np.cross(u, f) * sn, u * np.sum(u * f, axis=1)[:, None] * (1.0 - c)
 
 
-def level_stride_dz(t_s, pos_n, stance, max_dz_m: float = 0.1, min_length_m: float = 0.3) -> tuple[float, int]:
+def level_stride_dz(t_s, pos_n, stance, max_dz_m: float = 0.1, min_length_m: float = 0.3,
+                    max_level_strides: int | None = None) -> tuple[float, int]:
     """Median height change of the level strides (|Δz| < max_dz_m, length > min_length_m) and their count.
 
     Parameters
     ----------
     t_s, pos_n, stance : a path and its stance mask (``segment_strides`` gives the strides).
     max_dz_m, min_length_m : what counts as a level stride (m).
+    max_level_strides : only the first this many level strides count (None: all).
 
     Returns
     -------
-    (median Δz in m, NaN without level strides; number of level strides).
+    (median Δz in m, NaN without level strides; number of level strides counted).
     """
     from bootnav.postproc.strides import footprints
 
-    return footprint_level_dz(*footprints(t_s, pos_n, stance), max_dz_m, min_length_m)
+    return footprint_level_dz(*footprints(t_s, pos_n, stance), max_dz_m, min_length_m, max_level_strides)
 
 
-def footprint_level_dz(t_mid, fp, max_dz_m: float = 0.1, min_length_m: float = 0.3) -> tuple[float, int]:
+def footprint_level_dz(t_mid, fp, max_dz_m: float = 0.1, min_length_m: float = 0.3,
+                       max_level_strides: int | None = None) -> tuple[float, int]:
     """``level_stride_dz`` from the stance phases' mid times and footprints (``strides.footprints``)."""
     from bootnav.postproc.strides import footprint_strides
 
     st = footprint_strides(t_mid, fp)
     lev = (np.abs(st["dz_m"]) < max_dz_m) & (st["stride_length_m"] > min_length_m)
+    if max_level_strides is not None:
+        lev &= np.cumsum(lev) <= max_level_strides
     return (float(np.median(st["dz_m"][lev])) if lev.sum() else float("nan")), int(lev.sum())
 
 
 def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter_settings, *, saturated=None,
-                        delta_s: float = 0.002, max_abs_s: float = 0.003, min_level_strides: int = 10) -> dict:
+                        delta_s: float = 0.002, max_abs_s: float = 0.003, min_level_strides: int = 10,
+                        max_level_strides: int | None = None) -> dict:
     """Timing offset τ (s) that zeroes the median height change of the level strides (module docstring).
 
     Two forward filter runs (no smoother: it moves τ* by < 0.3 ms and triples the cost) at τ = ±``delta_s``
@@ -513,6 +560,11 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
     ``rotate_specific_force(acc_b, gyro_b, tau_s)`` before the final filter run. The two runs are independent
     and run in two threads (the filter kernel releases the GIL): two free cores give both for about the time
     of one.
+
+    With ``max_level_strides`` = K, m(τ) is the median of the first K level strides, and the probes run over
+    the first 2K + 1 stance phases only (whole phases and the swing after the last), a part twice as long
+    while it holds fewer than K level strides, up to the whole recording: a long recording costs the probes
+    of its first part. A recording with at most 2K + 1 stance phases is probed whole, as with K = None.
 
     Parameters
     ----------
@@ -522,31 +574,47 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
     saturated : optional saturation mask (as ``run_filter`` takes it).
     delta_s : the two probe offsets ±δ, s; max_abs_s : bound of τ*, s.
     min_level_strides : fewer level strides than this: no calibration (τ* = 0).
+    max_level_strides : only the first this many level strides count (None: all; see above).
 
     Returns
     -------
-    dict with ``tau_s`` (τ*), ``m_minus`` / ``m_plus`` (median level-stride Δz at −δ / +δ, m), ``n_level``,
-    ``innovation_rms_mps`` (RMS ZUPT-onset innovation of the two runs, for ``confidence``) and ``applied`` (False when τ* = 0 for lack of level strides or a flat m(τ)).
+    dict with ``tau_s`` (τ*), ``m_minus`` / ``m_plus`` (median level-stride Δz at −δ / +δ, m), ``n_level``
+    (level strides counted), ``innovation_rms_mps`` (RMS ZUPT-onset innovation of the two runs, for
+    ``confidence``), ``probe_s`` (seconds of the recording the probes ran over) and ``applied`` (False when
+    τ* = 0 for lack of level strides or a flat m(τ)).
     """
     import os
     from concurrent.futures import ThreadPoolExecutor
 
     from bootnav.postproc.ins import run_filter
 
-    even, odd, axial = _rotation_terms(acc_b, gyro_b, -delta_s)  # sum: τ = −δ; odd term negated: τ = +δ
+    if max_level_strides is not None and max_level_strides < 1:
+        raise InputError(f"settings selftune.timing_max_level_strides: {max_level_strides} level strides; give at "
+                         "least 1, or null for all of them")
     probe_settings = replace(filter_settings, smoother="none")
+    starts = runs(np.asarray(stance, bool))[0]
+    phases = len(starts) if max_level_strides is None else 2 * max_level_strides + 1
+    while True:
+        cut = int(starts[phases]) if phases < len(starts) else len(t_s)  # whole stance phases and the swing after
+        t, g, st = t_s[:cut], gyro_b[:cut], stance[:cut]
+        sat = None if saturated is None else saturated[:cut]
+        even, odd, axial = _rotation_terms(acc_b[:cut], g, -delta_s)  # sum: τ = −δ; odd term negated: τ = +δ
 
-    def probe(sign: int) -> tuple[float, int, float]:
-        f = (even + odd if sign < 0 else even - odd) + axial
-        nav = run_filter(t_s, f, gyro_b, stance, init, gravity, probe_settings, saturated=saturated)
-        m, n_level = level_stride_dz(t_s, np.asarray(nav.pos_n), stance)
-        v = onset_innovations(t_s, nav.vel_n, stance, filter_settings)
-        return m, n_level, (float(np.mean(np.sum(v**2, axis=1))) if len(v) else float("inf"))
+        def probe(sign: int) -> tuple[float, int, float]:
+            f = (even + odd if sign < 0 else even - odd) + axial
+            nav = run_filter(t, f, g, st, init, gravity, probe_settings, saturated=sat)
+            m, n_level = level_stride_dz(t, np.asarray(nav.pos_n), st, max_level_strides=max_level_strides)
+            v = onset_innovations(t, nav.vel_n, st, filter_settings)
+            return m, n_level, (float(np.mean(np.sum(v**2, axis=1))) if len(v) else float("inf"))
 
-    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:  # one CPU: one after the other
-        (m_minus, _, e2_minus), (m_plus, n_level, e2_plus) = pool.map(probe, (-1, 1))
+        with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:  # one CPU: one after the other
+            (m_minus, n_minus, e2_minus), (m_plus, n_level, e2_plus) = pool.map(probe, (-1, 1))
+        if cut == len(t_s) or min(n_minus, n_level) >= max_level_strides:
+            break
+        phases *= 2  # too few level strides in this part (stairs, shuffling): probe a part twice as long
     out = {"m_minus": m_minus, "n_level": n_level, "m_plus": m_plus,
-           "innovation_rms_mps": float(np.sqrt(np.mean([e2_minus, e2_plus])))}
+           "innovation_rms_mps": float(np.sqrt(np.mean([e2_minus, e2_plus]))),
+           "probe_s": float(t_s[cut - 1] - t_s[0])}
     return timing_from_probes(out, delta_s, max_abs_s, min_level_strides)
 
 

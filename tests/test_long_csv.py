@@ -3,11 +3,12 @@
 import numpy as np
 import pytest
 
-from bootnav.postproc.outputs import _write_csv, format_column
+from bootnav.postproc.outputs import _csv_text, _write_csv
 
 
-def fields(matrix: np.ndarray) -> list[str]:
-    return [bytes(row[row != 0]).decode("ascii") for row in matrix]
+def fields(x: np.ndarray, fmt: str) -> list[str]:
+    """The fields of a one-column CSV text of ``x``."""
+    return bytes(_csv_text([x], [fmt])).decode("ascii").splitlines()
 
 
 # ties and near-ties of every decimal count, signed zeros, values rounding to -0, large, non-finite values
@@ -21,16 +22,16 @@ def test_every_field_equals_python_format(fmt):
     x = np.concatenate([rng.normal(0, 10, 20_000), rng.normal(0, 1e-4, 5000), rng.uniform(0, 86_400, 5000),
                         np.round(rng.normal(0, 5, 5000) * 2e4) / 2e4,  # exact ties at the 5th decimal in decimal
                         np.round(rng.normal(0, 5, 5000), 7), EDGES])
-    assert fields(format_column(x, fmt)) == [fmt % v for v in x.tolist()]
+    assert fields(x, fmt) == [fmt % v for v in x.tolist()]
 
 
 def test_integer_columns():
     v = np.array([0, 1, -3, 255, 12, -1000000, 7], dtype=np.int64)
-    assert fields(format_column(v, "%d")) == [str(i) for i in v.tolist()]
-    assert fields(format_column(np.array([True, False]), "%d")) == ["1", "0"]
-    assert fields(format_column(np.array([2.7, -2.7, 0.0]), "%d")) == ["%d" % 2.7, "%d" % -2.7, "0"]
+    assert fields(v, "%d") == [str(i) for i in v.tolist()]
+    assert fields(np.array([True, False]), "%d") == ["1", "0"]
+    assert fields(np.array([2.7, -2.7, 0.0]), "%d") == ["%d" % 2.7, "%d" % -2.7, "0"]
     with pytest.raises(ValueError, match="only %d and %.Nf"):
-        format_column(v, "%g")
+        _csv_text([v], ["%g"])
 
 
 def test_file_equals_the_row_format(tmp_path, monkeypatch):
@@ -41,6 +42,9 @@ def test_file_equals_the_row_format(tmp_path, monkeypatch):
     rng = np.random.default_rng(2)
     n = 5000
     cols = [np.cumsum(rng.uniform(0.004, 0.006, n)), *rng.normal(0, 3, (3, n)), rng.integers(0, 2, n)]
+    for c in cols[1:4]:  # fields Python formats (ties, non-finite, huge) in several columns of the same rows
+        c[rng.choice(n, EDGES.size, replace=False)] = EDGES
+        c[4000 : 4000 + EDGES.size] = EDGES
     fmts = ["%.6f", "%.4f", "%.4f", "%.4f", "%d"]
     _write_csv(tmp_path / "a.csv", ("t_s", "x", "y", "z", "stance"), cols, fmts)
     row = ",".join(fmts) + "\n"
