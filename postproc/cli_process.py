@@ -74,7 +74,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
     p.add_argument("--chunk-s", type=float, metavar="S",
                    help="read and process an HDF5 recording in chunks of S seconds: memory bounded for recordings "
-                        "of many hours, the same path; no charts, no stance fallback (pipeline.process_chunked)")
+                        "of many hours, the same path and charts; no stance fallback (pipeline.process_chunked)")
     p.add_argument("--memory-limit", type=float, metavar="MB",
                    help="memory the whole-array run may use (default: half of the available memory); a recording "
                         "that would need more is processed in chunks of 600 s, as with --chunk-s 600")
@@ -347,7 +347,7 @@ def _auto_chunk_s(args, settings) -> float | None:
     """Chunk length when the whole-array run of this one HDF5 input would exceed the memory limit, else None.
 
     Only for what the chunked run supports (an HDF5 recording, no crop, reference, accelerometer calibration or
-    ``--into-recording``); it warns on stderr, because the chunked run draws no charts and uses no stance fallback.
+    ``--into-recording``); it warns on stderr, because the chunked run uses no stance fallback.
     """
     from pathlib import Path
 
@@ -371,7 +371,7 @@ def _auto_chunk_s(args, settings) -> float | None:
         return None
     print(f"bootnav process: warning: {path}: {n} samples would need about {need / 1e9:.1f} GB in one piece "
           f"(limit {limit / 1e9:.1f} GB): processed in chunks of {AUTO_CHUNK_S:.0f} s with bounded memory (no "
-          "charts, no stance fallback); give --memory-limit MB to change the limit", file=sys.stderr)
+          "stance fallback); give --memory-limit MB to change the limit", file=sys.stderr)
     return AUTO_CHUNK_S
 
 

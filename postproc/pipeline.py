@@ -226,9 +226,10 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     ``max_still_s``); the nominal period is the median step of the first 65 536 samples. Not done in chunks
     (refused, or left out with a warning): the plausibility checks of the stance mask, the truth-free
     fallback and its confidence figure (the configured detector is always used), the per-stride quality
-    flags, charts 1-7 and path.html, the detector statistic in ``results.h5``, crop, reference,
-    accelerometer calibration file, non-HDF5 inputs. F is a histogram quantile (1e-3 decade bins): the stance
-    mask can differ from the whole-array run's in samples where F + δ decides (none on the test walks).
+    flags, the detector statistic in ``results.h5``, crop, reference, accelerometer calibration file,
+    non-HDF5 inputs. Charts 1-7 and path.html are drawn from the decimated stream of the final pass
+    (``plots.ChartStream``: bounded memory), as the whole run draws them. F is a histogram quantile (1e-3
+    decade bins): the stance mask can differ from the whole-array run's in samples where F + δ decides (none on the test walks).
 
     Parameters
     ----------
@@ -288,9 +289,6 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     if not is_hdf5(path):
         raise InputError(f"{path}: --chunk-s reads HDF5 recordings; `bootnav import` it first")
     warnings: list[str] = []
-    if settings.output.plots:
-        warnings.append("charts and path.html are not drawn in chunks (--chunk-s); run without it for them")
-    settings.output.plots = False
     check_outputs(settings, out, [path], False, force)
     lap = _StageClock(progress)
     timings = lap.timings
@@ -380,8 +378,9 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
             for s in (-1, 1):
                 r = navs[s].finish()
                 fps[s].push(r.t_s, r.pos_n, r.stance)
-            timing["m_minus"], n_level = selftune.footprint_level_dz(*fps[-1].finish())
-            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fps[1].finish())
+            cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
+            timing["m_minus"], n_level = selftune.footprint_level_dz(*fps[-1].finish(), **cap)
+            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fps[1].finish(), **cap)
             timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
                                                  st.timing_min_level_strides)
             tau = timing["tau_s"]
@@ -395,6 +394,11 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
         tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
         fp_acc = FootprintAccumulator()
+        charts = None
+        if opts.plots:
+            from .plots import ChartStream
+
+            charts = ChartStream(float(t_all[0]), float(t_all[n - 1]), n, gravity, opts.plot_max_points)
         units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
                  "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m"}
         n_rows = n_stance = 0
@@ -418,10 +422,14 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
                                        "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n})
                     fp_acc.push(r.t_s, r.pos_n, r.stance)
+                    if charts is not None:
+                        charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
                     n_rows += len(r)
                     n_stance += int(np.count_nonzero(r.stance))
 
                 for ch in stance_stream():
+                    if charts is not None:
+                        charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
                     acc_used = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
                     emit(nav.push(ch.t_s, acc_used, ch.gyro_b, ch.stance, ch.saturated))
                     _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
@@ -471,6 +479,13 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
                 _replace_atomically(tmp, target)
                 files["hdf5"] = f"{target}:{group}"
             lap("write")
+            if charts is not None:
+                from .plots import draw_charts, draw_html
+
+                charts.finish(t_mid, fp, steps, summary, settings)
+                files.update({f"plot_{key}": str(p) for key, p in draw_charts(charts, out).items()})
+                files["html"] = str(draw_html(charts, out))
+                lap("plots")
         finally:
             if writer is not None:
                 writer.close()

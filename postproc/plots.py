@@ -11,10 +11,19 @@
 
 Plus ``path.html`` (``make_html``): the path from above as a small self-contained interactive SVG page.
 
-Time charts shade stance (green) and saturated intervals (red). Long signals are decimated for drawing
-only, to at most ``OutputSettings.plot_max_points`` points per line: time charts keep the minimum and the
-maximum of every time column (``minmax_columns``), so a one-sample peak stays visible; the path charts
-take every k-th sample. Every number in the files comes from the full data.
+Time charts shade stance (green) and saturated intervals (red). Every chart is drawn from a decimated
+stream (``ChartStream``, built on ``decimate``), the same for a whole run (``make_plots``) and a run in
+chunks (``pipeline.process_chunked`` feeds it block by block): time charts keep the minimum and the maximum
+of every pixel column (``decimate.TimeEnvelope``), so a one-sample peak stays visible, and a column is shaded
+if any of its samples is in stance or saturated; the path charts and ``path.html`` keep, per time column,
+the samples at each coordinate's extremes (``decimate.PathExtremes``, at most
+``OutputSettings.plot_max_points`` points), and every footprint. Records short enough are drawn sample by
+sample. Every number in the files comes from the full data.
+
+Speed: matplotlib is imported only when drawing; each figure is drawn once (``tight_layout`` lays it out,
+then its placeholder layout engine, which would make ``savefig`` draw twice, is removed); a decimated
+signal is a filled band (a line zig-zagging between each column's extremes costs Agg several times more);
+the shading is one polygon collection per axes; PNGs are compressed at zlib level 1.
 """
 
 from __future__ import annotations
@@ -23,6 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core.runs import runs
+
+from .decimate import PathExtremes, TimeEnvelope
 from .strides import floor_levels, floor_signal, footprints
 from .summary import endpoint_label
 
@@ -36,6 +48,10 @@ FILES = {
     "path_3d": "6_path_3d.png",
     "height": "7_height.png",
 }
+DPI = 110
+TIME_FIG_W_IN = 10.0  # the time charts' width; their columns are its pixels (the axes are narrower)
+TIME_COLUMNS = int(TIME_FIG_W_IN * DPI)
+PNG_COMPRESS_LEVEL = 1  # zlib level: Pillow's default 6 takes 1.4x the time to encode, for files within ±15 %
 
 
 def _pyplot():
@@ -44,167 +60,283 @@ def _pyplot():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "legend.fontsize": 8,
+    plt.rcParams.update({"figure.dpi": DPI, "axes.grid": True, "grid.alpha": 0.3, "legend.fontsize": 8,
                          "legend.framealpha": 0.85})
     return plt
 
 
 def gravity_free_acc_n(q_nb: np.ndarray, acc_b: np.ndarray, gravity: float) -> np.ndarray:
-    """a_n = C_nb(q_nb) f_b + [0, 0, −g] (m/s²)."""
-    from scipy.spatial.transform import Rotation
+    """a_n = C_nb(q_nb) f_b + [0, 0, −g] (m/s²), for unit quaternions wxyz (N, 4) and f_b (N, 3).
 
-    rot = Rotation.from_quat(np.asarray(q_nb)[:, [1, 2, 3, 0]])  # scipy wants xyzw
-    return rot.apply(acc_b) - np.array([0.0, 0.0, gravity])
+    The rotation is v + w c + u × c with c = 2 u × v and u the vector part (column arithmetic: np.cross is
+    several times slower on (N, 3) arrays)."""
+    q = np.asarray(q_nb, float)
+    v = np.asarray(acc_b, float)
+    w, ux, uy, uz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
+    cx, cy, cz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+    out = np.empty((len(q), 3))
+    out[:, 0] = vx + w * cx + (uy * cz - uz * cy)
+    out[:, 1] = vy + w * cy + (uz * cx - ux * cz)
+    out[:, 2] = vz + w * cz + (ux * cy - uy * cx) - gravity
+    return out
 
 
-def minmax_columns(t: np.ndarray, y: np.ndarray, n_cols: int) -> tuple[np.ndarray, np.ndarray]:
-    """Decimate a time series for drawing without losing its peaks: min and max of each time column.
+class ChartStream:
+    """The decimated data charts 1-7 and ``path.html`` are drawn from, fed in time order chunk by chunk.
+
+    ``push_imu`` takes the samples as read (specific force, angular rate, saturation), ``push_nav`` the
+    navigator's output rows of the same samples (they may come later: the specific force of the samples
+    not yet output waits in a queue, for chart 2); ``finish`` adds the footprints, strides and summary.
+    Memory: the columns, the path's kept points, the footprints and the navigator's lag of specific force.
 
     Parameters
     ----------
-    t : (N,) array
-        Non-decreasing times, s.
-    y : (N,) or (N, k) array
-        The signals.
-    n_cols : int
-        Columns of equal duration over [t[0], t[-1]] (about the chart's width in pixels, or more).
-
-    Returns
-    -------
-    (t2, y2)
-        Two points per non-empty column at its mid time, its minimum then its maximum (per signal), so the
-        line sweeps the column's whole range as a rasteriser would; ``t, y`` unchanged when N <= 2 n_cols.
+    t_start_s, t_end_s : float
+        First and last sample time of the run, s.
+    n_samples : int
+        Samples that will be pushed.
+    gravity_mps2 : float
+        g used by the run (chart 2 removes it).
+    max_points : int
+        ``OutputSettings.plot_max_points``: most points of a path line.
+    time_charts : bool
+        Keep the time charts' columns too (False: only what ``path.html`` draws).
     """
-    t = np.asarray(t)
-    y = np.asarray(y)
-    if len(t) <= 2 * n_cols:
-        return t, y
-    starts = np.unique(np.searchsorted(t, np.linspace(t[0], t[-1], n_cols + 1)[:-1], side="left"))
-    ends = np.r_[starts[1:], len(t)] - 1
-    lo = np.minimum.reduceat(y, starts, axis=0)
-    hi = np.maximum.reduceat(y, starts, axis=0)
-    t_mid = 0.5 * (t[starts] + t[ends])
-    y2 = np.empty((2 * len(starts),) + y.shape[1:], dtype=y.dtype)
-    y2[0::2], y2[1::2] = lo, hi
-    return np.repeat(t_mid, 2), y2
+
+    def __init__(self, t_start_s: float, t_end_s: float, n_samples: int, gravity_mps2: float, max_points: int,
+                 time_charts: bool = True):
+        self.imu = self.nav = None
+        if time_charts:
+            self.imu = TimeEnvelope(t_start_s, t_end_s, TIME_COLUMNS, n_samples, 7)  # acc 3, gyro 3, saturated
+            self.nav = TimeEnvelope(t_start_s, t_end_s, TIME_COLUMNS, n_samples, 11)  # a_n, |a_n|, vel, pos, stance
+        self.path = PathExtremes(t_start_s, t_end_s, max(int(max_points), 100), n_samples, 3)
+        self.gravity_mps2 = float(gravity_mps2)
+        self._acc_queue: list[np.ndarray] = []
+        self.info: dict = {}
+
+    @classmethod
+    def from_result(cls, result, time_charts: bool = True) -> ChartStream:
+        """The stream of a whole run (``pipeline.ProcessResult``), pushed in one piece."""
+        t = result.t_s
+        s = cls(t[0], t[-1], len(t), result.gravity_mps2, result.settings.output.plot_max_points, time_charts)
+        s.push_imu(t, result.acc_b, result.gyro_b, result.saturated)
+        s.push_nav(t, result.pos_n, result.vel_n, result.q_nb, result.stance)
+        reference = None
+        if result.reference is not None and len(result.reference.points_n):
+            from .reference import align_to_reference
+
+            _, ref_pts, yaw = align_to_reference(result.reference, t, result.pos_n)
+            reference = {"points": ref_pts, "yaw": yaw, "t_s": result.reference.t_s,
+                         "est": reference_in_estimate_frame(ref_pts, yaw, result.pos_n[0])}
+        s.finish(*footprints(t, result.pos_n, result.stance), result.steps, result.summary, result.settings,
+                 result.metrics, reference)
+        return s
+
+    def push_imu(self, t_s, acc_b, gyro_b, saturated) -> None:
+        """Samples as read: s, specific force m/s² (calibrated), rad/s, saturation (bool or bits)."""
+        if self.imu is None:
+            return
+        y = np.empty((len(t_s), 7))
+        y[:, 0:3], y[:, 3:6], y[:, 6] = acc_b, gyro_b, np.asarray(saturated) != 0
+        self.imu.push(t_s, y)
+        self._acc_queue.append(np.asarray(acc_b, float))
+
+    def push_nav(self, t_s, pos_n, vel_n, q_nb, stance) -> None:
+        """The navigator's rows of the next samples pushed by ``push_imu``: s, m, m/s, wxyz, bool."""
+        m = len(t_s)
+        if m == 0:
+            return
+        self.path.push(t_s, pos_n)
+        if self.nav is None:
+            return
+        parts, have = [], 0
+        while have < m:
+            head = self._acc_queue[0]
+            take = min(m - have, len(head))
+            parts.append(head[:take])
+            have += take
+            if take == len(head):
+                self._acc_queue.pop(0)
+            else:
+                self._acc_queue[0] = head[take:]
+        y = np.empty((m, 11))
+        y[:, 0:3] = a_n = gravity_free_acc_n(q_nb, parts[0] if len(parts) == 1 else np.vstack(parts),
+                                             self.gravity_mps2)
+        y[:, 3] = np.sqrt(a_n[:, 0] ** 2 + a_n[:, 1] ** 2 + a_n[:, 2] ** 2)  # row by row: the same in any chunking
+        y[:, 4:7], y[:, 7:10], y[:, 10] = vel_n, pos_n, stance
+        self.nav.push(t_s, y)
+
+    def finish(self, t_fp, fp_n, steps, summary, settings, metrics=None, reference=None) -> None:
+        """What the titles, footprints, floor lines and stride markers need.
+
+        Parameters
+        ----------
+        t_fp, fp_n : (K,), (K, 3) arrays
+            Footprints (``strides.footprints``): mid time of each stance phase, s, and its mean position, m.
+        steps : dict
+            Strides (``strides.STEP_COLUMNS``).
+        summary : dict
+            The run's summary (source, stance method, path statistics).
+        settings : ProcessSettings
+        metrics : dict or None
+            Reference metrics.
+        reference : dict or None
+            ``points`` (reference from ``align_to_reference``), ``yaw``, ``t_s`` and ``est`` (its points in
+            the estimate's frame).
+        """
+        self.info = {"t_fp": np.asarray(t_fp, float), "fp_n": np.asarray(fp_n, float).reshape(-1, 3),
+                     "steps": steps, "summary": summary, "settings": settings, "metrics": metrics,
+                     "reference": reference}
+
+    def path_drawn(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times (M,) s, kept path points (M, 3) m and footprints (K, 3) m as the path charts show them: moved
+        and turned onto the reference like ``reference.align_to_reference`` does, when one is given."""
+        _, t, pos = self.path.points()
+        fp = self.info["fp_n"]
+        ref = self.info["reference"]
+        if ref is not None:
+            p0 = self.path.first[2]
+            c, s = (np.cos(ref["yaw"]), np.sin(ref["yaw"])) if ref["yaw"] is not None else (1.0, 0.0)
+            turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            pos, fp = (pos - p0) @ turn.T, (fp - p0) @ turn.T
+        return t, pos, fp
 
 
-def _shade(ax, t, mask, color, label):
-    """Shade the samples where ``mask`` is True as one background image (thousands of stance phases would
-    be thousands of polygons: slow to draw and to place a legend around)."""
-    if not mask.any():
+def _shade(ax, edges, on, color, label):
+    """Shade the columns where ``on`` is True (columns ``edges``, s): one polygon per run of shaded columns,
+    in one collection (thousands of stance phases would be thousands of artists: slow to draw)."""
+    if not on.any():
         return
-    from matplotlib.colors import ListedColormap
+    from matplotlib.collections import PolyCollection
     from matplotlib.patches import Patch
 
-    n_col = 2000  # about one column per pixel; a column is shaded if any of its samples is (max-pooling),
-    # so a one-sample saturation burst stays visible
-    col = np.clip(((t[mask] - t[0]) / max(t[-1] - t[0], 1e-12) * n_col).astype(int), 0, n_col - 1)
-    img = np.zeros(n_col)
-    img[col] = 1.0
+    a, b = runs(on)
+    x0, x1 = edges[a], edges[b]
     if color == "tab:red":  # saturation: also a thin line per burst, visible at any zoom
-        for k in col[np.r_[True, np.diff(col) > 1]][:500]:
-            ax.axvline(t[0] + (k + 0.5) * (t[-1] - t[0]) / n_col, color=color, lw=0.8, alpha=0.5, zorder=0.5)
-    img = np.ma.masked_equal(img, 0.0)
-    ylim = ax.get_ylim()  # imshow would reset the data limits to its extent
-    ax.imshow(img[None, :], aspect="auto", extent=(t[0], t[-1], 0, 1), transform=ax.get_xaxis_transform(),
-              cmap=ListedColormap([color]), alpha=0.13, interpolation="nearest", zorder=0)
-    ax.set_ylim(ylim)
+        ax.vlines(0.5 * (edges[a] + edges[a + 1])[:500], 0, 1, transform=ax.get_xaxis_transform(), color=color,
+                  lw=0.8, alpha=0.5, zorder=0.5)
+    boxes = np.stack([np.column_stack(v) for v in ((x0, np.zeros_like(x0)), (x1, np.zeros_like(x0)),
+                                                  (x1, np.ones_like(x0)), (x0, np.ones_like(x0)))], axis=1)
+    ax.add_collection(PolyCollection(boxes, transform=ax.get_xaxis_transform(), facecolors=color, alpha=0.13,
+                                     linewidths=0, antialiaseds=False, zorder=0), autolim=False)
     if label:
         ax._bootnav_legend_extra = getattr(ax, "_bootnav_legend_extra", []) + [Patch(color=color, alpha=0.25, label=label)]
 
 
 def _legend(ax, **kw):
-    """Legend of the drawn lines plus the shading entries (images have no legend entry of their own)."""
+    """Legend of the drawn lines plus the shading entries (collections have no legend entry of their own)."""
     handles, labels = ax.get_legend_handles_labels()
     extra = getattr(ax, "_bootnav_legend_extra", [])
     ax.legend(handles + extra, labels + [p.get_label() for p in extra], **kw)
 
 
-def _time_axes(ax, t, stance, sat, ylabel, first=False):
-    _shade(ax, t, stance, "tab:green", "stance" if first else None)
-    _shade(ax, t, sat, "tab:red", "saturated" if first else None)
-    ax.set_ylabel(ylabel)
-    ax.set_xlim(t[0], t[-1])
+def _trace(ax, env: TimeEnvelope, k: int, color, lw: float, label=None, offset: float = 0.0, **kw):
+    """Signal k of a ``TimeEnvelope``: its samples as a line when the record was kept whole, else the band
+    from the minimum to the maximum of every column (a step per column), a line of the given width through
+    its middle (where the band is thinner than the line) and the samples' straight line across gaps, so
+    every peak is drawn where the samples would draw it. A line sweeping each column's minimum and maximum
+    would draw the same pixels at several times the cost in Agg; an edged band looks bolder than a line (its
+    two edges overlap)."""
+    if env.whole:
+        t, y = env.samples()
+        ax.plot(t, y[:, k] - offset, color=color, lw=lw, label=label, **kw)
+        return
+    t, lo, hi, filled = env.band()
+    lo, hi = lo[:, k] - offset, hi[:, k] - offset
+    ax.fill_between(t, lo, hi, where=filled, step="mid", color=color, lw=0, zorder=2, **kw)  # in order with lines
+    mid = np.full(len(t), np.nan)
+    mid[filled] = 0.5 * (lo[filled] + hi[filled])
+    ax.plot(t, mid, color=color, lw=lw, **kw)  # a line where the band is thinner than one
+    t0, y0, t1, y1 = env.joins()
+    if len(t0):  # across gaps in time, the straight line the samples draw
+        nan = np.full(len(t0), np.nan)
+        ax.plot(np.column_stack((t0, t1, nan)).ravel(),
+                np.column_stack((y0[:, k], y1[:, k], nan)).ravel() - offset, color=color, lw=lw, **kw)
+    if label:
+        ax.plot([], [], color=color, lw=lw, label=label, **kw)  # the legend shows a line, as for the samples
 
 
-def _lines(ax, t, y, labels, colors=AXIS_COLORS):
-    for k in range(y.shape[1]):
-        ax.plot(t, y[:, k], color=colors[k % len(colors)], lw=0.8, label=labels[k])
+def _lines(ax, env, first, labels, colors=AXIS_COLORS):
+    for k, label in enumerate(labels):
+        _trace(ax, env, first + k, colors[k % len(colors)], 0.8, label)
 
 
 def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
-    """Write charts 1-7 into ``out_dir``; returns {name: path}."""
+    """Write charts 1-7 of a whole run (``pipeline.ProcessResult``) into ``out_dir``; returns {name: path}."""
+    return draw_charts(ChartStream.from_result(result), out_dir)
+
+
+def draw_charts(stream: ChartStream, out_dir: str | Path) -> dict[str, Path]:
+    """Write charts 1-7 from a finished ``ChartStream`` into ``out_dir``; returns {name: path}."""
     plt = _pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    max_points = max(result.settings.output.plot_max_points, 100)
-    step = max(1, int(np.ceil(len(result.t_s) / max_points)))
-    d = slice(None, None, step)  # path charts: every step-th sample
-    t_full, stance, sat = result.t_s, result.stance, result.saturated  # shading max-pools the full masks
-
-    def mm(y):  # time charts: min and max per column, at most max_points points per line
-        return minmax_columns(t_full, y, max_points // 2)
-
-    t = mm(t_full[:, None])[0]
-    src = Path(str(result.summary["input"]["source"])).name
+    info = stream.info
+    summary, settings = info["summary"], info["settings"]
+    imu, nav = stream.imu, stream.nav
+    edges = stream.imu.column_edges_s()
+    stance_on, sat_on = nav.hi[:, 10] > 0.5, imu.hi[:, 6] > 0.5  # a column with any such sample
+    t0, t1 = stream.imu.t_start_s, stream.imu.t_end_s
+    src = Path(str(summary["input"]["source"])).name
     paths: dict[str, Path] = {}
 
     def save(fig, key):
         fig.tight_layout()
-        fig.savefig(out / FILES[key])
+        fig.set_layout_engine(None)  # the placeholder tight_layout leaves would cost savefig a second draw
+        fig.savefig(out / FILES[key], pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
         plt.close(fig)
         paths[key] = out / FILES[key]
 
+    def time_axes(ax, ylabel, first=False):
+        _shade(ax, edges, stance_on, "tab:green", "stance" if first else None)
+        _shade(ax, edges, sat_on, "tab:red", "saturated" if first else None)
+        ax.set_ylabel(ylabel)
+        ax.set_xlim(t0, t1)
+
     # 1 raw IMU + stance
-    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1]})
-    _lines(a1, t, mm(result.acc_b)[1], ["acc x", "acc y", "acc z"])
-    _time_axes(a1, t_full, stance, sat, "specific force (m/s²)", first=True)
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(TIME_FIG_W_IN, 7), sharex=True,
+                                     gridspec_kw={"height_ratios": [3, 3, 1]})
+    _lines(a1, imu, 0, ["acc x", "acc y", "acc z"])
+    time_axes(a1, "specific force (m/s²)", first=True)
     _legend(a1, loc="upper right", ncol=5)
-    _lines(a2, t, mm(result.gyro_b)[1], ["gyro x", "gyro y", "gyro z"])
-    _time_axes(a2, t_full, stance, sat, "angular rate (rad/s)")
+    _lines(a2, imu, 3, ["gyro x", "gyro y", "gyro z"])
+    time_axes(a2, "angular rate (rad/s)")
     _legend(a2, loc="upper right", ncol=3)
-    a3.plot(t, mm(stance.astype(np.int8))[1], color="k", lw=0.8)
+    _trace(a3, nav, 10, "k", 0.8)
     a3.set_ylim(-0.2, 1.2)
     a3.set_yticks([0, 1])
     a3.set_ylabel("stance")
     a3.set_xlabel("time (s)")
-    a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {result.summary['stance']['method']}")
+    a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {summary['stance']['method']}")
     save(fig, "raw_imu")
 
-    def time_chart(key, values, labels, ylabel, title, loc, extra=None, reference=None):
+    def time_chart(key, first, labels, ylabel, title, loc, extra=None, reference=None):
         """Charts 2-4: three nav-frame components against time, stance and saturation shaded."""
-        fig, ax = plt.subplots(figsize=(10, 4.5))
-        _lines(ax, t, values, labels)
+        fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
+        _lines(ax, nav, first, labels)
         if extra is not None:
-            ax.plot(t, extra, color="k", lw=0.6, alpha=0.6, label="|a|")
+            _trace(ax, nav, extra, "k", 0.6, "|a|", alpha=0.6)
         if reference is not None:
             reference(ax)
-        _time_axes(ax, t_full, stance, sat, ylabel, first=True)
+        time_axes(ax, ylabel, first=True)
         ax.set_xlabel("time (s)")
         ax.set_title(title)
         _legend(ax, loc=loc, ncol=6 if extra is not None else 5)
         save(fig, key)
 
     # 2 gravity-free acceleration, 3 velocity, 4 position vs time
-    acc_n = gravity_free_acc_n(result.q_nb, result.acc_b, result.gravity_mps2)
-    acc_n = mm(np.column_stack((acc_n, np.linalg.norm(acc_n, axis=1))))[1]
-    time_chart("acc_gravity_free", acc_n[:, :3], ["a east", "a north", "a up"], "acceleration (m/s²)",
-               "Acceleration in the navigation frame, gravity removed", "upper right", extra=acc_n[:, 3])
-    time_chart("velocity", mm(result.vel_n)[1], ["v east", "v north", "v up"], "velocity (m/s)",
+    time_chart("acc_gravity_free", 0, ["a east", "a north", "a up"], "acceleration (m/s²)",
+               "Acceleration in the navigation frame, gravity removed", "upper right", extra=3)
+    time_chart("velocity", 4, ["v east", "v north", "v up"], "velocity (m/s)",
                "Velocity of the boot (zero in stance: ZUPT)", "upper right")
-    # aligned path + reference (when given) for charts 4-7
-    pos = result.pos_n
+    ref = info["reference"]
     ref_pts = ref_t = ref_est = None
     title_ref = ""
-    if result.reference is not None and len(result.reference.points_n):
-        from .reference import align_to_reference
-
-        pos, ref_pts, yaw = align_to_reference(result.reference, result.t_s, result.pos_n)
-        if yaw is not None:
-            title_ref = f" (estimate rotated {np.degrees(yaw):+.1f}° onto the reference)"
-        ref_est = reference_in_estimate_frame(ref_pts, yaw, result.pos_n[0])
-        ref_t = result.reference.t_s
+    if ref is not None:
+        ref_pts, ref_t, ref_est = ref["points"], ref["t_s"], ref["est"]
+        if ref["yaw"] is not None:
+            title_ref = f" (estimate rotated {np.degrees(ref['yaw']):+.1f}° onto the reference)"
 
     def reference_vs_time(ax, offset=np.zeros(3), axes=(0, 1, 2)):
         """The reference on a time chart, in the estimate's frame: its curves when it has times, else its
@@ -214,25 +346,25 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
         for k in axes:
             name = "reference" if k == axes[0] else None
             if ref_t is not None:
-                inside = (ref_t >= t_full[0]) & (ref_t <= t_full[-1])
+                inside = (ref_t >= t0) & (ref_t <= t1)
                 ax.plot(ref_t[inside], ref_est[inside, k] - offset[k], ":", color=AXIS_COLORS[k] if len(axes) > 1
                         else "k", lw=1.6, label=name)
             else:
-                ax.plot([t_full[-1]], [ref_est[-1, k] - offset[k]], "*", ms=11, mec="k",
+                ax.plot([t1], [ref_est[-1, k] - offset[k]], "*", ms=11, mec="k",
                         color=AXIS_COLORS[k] if len(axes) > 1 else "k", label=name and "reference end")
 
-    time_chart("position", mm(result.pos_n)[1], ["x (east)", "y (north)", "z (up)"], "position (m)",
+    time_chart("position", 7, ["x (east)", "y (north)", "z (up)"], "position (m)",
                "Position vs time" + ("" if ref_est is None else " (dotted: reference)" if ref_t is not None
                                      else " (stars: the reference's end point)"), "upper left",
                reference=reference_vs_time)
-    _, fp = footprints(result.t_s, pos, result.stance)
-    summ = result.summary.get("path", {})
+    _, pos, fp = stream.path_drawn()
+    summ = summary.get("path", {})
     stats = f"distance {summ.get('distance_m', 0):.2f} m"
-    m = result.metrics or {}
+    m = info["metrics"] or {}
     if "final_error_m" in m:
         stats += f", end-point error {m['final_error_m']:.2f} m"
     elif "closure_3d_m" in summ:
-        stats += f", {endpoint_label(result.summary)} {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
+        stats += f", {endpoint_label(summary)} {summ['closure_3d_m']:.2f} m ({summ['closure_pct']:.2f} %)"
     if "deviation_error_pct" in m:
         stats += (f"\ndistance err {m['distance_error_pct']:.1f} %, deviation {m['deviation_error_pct']:.1f} %, "
                   f"height err {m['height_error_pct']:.1f} %")
@@ -242,7 +374,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
 
     # 5 path from above
     fig, ax = plt.subplots(figsize=(7.5, 7.5))
-    ax.plot(pos[d, 0], pos[d, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
+    ax.plot(pos[:, 0], pos[:, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
     if len(fp):
         ax.plot(fp[:, 0], fp[:, 1], ".", color="tab:blue", ms=4, label="footprints (stance)")
     if ref_pts is not None:
@@ -259,7 +391,7 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     # 6 3-D path
     fig = plt.figure(figsize=(8, 7))
     ax = fig.add_subplot(projection="3d")
-    ax.plot(pos[d, 0], pos[d, 1], pos[d, 2], color="tab:blue", lw=0.9, label="estimated path")
+    ax.plot(pos[:, 0], pos[:, 1], pos[:, 2], color="tab:blue", lw=0.9, label="estimated path")
     if ref_pts is not None:
         ax.plot(ref_pts[:, 0], ref_pts[:, 1], ref_pts[:, 2], ":", color="k", lw=2, label="reference path")
     ax.scatter(*pos[0], color="tab:green", s=40, label="start")
@@ -278,13 +410,13 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     save(fig, "path_3d")
 
     # 7 height with floor lines
-    floors = result.settings.floor_settings()
-    fig, ax = plt.subplots(figsize=(10, 4.5))
-    z0 = float(fp[0, 2]) if len(fp) else float(result.pos_n[0, 2])
-    ax.plot(t, mm(result.pos_n[:, 2])[1] - z0, color="tab:blue", lw=0.9, label="height of the boot")
-    if len(fp):
-        t_fp, fp_raw = footprints(result.t_s, result.pos_n, result.stance)
-        z_fp = fp_raw[:, 2] - z0
+    floors = settings.floor_settings()
+    fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
+    t_fp, fp_n = info["t_fp"], info["fp_n"]
+    z0 = float(fp_n[0, 2]) if len(fp_n) else float(stream.path.first[2][2])
+    _trace(ax, nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
+    if len(fp_n):
+        z_fp = fp_n[:, 2] - z0
         if floors.stair_min_dz_m is not None:
             ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",
                     label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
@@ -297,10 +429,10 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
     for k in range(k_lo, k_hi + 1):
         ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
-        ax.text(t_full[-1], k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
+        ax.text(t1, k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
                 ha="right", fontsize=8, color="grey")
     reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
-    _time_axes(ax, t_full, stance, sat, "height above start (m)", first=True)
+    time_axes(ax, "height above start (m)", first=True)
     ax.set_xlabel("time (s)")
     ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
                  f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
@@ -334,39 +466,39 @@ def reference_in_estimate_frame(ref_pts: np.ndarray, yaw_rad: float | None, star
 FLOOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
 
 
-def _html_floors(result, step: int) -> np.ndarray:
-    """Counted floor level (0 = start floor, as chart 7 and the summary count them) of every drawn sample:
-    the level of the last footprint at or before it."""
-    t_fp, fp = footprints(result.t_s, result.pos_n, result.stance)
-    t = result.t_s[::step]
-    if len(fp) == 0:
-        return np.zeros(len(t), dtype=np.int64)
-    floors = result.settings.floor_settings()
-    levels = floor_levels(floor_signal(fp[:, 2] - fp[0, 2], floors), floors)
-    return levels[np.clip(np.searchsorted(t_fp, t, side="right") - 1, 0, len(levels) - 1)]
+def _html_floors(t_drawn: np.ndarray, t_fp: np.ndarray, fp_n: np.ndarray, settings) -> np.ndarray:
+    """Counted floor level (0 = start floor, as chart 7 and the summary count them) of every drawn point: the
+    level of the last footprint at or before it."""
+    if len(fp_n) == 0:
+        return np.zeros(len(t_drawn), dtype=np.int64)
+    floors = settings.floor_settings()
+    levels = floor_levels(floor_signal(fp_n[:, 2] - fp_n[0, 2], floors), floors)
+    return levels[np.clip(np.searchsorted(t_fp, t_drawn, side="right") - 1, 0, len(levels) - 1)]
 
 
 def make_html(result, out_dir: str | Path) -> Path:
+    """``path.html`` of a whole run (``pipeline.ProcessResult``); see ``draw_html``."""
+    return draw_html(ChartStream.from_result(result, time_charts=False), out_dir)
+
+
+def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
     """``path.html``: the path from above as a self-contained SVG page (no network, no library), for a trainer.
 
     Metre grid with labels and a scale bar that follow the zoom; the reference (when given, in the estimate's
     frame) dotted; one colour per counted floor with a floor selector on multi-storey walks; start, end and
     a marker per stride (hover: stride number, time, height, length); wheel zooms, drag pans, "fit" (or a
-    window resize) fits the whole path to the window. Equal axes (1 m east = 1 m north), north up.
+    window resize) fits the whole path to the window. Equal axes (1 m east = 1 m north), north up. The path
+    is the decimated one of ``ChartStream`` (``decimate.PathExtremes``), the strides all of them.
     """
     import html
     import json
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    step = max(1, int(np.ceil(len(result.t_s) / max(result.settings.output.plot_max_points, 100))))
-    xy = result.pos_n[::step, :2]
-    ref = None
-    if result.reference is not None and len(result.reference.points_n):
-        from .reference import align_to_reference
-
-        _, ref_pts, yaw = align_to_reference(result.reference, result.t_s, result.pos_n)
-        ref = reference_in_estimate_frame(ref_pts, yaw, result.pos_n[0])[:, :2]
+    info = stream.info
+    _, t_drawn, pos = stream.path.points()
+    xy = pos[:, :2]
+    ref = None if info["reference"] is None else info["reference"]["est"][:, :2]
     every = np.vstack([xy, np.zeros((1, 2))] + ([ref] if ref is not None else []))
     lo, hi = every.min(axis=0), every.max(axis=0)
     pad = 0.05 * max(float((hi - lo).max()), 1.0)
@@ -376,7 +508,7 @@ def make_html(result, out_dir: str | Path) -> Path:
     def points(a):  # SVG y grows downwards: plot -y so that north is up
         return " ".join(f"{x:.3f},{-y:.3f}" for x, y in a)
 
-    level = _html_floors(result, step)
+    level = _html_floors(t_drawn, info["t_fp"], info["fp_n"], info["settings"])
     floor_ids = sorted(set(level.tolist()))
     cuts = np.flatnonzero(np.diff(level)) + 1
     lines = []
@@ -385,8 +517,8 @@ def make_html(result, out_dir: str | Path) -> Path:
         color = FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
         lines.append(f'<polyline class="path" data-floor="{k}" style="stroke:{color}" '
                      f'points="{points(xy[max(a - 1, 0):b])}"/>')
-    st = result.steps
-    st_floor = level[np.minimum(np.searchsorted(result.t_s[::step], st["t_s"]), len(level) - 1)]
+    st = info["steps"]
+    st_floor = level[np.minimum(np.searchsorted(t_drawn, st["t_s"]), len(level) - 1)]
     dots = "".join(
         f'<circle class="stride" data-floor="{k}" cx="{x:.3f}" cy="{-y:.3f}" r="{r_dot:.3f}"><title>stride {i + 1}: '
         f't = {t:.2f} s, z = {z:+.2f} m, length {L:.2f} m</title></circle>'
@@ -394,9 +526,10 @@ def make_html(result, out_dir: str | Path) -> Path:
                                                    st_floor)))
     ref_svg = (f'<polyline id="reference" points="{points(ref)}"><title>reference</title></polyline>'
                if ref is not None else "")
-    p = result.summary.get("path", {})
-    title = html.escape(f"{Path(str(result.summary['input']['source'])).name}: {p.get('distance_m', 0):.2f} m, "
-                        f"{endpoint_label(result.summary)} {p.get('closure_3d_m', float('nan')):.2f} m")
+    summary = info["summary"]
+    p = summary.get("path", {})
+    title = html.escape(f"{Path(str(summary['input']['source'])).name}: {p.get('distance_m', 0):.2f} m, "
+                        f"{endpoint_label(summary)} {p.get('closure_3d_m', float('nan')):.2f} m")
     floor_ui = ""
     if len(floor_ids) > 1:
         opts = "".join(f'<option value="{k}">floor {k:+d}</option>' for k in floor_ids)
