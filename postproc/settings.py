@@ -90,8 +90,9 @@ class OutputSettings:
         WGS-84 latitude, longitude (and ellipsoidal height) of the nav-frame origin; with it GeoJSON is
         in WGS-84 through a local tangent plane [Groves2013, ch. 2]; without it no GeoJSON is written.
     plot_max_points : int
-        Longest line drawn per chart; longer signals are decimated for plotting only (20000 points are
-        more than a chart has pixels, so the decimation is invisible).
+        Most points of a path line (charts 4-6 and path.html); longer paths keep, per time column, the samples at
+        each coordinate's extremes (``decimate.PathExtremes``; 20000 points are more than a chart has pixels, so
+        the thinning is invisible). The time charts always draw min/max per pixel column (``decimate``).
     """
 
     results_name: str = "default"
