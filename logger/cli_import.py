@@ -76,7 +76,7 @@ def check_out(src: Path, out: Path, force: bool) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bootnav.logger.importers import builtin_names, load_profile, read_any, write_result
+    from bootnav.logger.importers import builtin_names, import_streaming, load_profile, read_any, write_result
 
     if args.profile == "list" or str(args.file) == "list":
         for name in builtin_names():
@@ -91,11 +91,14 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path.cwd() / (Path(name).stem + ".h5")
     check_out(args.file, out, args.force)
     delimiter = {"tab": "\t", "comma": ",", "semicolon": ";"}.get(args.delimiter, args.delimiter)
-    result = read_any(args.file, args.profile, columns=args.columns, acc_unit=args.acc_unit,
-                      gyro_unit=args.gyro_unit, time_unit=args.time_unit, acc_range_g=args.acc_range,
-                      gyro_range_dps=args.gyro_range, rate_hz=args.rate, mount=args.mount, sensor=args.sensor,
-                      delimiter=delimiter, check_units=not args.no_unit_check)
-    write_result(result, out)
+    overrides = dict(columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                     time_unit=args.time_unit, acc_range_g=args.acc_range, gyro_range_dps=args.gyro_range,
+                     rate_hz=args.rate, mount=args.mount, sensor=args.sensor, delimiter=delimiter,
+                     check_units=not args.no_unit_check)
+    result = import_streaming(args.file, out, args.profile, **overrides)  # a canonical CSV: block by block
+    if result is None:
+        result = read_any(args.file, args.profile, **overrides)
+        write_result(result, out)
     if not args.quiet:
         for line in result.messages:
             print(f"{args.file.name}: {line}")

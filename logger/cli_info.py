@@ -5,10 +5,13 @@ works for a file whose recorder was killed before writing its final metadata, an
 simulated recordings. ``FILE`` is what ``bootnav process`` reads: a recording, or any file ``bootnav
 import`` reads (e.g. a canonical ``imu.csv.gz``), summarised as the recording ``import`` would write.
 
-The samples are read in blocks of ``BLOCK_ROWS`` rows and their figures accumulated, so memory does not
-grow with the length of the recording (a 24 h shift at 200 Hz is 17 M rows). The median step, which
-the rate and the gap rule need, is kept exact: the distinct step lengths are counted (a clock quantised
-to µs has a few thousand), and gap candidates are kept per block against a bound checked at the end.
+A recording closed by its writer carries the figures of its samples (``imu`` attribute ``summary``,
+``bootnav.logger.samplestats``), used when they describe exactly the rows in the file. Otherwise (a writer
+that died, an older file) the samples are read in blocks of ``BLOCK_ROWS`` rows and the same figures
+accumulated, so memory does not grow with the length of the recording (a 24 h shift at 200 Hz is 17 M
+rows). The median step, which the rate and the gap rule need, is kept exact: the distinct step lengths are
+counted (a clock quantised to µs has a few thousand), and gap candidates are kept per block against a
+bound checked at the end.
 """
 
 from __future__ import annotations
@@ -22,11 +25,6 @@ AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 #: Rows read at a time: a multiple of the writer's chunk (``recording.CHUNK_ROWS`` = 4096 rows) so no chunk
 #: is decompressed twice; about 60 MB of float64 working arrays.
 BLOCK_ROWS = 1 << 20
-#: Distinct step lengths counted for the exact median; timestamps with more (a float host clock) keep their
-#: positive steps instead (8 bytes a sample).
-MAX_DISTINCT_STEPS = 1 << 20
-#: Gap candidates kept per block; a block with more is read again once the median is known.
-MAX_GAP_CANDIDATES = 1 << 16
 #: Below these the sensor did not move at all (a still boot still shows > 0.3 rad/s peaks when walking).
 STILL_GYRO_RADPS = 0.05
 STILL_ACC_STD_MPS2 = 0.05
@@ -70,11 +68,10 @@ def summarize(path, boot=None, *, block_rows: int = BLOCK_ROWS) -> dict:
 
     p = Path(path)
     if p.is_file() and p.suffix.lower() not in (".h5", ".hdf5") and not h5py.is_hdf5(p):
-        from bootnav.logger.importers import read_any, write_result
+        from bootnav.logger.importers import import_file
 
-        with tempfile.TemporaryDirectory(prefix="bootnav-info-") as tmp:
-            return _summarize_recording(write_result(read_any(p), Path(tmp) / "imported.h5"), path, None,
-                                        block_rows)
+        with tempfile.TemporaryDirectory(prefix="bootnav-info-") as tmp:  # a canonical CSV streams (bounded memory)
+            return _summarize_recording(import_file(p, Path(tmp) / "imported.h5"), path, None, block_rows)
     return _summarize_recording(p, path, boot, block_rows)
 
 
@@ -83,6 +80,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     import numpy as np
 
     from bootnav.logger.recording import EVENT_DTYPE, _decode, recording_group
+    from bootnav.logger.samplestats import read_summary
 
     with recording_group(path, boot) as (_, g):
         imu = g["imu"]
@@ -93,21 +91,14 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
         has_seq = "seq" in imu
         gyro_present = str(meta.get("gyro_present", 1)) not in ("0", "False")
-        steps = _Steps()
-        channels = {"acc": _Channel(imu["acc"])} | ({"gyro": _Channel(imu["gyro"])} if gyro_present else {})
-        sat_hist = np.zeros(256, np.int64)
-        for a in range(0, n, block_rows):
-            b = min(a + block_rows, n)
-            steps.add(imu["t_s"][a:b].astype(np.float64), a)
-            for ch in channels.values():
-                if ch.undecided(_moving(channels)):
-                    ch.add(a, b)
-            if "saturated" in imu:
-                sat_hist += np.bincount(imu["saturated"][a:b].astype(np.uint8), minlength=256)
-        med = steps.median()
-        time_gaps = [{"t_s": float(t), "sample_index": int(i), "missing": int(m)}
-                     for i, t, m in zip(*steps.gaps(imu["t_s"], med, n))]
-    t_first, t_last = steps.t_first, steps.t_last
+        si = {k: (float(imu[k].attrs.get("scale_to_si", 1.0)), float(imu[k].attrs.get("offset_to_si", 0.0)))
+              for k in ("acc", "gyro")}
+        stored = read_summary(imu, n) if all(o == 0.0 for _, o in si.values()) else None
+        fig = _Figures.of_summary(stored, si, gyro_present) if stored else _scan(imu, n, si, gyro_present, block_rows)
+    med = fig.median
+    time_gaps = [{"t_s": float(t), "sample_index": int(i), "missing": int(m)} for i, t, m in fig.time_gaps]
+    channels, sat_hist = fig.channels, fig.sat_hist
+    t_first, t_last = fig.t_first, fig.t_last
     kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in events["kind"]]
     count_of = {k: kinds.count(k) for k in sorted(set(kinds))}
     gap_events = events[events["kind"] == b"gap"]
@@ -138,11 +129,11 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         "file": str(shown),
         "frames": n,
         "duration_s": float(t_last - t_first) if n > 1 else 0.0,
-        "rate_hz": 1.0 / med if steps.count else float("nan"),
+        "rate_hz": 1.0 / med if fig.count else float("nan"),
         "rate_nominal_hz": _num(meta.get("rate_nominal_hz")),
-        "jitter_s": steps.jitter(med),
-        "dt_min_s": steps.min(),
-        "dt_max_s": steps.max(),
+        "jitter_s": fig.jitter,
+        "dt_min_s": fig.dt_min,
+        "dt_max_s": fig.dt_max,
         "gaps": len(gaps),
         "gap_source": gap_source,
         "dropped": int(sum(g["missing"] for g in gaps)),
@@ -173,164 +164,55 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     return summary
 
 
-class _Steps:
-    """The time steps ``dt[i] = t[i+1] - t[i]``, fed block by block (``add``): the positive finite ones as
-    distinct values with counts (exact median, extremes and jitter), and per block the steps above a bound,
-    ``GAP_FACTOR`` times the block's own middle step, as gap candidates. Those hold every gap of the block
-    when its bound does not exceed ``GAP_FACTOR`` times the recording's median; else ``gaps`` reads the
-    block again (a block at a lower rate than the rest)."""
+class _Figures:
+    """What ``info`` reports of the samples: timing, gaps from the time stamps, saturation histogram and the
+    acc/gyro ``ChannelStats``, from a writer's summary or a scan."""
 
-    def __init__(self):
+    def __init__(self, t_first, t_last, count, median, jitter, dt_min, dt_max, time_gaps, sat_hist, channels):
+        self.t_first, self.t_last, self.count, self.median = t_first, t_last, count, median
+        self.jitter, self.dt_min, self.dt_max = jitter, dt_min, dt_max
+        self.time_gaps, self.sat_hist, self.channels = time_gaps, sat_hist, channels
+
+    @classmethod
+    def of_summary(cls, s: dict, si: dict, gyro_present: bool) -> "_Figures":
+        """From the ``summary`` a writer stored (``samplestats.SampleStats.summary``)."""
         import numpy as np
 
-        self.values, self.counts = np.zeros(0), np.zeros(0, np.int64)  # distinct positive finite steps, sorted
-        self.raw: list | None = None  # the steps themselves, once there are more than MAX_DISTINCT_STEPS distinct
-        self.blocks: list = []  # (first step, end step, bound, candidates or None)
-        self.t_first = self.t_last = float("nan")
+        from bootnav.logger.samplestats import ChannelStats
 
-    def add(self, t, start: int) -> None:
-        """Rows ``start .. start + len(t)`` of ``t_s`` (float64); blocks come in order."""
-        import numpy as np
-
-        from bootnav.core.timebase import GAP_FACTOR
-
-        t_ext = np.concatenate(([self.t_last], t)) if start else t
-        first = start - 1 if start else 0  # index of the first step of this block
-        if not start and t.size:
-            self.t_first = t[0]
-        if t.size:
-            self.t_last = t[-1]
-        dt = np.diff(t_ext)
-        pos = dt[np.isfinite(dt) & (dt > 0)]
-        v, c = np.unique(pos.view(np.int64), return_counts=True)  # positive floats sort as their bits, faster
-        v = v.view(np.float64)
-        bound = GAP_FACTOR * _kth(v, np.cumsum(c), (pos.size - 1) // 2) if pos.size else float("nan")
-        idx = np.flatnonzero(dt > bound)
-        cand = (first + idx, t_ext[idx + 1], dt[idx]) if idx.size <= MAX_GAP_CANDIDATES else None
-        self.blocks.append((first, first + dt.size, bound, cand))
-        if self.raw is not None:
-            self.raw.append(pos)
-            return
-        u, inv = np.unique(np.concatenate((self.values, v)), return_inverse=True)
-        self.values, self.counts = u, np.bincount(inv, weights=np.concatenate((self.counts, c))).astype(np.int64)
-        if u.size > MAX_DISTINCT_STEPS:
-            self.raw, self.values, self.counts = [np.repeat(u, self.counts)], np.zeros(0), np.zeros(0, np.int64)
-
-    @property
-    def count(self) -> int:
-        return sum(x.size for x in self.raw) if self.raw is not None else int(self.counts.sum())
-
-    def median(self) -> float:
-        """``timebase.nominal_period`` of all steps: NaN without a positive step."""
-        import numpy as np
-
-        from bootnav.core.timebase import nominal_period
-
-        if self.raw is not None:
-            return nominal_period(np.concatenate(self.raw))
-        p, cum = int(self.counts.sum()), np.cumsum(self.counts)
-        if p == 0:
-            return float("nan")
-        if p % 2:
-            return float(_kth(self.values, cum, (p - 1) // 2))
-        return float((_kth(self.values, cum, p // 2 - 1) + _kth(self.values, cum, p // 2)) / 2)
-
-    def jitter(self, med: float) -> float:
-        """``timebase.timing_summary``'s jitter: std of the positive steps below ``GAP_FACTOR * med``."""
-        import numpy as np
-
-        from bootnav.core.timebase import GAP_FACTOR
-
-        if self.count == 0:
-            return float("nan")
-        if self.raw is not None:
-            x = np.concatenate(self.raw)
-            return float(np.std(x[x < GAP_FACTOR * med]))
-        keep = self.values < GAP_FACTOR * med
-        v, c = self.values[keep], self.counts[keep]
-        mean = float((v * c).sum() / c.sum())
-        return float(np.sqrt((c * (v - mean) ** 2).sum() / c.sum()))
-
-    def min(self) -> float:
-        if self.count == 0:
-            return float("nan")
-        return float(min(x.min() for x in self.raw if x.size)) if self.raw is not None else float(self.values[0])
-
-    def max(self) -> float:
-        if self.count == 0:
-            return float("nan")
-        return float(max(x.max() for x in self.raw if x.size)) if self.raw is not None else float(self.values[-1])
-
-    def gaps(self, t_ds, med: float, n: int):
-        """Sample index, time and missing samples of every gap (``timebase.gap_mask``) given the median."""
-        import numpy as np
-
-        from bootnav.core.timebase import GAP_FACTOR, gap_mask, missing_samples
-
-        parts = []
-        for first, end, bound, cand in self.blocks if math.isfinite(med) else []:
-            if cand is None or not bound <= GAP_FACTOR * med:  # candidates may miss a gap: read the block again
-                t = t_ds[first:min(end + 1, n)].astype(np.float64)
-                cand = (first + np.arange(t.size - 1), t[1:], np.diff(t))
-            keep = gap_mask(cand[2], med)
-            parts.append((cand[0][keep] + 1, cand[1][keep], missing_samples(cand[2][keep], med)))
-        if not parts:
-            return (), (), ()
-        return tuple(np.concatenate(x) for x in zip(*parts))
+        channels = {k: ChannelStats.from_state(s["channels"][k], si[k][0])
+                    for k in (("acc", "gyro") if gyro_present else ("acc",))}
+        return cls(s["t_first"], s["t_last"], s["step_count"], s["dt_median_s"], s["jitter_s"], s["dt_min_s"],
+                   s["dt_max_s"], [tuple(x) for x in s["time_gaps"]], np.asarray(s["saturated_hist"], np.int64),
+                   channels)
 
 
-def _kth(values, cum_counts, k: int):
-    """The ``k``-th smallest (0-based) of values repeated by counts, given their cumulative counts."""
-    return values[cum_counts.searchsorted(k, side="right")]
+def _scan(imu, n: int, si: dict, gyro_present: bool, block_rows: int) -> _Figures:
+    """``_Figures`` of the first ``n`` rows of the group ``imu``, read in blocks of ``block_rows``.
 
-
-class _Channel:
-    """An (N, 3) sensor dataset read block by block in SI units (as ``recording.load`` scales it): non-finite
-    rows, whether any finite value is non-zero, per-axis std (Chan's parallel update) and largest |value|.
-
-    Only blocks that can still change a warning are read (``undecided``): integer counts cannot be non-finite,
+    A channel's block is read only while it can still change a warning: integer counts cannot be non-finite,
     so a walking recording stored as counts is settled by its first block."""
+    import numpy as np
 
-    def __init__(self, ds):
-        import numpy as np
+    from bootnav.logger.samplestats import ChannelStats, StepStats
 
-        self.ds = ds
-        self.scale = float(ds.attrs.get("scale_to_si", 1.0))
-        self.offset = float(ds.attrs.get("offset_to_si", 0.0))
-        self.nonfinite, self.first_bad = 0, -1
-        self.any_finite = self.any_nonzero = False
-        self.n, self.mean, self.m2, self.absmax = 0, np.zeros(3), np.zeros(3), 0.0
-
-    def undecided(self, moving: bool) -> bool:
-        """Whether the next block can still change a figure ``_data_warnings`` uses (``moving``: the gyro has
-        shown motion, so the no-motion check is decided)."""
-        return self.ds.dtype.kind == "f" or not self.any_nonzero or not moving
-
-    def add(self, a: int, b: int) -> None:
-        import numpy as np
-
-        x = self.ds[a:b].astype(np.float64) * self.scale + self.offset
-        finite = x
-        if self.ds.dtype.kind == "f":  # integer counts times a finite scale cannot be non-finite
-            ok = np.isfinite(x)
-            bad = ~np.all(ok, axis=1)
-            if bad.any():
-                self.first_bad = a + int(np.argmax(bad)) if self.first_bad < 0 else self.first_bad
-                self.nonfinite += int(bad.sum())
-                finite = x[ok]
-        self.any_finite |= bool(finite.size)
-        self.any_nonzero |= bool(np.any(finite != 0))
-        if self.nonfinite or not x.size:
-            return
-        nb, mean_b = x.shape[0], x.mean(axis=0)
-        delta, tot = mean_b - self.mean, self.n + nb
-        self.m2 += ((x - mean_b) ** 2).sum(axis=0) + delta ** 2 * self.n * nb / tot
-        self.mean += delta * nb / tot
-        self.n = tot
-        self.absmax = max(self.absmax, float(np.abs(x).max()))
-
-    def std(self):
-        return (self.m2 / self.n) ** 0.5
+    steps = StepStats()
+    channels = {"acc": ChannelStats()} | ({"gyro": ChannelStats()} if gyro_present else {})
+    sat_hist = np.zeros(256, np.int64)
+    for a in range(0, n, block_rows):
+        b = min(a + block_rows, n)
+        steps.add(imu["t_s"][a:b].astype(np.float64))
+        moving = _moving(channels)
+        for name, ch in channels.items():
+            ds = imu[name]
+            if ds.dtype.kind == "f" or not ch.any_nonzero or not moving:
+                ch.add(ds[a:b], a, *si[name])
+        if "saturated" in imu:
+            sat_hist += np.bincount(imu["saturated"][a:b].astype(np.uint8), minlength=256)
+    med = steps.median()
+    gaps = list(zip(*steps.gaps(imu["t_s"], med, n)))
+    return _Figures(steps.t_first, steps.t_last, steps.count, med, steps.jitter(med), steps.min(), steps.max(),
+                    gaps, sat_hist, channels)
 
 
 def _moving(channels: dict) -> bool:

@@ -27,6 +27,7 @@ import numpy as np
 from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.timebase import timing_summary
 from bootnav.errors import DiskFullError, InputError
+from bootnav.logger.samplestats import SampleStats
 
 FORMAT_VERSION = 1
 CHUNK_ROWS = 4096
@@ -217,6 +218,8 @@ class RecordingWriter:
     ):
         self.path = Path(path)
         self._peers = [self]  # writers sharing the file (one per boot): a failed write rolls back all of them
+        # what `bootnav info` reports, stored at close (a multi-boot recorder rewrites t_s after it: none there)
+        self._stats = SampleStats() if _shared is None else None
         if _shared is not None:  # a boot group of a MultiBootWriter's file, which owns file attrs and SWMR
             self._file, group = _shared
             self._closed = False
@@ -309,6 +312,13 @@ class RecordingWriter:
         self.n_safe, self.t_safe = 0, float("nan")  # rows on disk at the last flush, and their last time
 
     @property
+    def stats(self) -> SampleStats | None:
+        """The figures of the rows appended so far (None for a boot of a multi-boot file)."""
+        if self._stats is not None:
+            self._stats.fold()
+        return self._stats
+
+    @property
     def enabled(self) -> tuple[str, ...]:
         return tuple(self._arrays)
 
@@ -345,6 +355,9 @@ class RecordingWriter:
         except (OSError, RuntimeError) as exc:
             self._fail(exc)
         self.n += n_new
+        if self._stats is not None:
+            a, g = (block[k].astype(self._arrays[k].dtype, copy=False) for k in ("acc", "gyro"))
+            self._stats.append(t_s, a, g, block["saturated"])
 
     def add_events(self, events: np.ndarray | Iterable[Mapping[str, Any]]) -> None:
         if not isinstance(events, np.ndarray):
@@ -428,12 +441,19 @@ class RecordingWriter:
         except (OSError, RuntimeError) as exc:
             self._fail(exc)
         self._closed = True
-        if final_meta:
+        summary = self._stats.summary() if self._stats is not None and self.n else None
+        if summary is not None and free_bytes(self.path) < MIN_FREE_BYTES + len(summary):
+            summary = None  # optional (`info` scans without it): never what fills the disk
+        if final_meta or summary:
             try:
                 with h5py.File(self.path, "r+", libver=LIBVER) as f:
-                    for key, value in final_meta.items():
+                    for key, value in (final_meta or {}).items():
                         f["meta"].attrs[key] = _clean_attr(value)
+                    if summary:
+                        f["imu"].attrs["summary"] = summary
             except (OSError, RuntimeError) as exc:
+                if not final_meta:
+                    return  # only the optional summary (a reader holds the file, e.g. a live view): info scans
                 if is_disk_full(exc):
                     raise DiskFullError(f"{self.disk_full_error()} (final metadata not written)") from exc
                 raise

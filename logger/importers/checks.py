@@ -48,20 +48,31 @@ SI_MARGIN = 0.005
 
 def quietest_second(acc_si: np.ndarray, rate_hz: float) -> tuple[float, int]:
     """(median |acc| in the quietest 1-s window, start index of that window)."""
-    mag = np.linalg.norm(acc_si, axis=1)
-    mag = mag[np.isfinite(mag)]
+    return quietest_magnitude(np.linalg.norm(acc_si, axis=1), rate_hz)
+
+
+def quietest_magnitude(mag: np.ndarray, rate_hz: float) -> tuple[float, int]:
+    """``quietest_second`` of the row norms ``mag`` of the accelerometer (a streamed import keeps only them).
+    The windows' std is taken a few thousand windows at a time (the same figures, without a temporary copy
+    of the whole record)."""
+    finite = np.isfinite(mag)
+    if not finite.all():
+        mag = mag[finite]
     n = max(int(round(rate_hz)) if np.isfinite(rate_hz) else 1, 5)
     if mag.size < n:
         return float(np.median(mag)) if mag.size else float("nan"), 0
     k = mag.size // n
     win = mag[: k * n].reshape(k, n)
-    j = int(np.argmin(win.std(axis=1)))
+    rows = max(1, (1 << 20) // n)
+    j = int(np.argmin(np.concatenate([win[a:a + rows].std(axis=1) for a in range(0, k, rows)])))
     return float(np.median(win[j])), j * n
 
 
-def acc_unit_problem(acc_raw: np.ndarray, scale_to_si: float, declared: str, rate_hz: float) -> str | None:
-    """None if the gravity magnitude fits the declared unit, else a message with a suggestion."""
-    raw_mag, i0 = quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
+def acc_unit_problem(acc_raw: np.ndarray | None, scale_to_si: float, declared: str, rate_hz: float, *,
+                     quiet: tuple[float, int] | None = None) -> str | None:
+    """None if the gravity magnitude fits the declared unit, else a message with a suggestion (``quiet``:
+    ``quietest_second`` of ``acc_raw`` when already known)."""
+    raw_mag, i0 = quiet or quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
     if not np.isfinite(raw_mag):
         return None
     si = raw_mag * scale_to_si
@@ -75,10 +86,12 @@ def acc_unit_problem(acc_raw: np.ndarray, scale_to_si: float, declared: str, rat
             f"in the file = {si:.4g} m/s^2 with the declared unit {declared!r}, expected 9.81 m/s^2 +-25%{hint}")
 
 
-def gyro_unit_problem(gyro_si: np.ndarray, declared: str) -> str | None:
-    """None if the gyro's 99.9th percentile |rate| is physically possible, else a message (module docstring)."""
-    with np.errstate(over="ignore", invalid="ignore"):  # 1e308 values: refused later by the physical bounds
-        mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
+def gyro_unit_problem(gyro_si: np.ndarray | None, declared: str, *, mag: np.ndarray | None = None) -> str | None:
+    """None if the gyro's 99.9th percentile |rate| is physically possible, else a message (module docstring);
+    ``mag``: the row norms of ``gyro_si`` when already known."""
+    if mag is None:
+        with np.errstate(over="ignore", invalid="ignore"):  # 1e308 values: refused later by the physical bounds
+            mag = np.linalg.norm(np.asarray(gyro_si, dtype=np.float64), axis=1)
     mag = mag[np.isfinite(mag)]
     if mag.size == 0:
         return None
@@ -90,9 +103,11 @@ def gyro_unit_problem(gyro_si: np.ndarray, declared: str) -> str | None:
             f"more than any foot or MEMS gyro reaches ({GYRO_ABSURD_RADPS} rad/s = 2000 deg/s); try {hint}")
 
 
-def acc_borderline(acc_raw: np.ndarray, scale_to_si: float, rate_hz: float) -> str | None:
-    """A warning when the quietest second's |f| passes the gravity check but is 10-25 % off g (module docstring)."""
-    raw_mag, i0 = quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
+def acc_borderline(acc_raw: np.ndarray | None, scale_to_si: float, rate_hz: float, *,
+                   quiet: tuple[float, int] | None = None) -> str | None:
+    """A warning when the quietest second's |f| passes the gravity check but is 10-25 % off g (module docstring;
+    ``quiet`` as in ``acc_unit_problem``)."""
+    raw_mag, i0 = quiet or quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
     si = raw_mag * scale_to_si
     if not np.isfinite(si) or abs(si / STANDARD_GRAVITY - 1.0) <= ACC_BORDERLINE:
         return None

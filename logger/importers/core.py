@@ -228,7 +228,7 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         t, time_unit = _build_time(src)
         units = _check_units(src, t)
         saturated = _sample_events(src, t, units)
-        result = _build_result(src, t, time_unit, units, saturated, raw)
+        result = _build_result(src, t, time_unit, units, saturated, _sha256(raw))
     _check_physical(result, path, overrides.get("check_units", True))
     utf16 = utf16_encoding(data)
     if utf16:
@@ -246,11 +246,12 @@ MAX_GYRO_RADPS = 50.0  # ~2900 deg/s: above the ±2000 deg/s of MEMS gyros
 RATE_BOUNDS_HZ = (1.0, 10_000.0)
 
 
-def _check_physical(result: ImportResult, path: Path, strict: bool) -> None:
+def _check_physical(result: ImportResult, path: Path, strict: bool, over: dict | None = None) -> None:
     """Refuse a result whose values are physically impossible: a non-finite time, a rate outside
     1 Hz-10 kHz, |acc| above 200 m/s^2 or |gyro| above 50 rad/s, each named with its sample index and
     the likely fix. ``strict=False`` (``--no-unit-check``) turns the value bounds into note events; a
-    non-finite time is always an error."""
+    non-finite time is always an error. ``over`` ({"acc"/"gyro": ``OverBound``}) replaces the scan of
+    ``result.acc``/``result.gyro`` (a streamed import keeps no such arrays)."""
     t = np.asarray(result.t_s, dtype=np.float64)
     bad_t = np.flatnonzero(~np.isfinite(t))
     if bad_t.size:
@@ -261,21 +262,37 @@ def _check_physical(result: ImportResult, path: Path, strict: bool) -> None:
     if math.isfinite(rate) and not RATE_BOUNDS_HZ[0] <= rate <= RATE_BOUNDS_HZ[1]:
         problems.append(f"sample rate {rate:.4g} Hz is outside {RATE_BOUNDS_HZ[0]:g} Hz-{RATE_BOUNDS_HZ[1]:g} Hz; "
                         "check --time-unit (s, ms, us) or --rate")
-    for kind, arr, ch, bound, unit, flag in (
-            ("acc", result.acc, result.acc_channel, MAX_ACC_MPS2, "m/s^2", "--acc-unit"),
-            ("gyro", result.gyro, result.gyro_channel, MAX_GYRO_RADPS, "rad/s", "--gyro-unit")):
-        with np.errstate(invalid="ignore", over="ignore"):
-            si = np.abs(np.asarray(arr, dtype=np.float64) * ch.scale_to_si + ch.offset_to_si)
-        over = np.flatnonzero(np.any(si > bound, axis=1)) if si.size else np.zeros(0, int)
-        if over.size:
-            i = int(over[0])
-            problems.append(f"{kind} of sample {i} (t = {t[i]:.6g} s) is {np.max(si[i]):.4g} {unit}, beyond the "
-                            f"physical bound {bound:g} {unit} ({over.size} samples); a damaged line or a wrong {flag}")
+    for kind, arr, ch, unit, flag in (("acc", result.acc, result.acc_channel, "m/s^2", "--acc-unit"),
+                                      ("gyro", result.gyro, result.gyro_channel, "rad/s", "--gyro-unit")):
+        o = over[kind] if over is not None else OverBound(kind, ch).add(arr, 0)
+        if o.count:
+            i = o.first
+            problems.append(f"{kind} of sample {i} (t = {t[i]:.6g} s) is {o.value:.4g} {unit}, beyond the "
+                            f"physical bound {o.bound:g} {unit} ({o.count} samples); a damaged line or a wrong {flag}")
     for p in problems:
         if strict:
             raise InputError(f"{path}: {p}")
         result.events.append(dict(kind="note", detail=("bound check overridden: " + p)[:200]))
         result.messages.append("WARNING (bound check overridden): " + p)
+
+
+class OverBound:
+    """Samples of a channel beyond its physical bound (``MAX_ACC_MPS2``/``MAX_GYRO_RADPS`` on any axis, in
+    SI), fed block by block (``add``): how many, the first one and its largest |value|."""
+
+    def __init__(self, kind: str, channel: Channel):
+        self.bound = MAX_ACC_MPS2 if kind == "acc" else MAX_GYRO_RADPS
+        self.channel, self.count, self.first, self.value = channel, 0, -1, float("nan")
+
+    def add(self, arr, start: int) -> "OverBound":
+        """Rows ``start ..`` of the channel as stored; returns self."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            si = np.abs(np.asarray(arr, dtype=np.float64) * self.channel.scale_to_si + self.channel.offset_to_si)
+        over = np.flatnonzero(np.any(si > self.bound, axis=1)) if si.size else np.zeros(0, int)
+        if over.size and not self.count:
+            self.first, self.value = start + int(over[0]), float(np.max(si[over[0]]))
+        self.count += int(over.size)
+        return self
 
 
 def _detect(path: Path, text: str, profile, overrides: dict, damage: str | None) -> _Source:
@@ -308,6 +325,11 @@ def _detect(path: Path, text: str, profile, overrides: dict, damage: str | None)
         prof = prof.for_sensor(overrides.get("sensor"))
     elif overrides.get("sensor") not in (None, 1):
         raise InputError(f"{path}: --sensor needs a profile with several sensors")
+    return _new_source(path, table, prof, detected, overrides)
+
+
+def _new_source(path: Path, table: TextTable, prof: Profile | None, detected: bool, overrides: dict) -> _Source:
+    """The ``_Source`` of a file's table, with the messages saying which profile and format were found."""
     src = _Source(path, table, prof, detected, overrides)
     src.messages.append(f"profile: {src.pname}" + (" (auto-detected)" if detected else " (given)" if prof else
                         " (no profile matched; columns and units from the header and flags)"))
@@ -413,18 +435,25 @@ def _parse_numbers(src: _Source) -> None:
                 bad.setdefault(int(r), f"column {i + 1} ({role}) is {table.cell(r, i).strip()[:20]!r} "
                                        "(NaN/inf: line skipped)")
         values[role] = arr
-    n_lines_data = table.n_rows + len(table.bad_lines)
     skipped = [(ln, reason) for ln, reason in table.bad_lines]
     skipped += [(int(table.line_numbers[r]), reason) for r, reason in bad.items()]
     skipped.sort()
-    if n_lines_data == 0 or len(skipped) > MAX_BAD_FRACTION * n_lines_data:
-        first = "; ".join(f"line {ln}: {why}" for ln, why in skipped[:3])
-        raise InputError(f"{path}: {len(skipped)} of {n_lines_data} data lines are malformed ({first}); "
-                         f"wrong profile, columns or delimiter?")
+    _report_skipped(src, skipped, table.n_rows - len(bad))
     keep = np.ones(table.n_rows, dtype=bool)
     keep[list(bad)] = False
     src.line_numbers = table.line_numbers[keep]
     src.values = {k: v[keep] for k, v in values.items()}
+
+
+def _report_skipped(src: _Source, skipped: list[tuple[int, str]], n_kept: int) -> None:
+    """The skipped lines (sorted (line, reason)) as events and messages; an error when more than
+    ``MAX_BAD_FRACTION`` of the data lines (``n_kept`` + skipped) are bad."""
+    path, table = src.path, src.table
+    n_lines_data = n_kept + len(skipped)
+    if n_lines_data == 0 or len(skipped) > MAX_BAD_FRACTION * n_lines_data:
+        first = "; ".join(f"line {ln}: {why}" for ln, why in skipped[:3])
+        raise InputError(f"{path}: {len(skipped)} of {n_lines_data} data lines are malformed ({first}); "
+                         f"wrong profile, columns or delimiter?")
     src.skipped = skipped
     for ln, reason in skipped:
         truncated = table.ends_without_newline and ln == table.n_lines
@@ -595,7 +624,7 @@ def _sample_events(src: _Source, t: np.ndarray, u: _Units) -> np.ndarray:
 
 
 def _build_result(src: _Source, t: np.ndarray, time_unit: str, u: _Units, saturated: np.ndarray,
-                  raw: bytes) -> ImportResult:
+                  sha256: str) -> ImportResult:
     """Stage 7: extra columns, metadata and the summary messages, as an ``ImportResult``."""
     path, table, prof, n, meta = src.path, src.table, src.prof, src.n, src.meta
     aux, aux_units = {}, {}
@@ -606,7 +635,7 @@ def _build_result(src: _Source, t: np.ndarray, time_unit: str, u: _Units, satura
             aux_units[name] = src.header_units.get(role) or "as in file"
     summary = timing_summary(t)
     meta.update(
-        source_file=str(path.resolve()), source_sha256=_sha256(raw), importer_profile=src.pname,
+        source_file=str(path.resolve()), source_sha256=sha256, importer_profile=src.pname,
         importer_profile_file=str(prof.path) if prof and prof.path else "",
         detected=dict(delimiter=_delimiter_name(table), header=table.header or [], decimal_comma=table.decimal_comma,
                       columns={r: (table.header[i] if table.header else i) for r, i in src.idx.items()},
@@ -733,11 +762,6 @@ def write_result(result: ImportResult, out) -> Path:
         write_aux(tmp, "aux", result)
 
     return write_atomically(out, write)
-
-
-def import_file(path, out, profile: str | Path | Profile | None = None, **overrides) -> Path:
-    """Import ``path`` into the recording ``out``; returns ``out``. See ``read_any`` for the overrides."""
-    return write_result(read_any(path, profile, **overrides), out)
 
 
 def load_aux(path) -> dict[str, np.ndarray]:
