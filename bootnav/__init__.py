@@ -15,12 +15,13 @@ Conventions used by every package (written into every output file as attributes)
 
 Python API (``bootnav.api``, imported on first use so that ``import bootnav`` stays light):
 ``bootnav.load(path)``, ``bootnav.process(path | recording | t_s, acc_mps2, gyro_radps, **settings)``,
-``bootnav.pdr(...)``; results hold numpy arrays and convert with ``.to_dataframe()`` (pandas optional).
+``bootnav.pdr(...)``, ``bootnav.process_two_boots(left, right)`` (both feet of one walker); results hold numpy
+arrays and convert with ``.to_dataframe()`` (pandas optional).
 """
 
 from .core.conventions import CONVENTIONS, __version__
 
-_API = ("load", "process", "pdr", "PathResult", "StepResult")
+_API = ("load", "process", "process_two_boots", "pdr", "PathResult", "StepResult", "TwoBootPathResult")
 __all__ = ["CONVENTIONS", "__version__", *_API]
 
 

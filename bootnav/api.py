@@ -11,6 +11,8 @@
     df = res.to_dataframe()                           # pandas (optional), columns as trajectory.csv
     res.save("out/")                                  # every file `bootnav process --out out/` writes
     steps = bootnav.pdr(t_s, acc_mps2, gyro_radps)    # step-and-heading for waist / phone sensors
+    both = bootnav.process_two_boots("left.h5", "right.h5")  # two feet of one walker, fused (or one multi-boot file)
+    both.left.pos_n_m, both.walker_pos_n_m, both.strides["step_width_m"], both.save("out/")
 
 Settings are given as keywords: any field of ``bootnav.postproc.settings.ProcessSettings`` (``PdrSettings``
 for ``pdr``), nested ones as dicts, e.g. ``process(rec, crop_s=(0, 60), detector={"method": "shoe"})``; or a
@@ -27,7 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["load", "process", "pdr", "PathResult", "StepResult"]
+__all__ = ["load", "process", "process_two_boots", "pdr", "PathResult", "StepResult", "TwoBootPathResult"]
 
 
 def load(path: str | Path):
@@ -223,11 +225,173 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
 
     if acc_mps2 is not None or gyro_radps is not None:
         source = _recording_of_arrays(source, acc_mps2, gyro_radps)
-    r = run(source, _settings(ProcessSettings, settings, overrides), progress)
+    return _path_result(run(source, _settings(ProcessSettings, settings, overrides), progress))
+
+
+def _path_result(r) -> PathResult:
+    """A ``PathResult`` of a ``pipeline.ProcessResult`` (stride table with both heading columns)."""
     from bootnav.postproc.outputs import heading_columns
 
     steps = {**{k: np.asarray(v) for k, v in r.steps.items()}, **heading_columns(r.steps["yaw_enu_rad"])}
     return PathResult(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance, steps, r.summary, r.warnings, r.metrics, r)
+
+
+@dataclass
+class TwoBootPathResult:
+    """Both feet of one walker fused by ``process_two_boots`` (nav frame ENU = the left foot's, origin at the
+    left sensor's start; the session clock).
+
+    Attributes
+    ----------
+    left, right : PathResult
+        Each fused foot as ``process`` returns one foot (path, stance, strides, summary; ``save`` writes the
+        files of ``bootnav process --two-boots``'s ``left/`` or ``right/``).
+    left_alone, right_alone : PathResult
+        Each foot processed alone (its own frame and origin; for comparison).
+    walker_t_s : (N,) array
+        Times of the walker's path, s (the left foot's samples).
+    walker_pos_n_m : (N, 3) array
+        The walker: midpoint of the two fused feet, m.
+    strides : dict of arrays
+        Both feet's strides in time order (``strides.csv``): ``foot`` ("left"/"right"), ``t_s``, footprint
+        ``x_m y_m z_m``, ``stride_length_m``, ``dz_m``, ``yaw_enu_rad``, ``heading_deg_cw_from_north``,
+        ``step_width_m`` (NaN where undefined: ``twoboots.gaitmetrics``).
+    summary : dict
+        Everything ``two_boots.json`` holds (each foot alone and fused, walker distance, constraint updates,
+        clock check, frame alignment, both settings objects).
+    raw : bootnav.postproc.twoboots.run.TwoBootResult
+    """
+
+    left: PathResult
+    right: PathResult
+    left_alone: PathResult
+    right_alone: PathResult
+    walker_t_s: np.ndarray
+    walker_pos_n_m: np.ndarray
+    strides: dict
+    summary: dict
+    raw: Any = field(repr=False)
+
+    def __repr__(self) -> str:
+        c = self.summary["constraint"]
+        return (f"TwoBootPathResult({self.summary['walker']['distance_m']:.2f} m walked, "
+                f"{len(self.strides['t_s'])} strides, bound active at {c['active_updates']} of {c['checks']} checks)")
+
+    def stride_lengths_m(self, foot: str) -> np.ndarray:
+        """Stride lengths of ``"left"`` or ``"right"``, m, in time order."""
+        return self.strides["stride_length_m"][self.strides["foot"] == foot]
+
+    def to_dataframe(self):
+        """The walker's path and both fused feet per sample, the columns of ``walker.csv`` (pandas required)."""
+        from bootnav.postproc.twoboots.outputs import walker_columns
+
+        header, cols = walker_columns(self.raw)
+        return _pandas().DataFrame(dict(zip(header, cols)))
+
+    def strides_dataframe(self):
+        """One row per stride of either foot, the columns of ``strides.csv`` (pandas required)."""
+        return _pandas().DataFrame(self.strides)
+
+    def save(self, out_dir: str | Path, force: bool = False) -> dict[str, str]:
+        """Write every output of ``bootnav process --two-boots --out out_dir``.
+
+        Parameters
+        ----------
+        out_dir
+            Output directory (created).
+        force
+            Overwrite existing files.
+
+        Returns
+        -------
+        dict
+            {kind: path} of the files written.
+        """
+        from bootnav.postproc.twoboots.outputs import check_outputs, write_two_boot_outputs
+
+        check_outputs(self.raw.settings, out_dir, [], force)
+        return write_two_boot_outputs(self.raw, out_dir, force)
+
+
+def _foot_source(source, name: str):
+    """A path or ``Recording`` as it is; a tuple (t_s, acc_mps2, gyro_radps) of arrays as a ``Recording``."""
+    from bootnav.errors import InputError
+
+    if isinstance(source, (tuple, list)):
+        if len(source) != 3:
+            raise InputError(f"process_two_boots: {name} as arrays is (t_s, acc_mps2, gyro_radps); got {len(source)} "
+                             "items")
+        return _recording_of_arrays(*source)
+    return source
+
+
+def process_two_boots(left, right=None, /, *, boots=None, settings=None, two_boot=None,
+                      progress: Callable[[str, float], None] | None = None, **overrides) -> TwoBootPathResult:
+    """Fuse both feet of one walker (``bootnav process --two-boots``; writes nothing).
+
+    Each foot is processed alone, the right foot's frame is turned onto the left one, then both filters run in
+    lockstep with the maximum-separation bound ‖p_L − p_R‖ ≤ γ [Skog2012] (``bootnav.postproc.twoboots``).
+
+    Parameters
+    ----------
+    left, right
+        Each foot: a file path, a ``Recording`` or a tuple ``(t_s, acc_mps2, gyro_radps)`` of arrays (s, m/s²
+        with gravity, rad/s; both on one clock). Only ``left``: a multi-boot recording (``bootnav record
+        --port A --port B``), whose boots ``boots`` (default ``left`` and ``right``, else the first two) are used.
+    boots : (str, str), optional
+        Labels of the left and right boot in a multi-boot recording.
+    settings
+        ``ProcessSettings`` of both feet, a dict of it, or a JSON file; defaults when None.
+    two_boot
+        ``TwoBootSettings`` or a dict of its fields (bound ``max_separation_m``, clock, start posture, ...).
+    progress
+        ``progress(stage, fraction)``.
+    **overrides
+        Fields of ``ProcessSettings`` (nested ones as dicts), applied on top of ``settings``.
+
+    Returns
+    -------
+    TwoBootPathResult
+
+    Raises
+    ------
+    bootnav.errors.InputError
+        Unknown setting, bad arrays or file, a single-boot file without ``right``, recordings that do not
+        overlap in time, the paper (riccati) mode.
+
+    Examples
+    --------
+    ::
+
+        import bootnav
+
+        both = bootnav.process_two_boots("both.h5")         # one multi-boot recording (or LEFT, RIGHT)
+        both.walker_pos_n_m[-1]                             # where the walker ended, m
+        both.stride_lengths_m("left"), both.stride_lengths_m("right")
+        both.strides["step_width_m"]                        # per stride, NaN where undefined
+        both.left.pos_n_m, both.left_alone.pos_n_m          # a foot fused and alone
+        bootnav.process_two_boots("l.h5", "r.h5", two_boot={"max_separation_m": 0.9}).save("out/")
+    """
+    from bootnav.errors import InputError
+    from bootnav.postproc.settings import ProcessSettings
+    from bootnav.postproc.twoboots import TwoBootSettings
+    from bootnav.postproc.twoboots.cli import boot_pair, is_multi_boot
+    from bootnav.postproc.twoboots.outputs import fused_process_result, stride_rows
+    from bootnav.postproc.twoboots.run import process_two_boots as run
+
+    if right is None:
+        if not (isinstance(left, (str, Path)) and is_multi_boot(str(left))):
+            raise InputError(f"process_two_boots: give the right foot too, or one multi-boot recording (got {left!r})")
+        left, right = boot_pair(left, boots)
+    elif boots is not None:
+        raise InputError("process_two_boots: boots= picks the boots of one multi-boot recording; drop it for two feet")
+    tb = two_boot if isinstance(two_boot, TwoBootSettings) else TwoBootSettings.from_dict(two_boot)
+    r = run(_foot_source(left, "left"), _foot_source(right, "right"), _settings(ProcessSettings, settings, overrides),
+            tb, progress)
+    fused = {label: _path_result(fused_process_result(r, label)) for label in ("left", "right")}
+    return TwoBootPathResult(fused["left"], fused["right"], _path_result(r.single["left"]),
+                             _path_result(r.single["right"]), r.walker_t_s, r.walker_pos_n, stride_rows(r), r.summary,
+                             r)
 
 
 @dataclass

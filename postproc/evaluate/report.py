@@ -55,6 +55,8 @@ def plot_trial(result: TrialResult, out_dir: Path) -> list[Path]:
 
     paths = []
     for name, data in result.plot_data.items():
+        if "feet_xy" in data:
+            paths.append(_plot_feet(result, name, data["feet_xy"], out_dir))
         if "est_xy" not in data:
             continue
         fig, ax = plt.subplots(figsize=(6, 5))
@@ -87,6 +89,37 @@ def plot_trial(result: TrialResult, out_dir: Path) -> list[Path]:
         plt.close(fig)
         paths.append(p)
     return paths
+
+
+FEET_STYLE = {"left alone": ("tab:blue", ":", 0.9), "right alone": ("tab:red", ":", 0.9),
+              "left fused": ("tab:blue", "-", 1.0), "right fused": ("tab:red", "-", 1.0),
+              "walker (fused midpoint)": ("k", "-", 1.6)}
+
+
+def _plot_feet(result: TrialResult, name: str, feet_xy: dict, out_dir: Path) -> Path:
+    """Both feet of a two-boot trial, alone and fused, and the walker, from above (the fusion's frame)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 5))
+    for label, xy in feet_xy.items():
+        color, ls, lw = FEET_STYLE.get(label, (None, "-", 1.0))
+        xy = np.asarray(xy)
+        ax.plot(xy[:, 0], xy[:, 1], ls=ls, lw=lw, color=color, label=label)
+    walker = np.asarray(feet_xy["walker (fused midpoint)"])
+    ax.plot(walker[0, 0], walker[0, 1], "go", label="start")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m] (left foot's frame)")
+    ax.set_ylabel("y [m]")
+    m = result.metrics
+    ax.set_title(f"{result.id} · {name}\nbound active at {_fmt(m.get('two_boots_active_updates'))} of "
+                 f"{_fmt(m.get('two_boots_checks'))} checks", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    p = out_dir / (result.id.replace("/", "__") + "__" + name.replace(" ", "_") + ".png")
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    return p
 
 
 def write_report(results: list[TrialResult], doc: dict, out_dir: Path, header: str = "") -> Path:

@@ -94,6 +94,7 @@ def estimate_foot(path: Path, settings) -> FootEstimate:
 
 
 TWO_BOOT_FILES = ("imu_left.csv.gz", "imu_right.csv.gz")
+LR = ("left", "right")
 
 
 def estimate_two_boots(estimates: dict, settings) -> dict:
@@ -109,6 +110,7 @@ def estimate_two_boots(estimates: dict, settings) -> dict:
     out = {name: FootEstimate(*fused[label], fused["seconds"]) for name, label in zip(TWO_BOOT_FILES, ("left", "right"))}
     out["metrics"] = fused["metrics"]
     out["single_xy"] = {name: fused["single_xy"][label] for name, label in zip(TWO_BOOT_FILES, ("left", "right"))}
+    out["walker_xy"] = fused["walker_xy"]
     return out
 
 
@@ -289,6 +291,11 @@ def evaluate_trial(trial: dict, root: str, foot_settings=None, pdr_settings=None
                 res.plot_data[f"{name} (two boots)"] = {**plot, "single_xy": two_boots["single_xy"][name]}
                 rows.append(scored)
             res.metrics.update({f"two_boots_{k}": v for k, v in {**_mean_metrics(rows), **two_boots["metrics"]}.items()})
+            # both feet alone and fused and the walker in one plot, in the fusion's common frame
+            res.plot_data["two boots"] = {"feet_xy": {
+                **{f"{label} alone": two_boots["single_xy"][name] for name, label in zip(TWO_BOOT_FILES, LR)},
+                **{f"{label} fused": two_boots[name].pos_n[:, :2] for name, label in zip(TWO_BOOT_FILES, LR)},
+                "walker (fused midpoint)": two_boots["walker_xy"]}}
         if two_boots_error:
             res.files["two boots"] = {"error": two_boots_error}
     except Exception as exc:  # a failure is reported with its reason, never skipped

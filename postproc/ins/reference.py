@@ -4,6 +4,10 @@ Transparent on purpose (slow: a Python loop): every step reads like the equation
 docstring, so the fast numba engine can be checked against it (tests/test_ins_engines.py: same trajectory to
 1e-9 m). The error state lives in ``kf.x`` (zero after every reset), the covariance in ``kf.P``;
 ``kf.predict()`` does P ← F P Fᵀ + Q and ``kf.update()`` does the Joseph-form update.
+
+``ReferenceNavigator`` is the loop with its state kept between pushes and an outside update at the last sample
+(``apply_measurement``); ``run_reference`` pushes a whole record through it, the two-boot fusion drives two in
+lockstep (tests/test_twoboots_engines.py: the fused feet of both engines agree to 1e-6 m).
 """
 
 from __future__ import annotations
@@ -13,12 +17,17 @@ import time
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
+from bootnav.errors import InputError
 from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, POS, QUAT, VEL,
                                          initial_nominal_state)
-from bootnav.postproc.ins.measurements import N_KINDS, ZuptMeasurement, active_measurements
+from bootnav.postproc.ins.measurements import HEADING_AID, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
 from bootnav.postproc.ins.mechanization import strapdown_step
+from bootnav.postproc.ins.prepare import FilterSetup, saturation_variance
 from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
 from bootnav.postproc.ins.smoother import apply_smoothed_correction, error_dynamics, rts_backward_numpy
+from bootnav.postproc.ins.stream import NavRows
+
+_ROWS = ("t_s", "pos_n", "vel_n", "q_nb", "acc_bias_b", "gyro_bias_b", "pos_sigma_n", "zupt")  # NavRows' order
 
 
 def process_noise(prm, dt: float, dt_nom: float, n: int, f_b=None, omega_b=None, extra=None,
@@ -50,86 +59,250 @@ def process_noise(prm, dt: float, dt_nom: float, n: int, f_b=None, omega_b=None,
     return q
 
 
-def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, settings, tb, P0, zupt_gain, prm,
-                  progress=None, extra_var=None):
-    """The filter as a per-sample loop (arguments and results as ``fast.run_fast``)."""
-    n = settings.n_states
-    N = t_s.shape[0]
-    dt_nom = tb.nominal_dt_s
-    kf = KalmanFilter(dim_x=n, dim_z=3)
-    kf.P = P0.copy()
-    measurements = active_measurements(settings, prm)
-    zupt = ZuptMeasurement(prm, n)  # paper mode: its z, with the constant Riccati gain
-    H_zupt = np.zeros((3, n))
-    H_zupt[:, ERR_V] = np.eye(3)
-    R_zupt = np.eye(3) * prm.var_zupt
+class ReferenceNavigator:
+    """The reference filter pushed in chunks, with an outside measurement at the last sample.
 
-    st = initial_nominal_state(q0_nb, acc_bias0_b, gyro_bias0_b)
-    out = {k: np.empty((N, 3)) for k in ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")}
-    out["q_nb"] = np.empty((N, 4))
-    seg = []  # per buffered sample: (P_pred, P_post, fpar, dx)
-    seg_start = 0
-    applied = np.zeros(N_KINDS, dtype=np.int64)
-    segments = 0
-    t0 = time.perf_counter()
-    for k in range(N):
-        dt = tb.dt_s[k] if k > 0 else 0.0
+    The same per-sample loop as a whole-record run (``run_reference`` pushes the record through it), with the
+    part of ``stream.StreamNavigator``'s interface the two-boot fusion drives: ``push`` (the ZUPT mask, onset
+    delay applied by the caller), ``last_index``, ``position_n``, ``position_cov_n``, ``apply_measurement``,
+    ``finish``, ``info``. A smoother segment is closed when the next sample shows that it ended (after the
+    last sample of a stance phase, or at ``prm.max_segment`` samples), as in the fast engine, so an outside
+    update of the last sample always lands in the open segment. Every output row is kept until ``finish``
+    (a reference, not memory-bounded): ``push`` returns no rows, ``finish`` all of them.
+
+    Parameters
+    ----------
+    settings : FilterSettings
+        Validated filter settings.
+    setup : prepare.FilterSetup
+        Initial state and covariance, paper-mode gain (with its per-sample open-loop times τ of the whole
+        record), kernel parameters.
+    nominal_dt_s : float
+        Nominal sample period Δt₀, s.
+    """
+
+    def __init__(self, settings, setup, nominal_dt_s: float):
+        self.settings = settings
+        self.prm = prm = setup.prm
+        self.n = n = settings.n_states
+        self.nominal_dt_s = float(nominal_dt_s)
+        self.zupt_gain = setup.zupt_gain
+        self.kf = KalmanFilter(dim_x=n, dim_z=3)
+        self.kf.P = np.array(setup.P0, dtype=float, copy=True)
+        self.measurements = active_measurements(settings, prm)
+        self._zupt = ZuptMeasurement(prm, n)  # paper mode: its z, with the constant Riccati gain
+        self._H_zupt = np.zeros((3, n))
+        self._H_zupt[:, ERR_V] = np.eye(3)
+        self._R_zupt = np.eye(3) * prm.var_zupt
+        self.st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
+        self._out = {k: np.empty((0, 4 if k == "q_nb" else 3)) for k in _ROWS[1:-1]}
+        self._out["t_s"] = np.empty(0)
+        self._out["zupt"] = np.empty(0, dtype=bool)
+        self._k = 0  # samples filtered
+        self._t_last = None
+        self._prev_zupt = False
+        self._seg = []  # per sample of the open segment: [P_pred, P_post, fpar, dx]
+        self._seg_start = 0
+        self.applied = np.zeros(N_KINDS, dtype=np.int64)
+        self.segments = 0
+        self.n_external = 0
+        self.run_s = 0.0
+        self._finished = False
+
+    @property
+    def last_index(self) -> int:
+        """Index of the last filtered sample (−1 before the first)."""
+        return self._k - 1
+
+    @property
+    def position_n(self) -> np.ndarray:
+        """(3,) position at the last filtered sample, m (filtered, not smoothed)."""
+        return self.st[POS].copy()
+
+    @property
+    def position_cov_n(self) -> np.ndarray:
+        """(3, 3) covariance of the position error at the last filtered sample, m²."""
+        return np.array(self.kf.P[ERR_P, ERR_P], dtype=float)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(n, n) error-state covariance at the last filtered sample."""
+        return np.array(self.kf.P, dtype=float)
+
+    @property
+    def info(self) -> dict:
+        """Counters of the run so far (JSON-serialisable)."""
+        return {"engine": "reference", "n_filtered": self._k, "n_updates": int(self.applied[ZUPT]),
+                "heading_aid_updates": int(self.applied[HEADING_AID]), "external_updates": self.n_external,
+                "smoother_segments": self.segments, "run_s": self.run_s}
+
+    def push(self, t_s, acc_b, gyro_b, zupt, saturated=None) -> NavRows:
+        """Filter these samples (``zupt``: the ZUPT mask; ``saturated``: as ``prepare.saturation_variance``
+        accepts); returns no rows (``finish`` returns them all)."""
+        t_s = np.asarray(t_s, dtype=float).reshape(-1)
+        m = t_s.shape[0]
+        self._push(t_s, np.asarray(acc_b, dtype=float).reshape(m, 3), np.asarray(gyro_b, dtype=float).reshape(m, 3),
+                   np.asarray(zupt, dtype=bool).reshape(m), saturation_variance(saturated, m, self.settings))
+        return self._rows(0)
+
+    def _push(self, t, acc, gyr, zupt, extra_var) -> None:
+        """The loop over the samples (``extra_var``: (m, 6) saturation variance per sample, or None)."""
+        if self._finished:
+            raise InputError("this ReferenceNavigator is finished; build a new one for another record")
+        m = t.shape[0]
+        if m == 0:
+            return
+        t0 = time.perf_counter()
+        # the samples with one look-back row (the measurement models read stance[k − 1])
+        a = np.zeros((m + 1, 3))
+        a[1:] = acc
+        g = np.zeros((m + 1, 3))
+        g[1:] = gyr
+        z = np.empty(m + 1, dtype=bool)
+        z[0] = self._prev_zupt
+        z[1:] = zupt
+        k0 = self._k
+        if k0 + m > self._out["t_s"].shape[0]:  # room for the new rows, capacity doubled (amortised O(1) a row)
+            cap = max(k0 + m, 2 * self._out["t_s"].shape[0])
+            for name, arr in self._out.items():
+                grown = np.zeros((cap,) + arr.shape[1:], dtype=arr.dtype)
+                grown[:k0] = arr[:k0]
+                self._out[name] = grown
+        self._out["t_s"][k0:k0 + m] = t
+        self._out["zupt"][k0:k0 + m] = zupt
+        for i in range(1, m + 1):
+            if self.prm.smooth and self._seg and (len(self._seg) >= self.prm.max_segment or (z[i - 1] and not z[i])):
+                self._close_segment()
+            dt = t[i - 1] - self._t_last if self._t_last is not None else 0.0
+            self._t_last = t[i - 1]
+            self._step(dt, a, g, z, i, None if extra_var is None else extra_var[i - 1])
+        self._prev_zupt = bool(zupt[-1])
+        self.run_s += time.perf_counter() - t0
+
+    def _step(self, dt, acc_b, gyro_b, zupt, i, extra) -> None:
+        """Sample ``self._k`` = local row ``i``: time update, measurement updates, reset, smoother buffer."""
+        st, kf, prm, n, k = self.st, self.kf, self.prm, self.n, self._k
         # --- time update: eq. 1 and P ← F P Fᵀ + Q
-        f_b, omega_b = acc_b[k] - st[BIAS_ACC], gyro_b[k] - st[BIAS_GYRO]
+        f_b, omega_b = acc_b[i] - st[BIAS_ACC], gyro_b[i] - st[BIAS_GYRO]
         st[POS], st[VEL], st[QUAT], f_n = strapdown_step(st[POS], st[VEL], st[QUAT], f_b, omega_b, dt, prm.gravity)
         c_nb = quat_to_rotmat(st[QUAT])
         if dt > 0:
             kf.F = np.eye(n) + error_dynamics(f_n, c_nb, n) * dt
-            kf.Q = process_noise(prm, dt, dt_nom, n, f_b, omega_b,
-                                 None if extra_var is None else extra_var[k], c_nb)
+            kf.Q = process_noise(prm, dt, self.nominal_dt_s, n, f_b, omega_b, extra, c_nb)
             kf.predict()
         p_pred = kf.P.copy()
         # --- measurement updates (measurements.py), sequential: filterpy's innovation is z − H kf.x
         updated = False
-        if zupt_gain is None:
-            for meas in measurements:
-                zhr = meas.evaluate(st, np.asarray(kf.x, dtype=float).reshape(-1), acc_b, gyro_b, stance, k)
+        if self.zupt_gain is None:
+            for meas in self.measurements:
+                zhr = meas.evaluate(st, np.asarray(kf.x, dtype=float).reshape(-1), acc_b, gyro_b, zupt, i)
                 if zhr is not None:
                     z, h, r = zhr
                     kf.update(z.reshape(-1, 1), R=r, H=h)  # filterpy wants a column when H is passed
-                    applied[meas.kind] += 1
+                    self.applied[meas.kind] += 1
                     updated = True
-        elif stance[k] and dt > 0:
+        elif zupt[i] and dt > 0:
             # paper mode: constant Riccati gain on the ZUPT's z = −v̂, Joseph form with that gain
-            z, _, _ = zupt.evaluate(st, np.zeros(n), acc_b, gyro_b, stance, k)
-            gain = zupt_gain.discrete(dt, zupt_gain.tau[k], c_nb, n)
+            z, _, _ = self._zupt.evaluate(st, np.zeros(n), acc_b, gyro_b, zupt, i)
+            gain = self.zupt_gain.discrete(dt, self.zupt_gain.tau[k], c_nb, n)
             kf.x = gain @ z.reshape(3, 1)
-            ikh = np.eye(n) - gain @ H_zupt
-            kf.P = ikh @ kf.P @ ikh.T + gain @ R_zupt @ gain.T
-            applied[zupt.kind] += 1
+            ikh = np.eye(n) - gain @ self._H_zupt
+            kf.P = ikh @ kf.P @ ikh.T + gain @ self._R_zupt @ gain.T
+            self.applied[self._zupt.kind] += 1
             updated = True
         dx = np.asarray(kf.x, dtype=float).reshape(-1).copy()
         if updated:
-            # --- reset: apply δx to the nominal state, δx ← 0
-            st[POS] += dx[ERR_P]
-            st[VEL] += dx[ERR_V]
-            st[QUAT] = correct_attitude(st[QUAT], dx[ERR_TH])
-            if n == 15:
-                st[BIAS_ACC] += dx[ERR_BA]
-                st[BIAS_GYRO] += dx[ERR_BG]
-            kf.x = np.zeros((n, 1))
-        out["pos_n"][k], out["vel_n"][k], out["q_nb"][k] = st[POS], st[VEL], st[QUAT]
-        out["acc_bias_b"][k], out["gyro_bias_b"][k] = st[BIAS_ACC], st[BIAS_GYRO]
-        out["pos_sigma_n"][k] = np.sqrt(np.maximum(np.diag(kf.P)[ERR_P], 0.0))
+            self._reset(dx)
+        self._store_row(k)
         if prm.smooth:
-            seg.append((p_pred, kf.P.copy(), np.concatenate([[dt], f_n, c_nb.ravel()]), dx))
-            end_of_stance = stance[k] and (k + 1 == N or not stance[k + 1])
-            if len(seg) >= prm.max_segment or k + 1 == N or end_of_stance:
-                _smooth_segment(seg, seg_start, n, out)
-                segments += 1
-                seg = []
-                seg_start = k + 1
-        if progress is not None and N >= 10 and k % (N // 10) == 0:
-            progress(k / N)
-    if progress is not None:
-        progress(1.0)
-    info = {"run_s": time.perf_counter() - t0, "applied": applied, "smoother_segments": segments,
-            "final_P": kf.P.copy()}
+            self._seg.append([p_pred, kf.P.copy(), np.concatenate([[dt], f_n, c_nb.ravel()]), dx])
+        self._k += 1
+
+    def _reset(self, dx) -> None:
+        """Apply δx to the nominal state, δx ← 0."""
+        st = self.st
+        st[POS] += dx[ERR_P]
+        st[VEL] += dx[ERR_V]
+        st[QUAT] = correct_attitude(st[QUAT], dx[ERR_TH])
+        if self.n == 15:
+            st[BIAS_ACC] += dx[ERR_BA]
+            st[BIAS_GYRO] += dx[ERR_BG]
+        self.kf.x = np.zeros((self.n, 1))
+
+    def _store_row(self, k: int) -> None:
+        st, o = self.st, self._out
+        o["pos_n"][k], o["vel_n"][k], o["q_nb"][k] = st[POS], st[VEL], st[QUAT]
+        o["acc_bias_b"][k], o["gyro_bias_b"][k] = st[BIAS_ACC], st[BIAS_GYRO]
+        o["pos_sigma_n"][k] = np.sqrt(np.maximum(np.diag(self.kf.P)[ERR_P], 0.0))
+
+    def _close_segment(self) -> None:
+        _smooth_segment(self._seg, self._seg_start, self.n, self._out)
+        self.segments += 1
+        self._seg_start += len(self._seg)
+        self._seg = []
+
+    def apply_measurement(self, z, H, R) -> None:
+        """Kalman update (filterpy, Joseph form) of the error state at the last filtered sample with
+        z = H δx + ν, ν ~ N(0, R) (as ``stream.StreamNavigator.apply_measurement``): δx is injected into the
+        nominal state and added to that sample's smoother correction, whose posterior covariance it replaces.
+
+        Parameters
+        ----------
+        z : (m,) array
+        H : (m, n) array
+        R : (m, m) array
+        """
+        if self._finished or self._k == 0:
+            raise InputError("apply_measurement needs a filtered sample and an unfinished navigator "
+                             f"({self._k} filtered, finished={self._finished})")
+        z = np.atleast_1d(np.asarray(z, dtype=float))
+        H = np.atleast_2d(np.asarray(H, dtype=float))
+        R = np.atleast_2d(np.asarray(R, dtype=float))
+        if z.ndim != 1 or H.shape != (z.shape[0], self.n) or R.shape != (z.shape[0],) * 2:
+            raise InputError(f"apply_measurement: expected z (m,), H (m, {self.n}), R (m, m); got {z.shape}, "
+                             f"{H.shape}, {R.shape}")
+        self.kf.update(z.reshape(-1, 1), R=R, H=H)
+        dx = np.asarray(self.kf.x, dtype=float).reshape(-1).copy()
+        self._reset(dx)
+        if self.prm.smooth:
+            self._seg[-1][1] = self.kf.P.copy()
+            self._seg[-1][3] = self._seg[-1][3] + dx
+        self._store_row(self._k - 1)
+        self.n_external += 1
+
+    def finish(self) -> NavRows:
+        """Close the last smoother segment; every row of the record (start 0)."""
+        if self._finished:
+            raise InputError("this ReferenceNavigator is finished; build a new one for another record")
+        if self.prm.smooth and self._seg:
+            self._close_segment()
+        self._finished = True
+        return self._rows(self._k)
+
+    def _rows(self, m: int) -> NavRows:
+        """The first ``m`` rows (the pushed mask is the ZUPT mask: ``stance`` = ``zupt``)."""
+        o = {name: self._out[name][:m] for name in _ROWS}
+        return NavRows(0, *(o[name] for name in _ROWS[:-1]), o["zupt"].copy(), o["zupt"])
+
+
+def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, settings, tb, P0, zupt_gain, prm,
+                  progress=None, extra_var=None):
+    """The filter as a per-sample loop (arguments and results as ``stream.run_fast``): the whole record
+    pushed through a ``ReferenceNavigator`` in up to 10 chunks (one per progress report)."""
+    N = t_s.shape[0]
+    nav = ReferenceNavigator(settings, FilterSetup(q0_nb, gyro_bias0_b, acc_bias0_b, P0, zupt_gain, prm, []),
+                             tb.nominal_dt_s)
+    stance = np.asarray(stance, dtype=bool)
+    bounds = np.linspace(0, N, (10 if progress is not None and N >= 10 else 1) + 1).astype(np.int64)
+    t0 = time.perf_counter()
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+        nav._push(t_s[a:b], acc_b[a:b], gyro_b[a:b], stance[a:b], None if extra_var is None else extra_var[a:b])
+        if progress is not None:
+            progress(b / N)
+    rows = nav.finish()
+    out = {k: getattr(rows, k) for k in _ROWS[1:-1]}
+    info = {"run_s": time.perf_counter() - t0, "applied": nav.applied, "smoother_segments": nav.segments,
+            "final_P": nav.covariance}
     return out, info
 
 

@@ -62,7 +62,6 @@ def two_boot_settings(args):
 def sources(args) -> tuple[object, object, list[str]]:
     """(left, right, input paths) from the command line (a multi-boot file is split into its boots)."""
     from bootnav.errors import InputError
-    from bootnav.logger.recording import boot_labels, load
 
     if len(args.input) == 2:
         if any(is_multi_boot(i) for i in args.input):
@@ -72,12 +71,21 @@ def sources(args) -> tuple[object, object, list[str]]:
         raise InputError(f"--two-boots needs LEFT RIGHT (two recordings) or one multi-boot recording; got "
                          f"{len(args.input)} input(s)" + ("" if len(args.input) != 1 else
                                                           f" ({args.input[0]} has one boot)"))
-    path = args.input[0]
+    left, right = boot_pair(args.input[0], None if not args.boots else [s.strip() for s in args.boots.split(",")])
+    return left, right, [args.input[0]]
+
+
+def boot_pair(path, boots=None) -> tuple[object, object]:
+    """The left and right boots' ``Recording`` s of a multi-boot recording: the labels ``boots`` (two), else
+    ``left`` and ``right``, else the first two (``InputError`` naming the labels there are)."""
+    from bootnav.errors import InputError
+    from bootnav.logger.recording import boot_labels, load
+
     labels = boot_labels(path)
-    if args.boots:
-        want = [s.strip() for s in args.boots.split(",")]
+    if boots:
+        want = list(boots)
         if len(want) != 2 or any(w not in labels for w in want):
-            raise InputError(f"--boots {args.boots}: give two of the labels in {path}: {', '.join(labels)}")
+            raise InputError(f"boots {','.join(map(str, want))}: give two of the labels in {path}: {', '.join(labels)}")
     elif {"left", "right"} <= set(labels):
         want = ["left", "right"]
     elif len(labels) >= 2:
@@ -85,7 +93,7 @@ def sources(args) -> tuple[object, object, list[str]]:
     else:
         raise InputError(f"{path}: a multi-boot recording with one boot ({labels[0]}); process it with --boots or as "
                          "a single foot")
-    return load(path, boot=want[0], with_truth=False), load(path, boot=want[1], with_truth=False), [path]
+    return load(path, boot=want[0], with_truth=False), load(path, boot=want[1], with_truth=False)
 
 
 def run(args, settings, progress) -> int:

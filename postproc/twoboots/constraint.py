@@ -91,6 +91,22 @@ def project_max_separation(p_left, cov_left, p_right, cov_right, gamma_m: float,
     return Projection(True, pl + c_left, pr + c_right, d / norm if norm > 0 else d, float(mu), dist)
 
 
+def separation_variance_m2(excess_m: float, var_sep_m2: float, sigma_m: float, gate_sigma: float) -> float:
+    """Noise variance R of the bound as a measurement of the separation, m².
+
+    σ² (``constraint_sigma_m``) while the violation is consistent with the filters' covariances; when the
+    excess e = ‖p̂_L − p̂_R‖ − γ lies more than ``gate_sigma`` standard deviations outside them
+    (e² > g² (s + σ²), s = uᵀ(P_L + P_R)u the variance of the separation along u), the covariances are too small
+    for the error at hand (a ZUPT filter's on a stair flight) and a hard projection through them turns much
+    of the excess into attitude corrections, the common heading included (docs/twoboots.md). R is then raised
+    until the excess is at the gate, R = e²/g² − s: the update moves the feet by the consistent part, and the
+    next checks continue. ``gate_sigma`` 0: no gate, always σ².
+    """
+    if gate_sigma <= 0:
+        return sigma_m * sigma_m
+    return max(sigma_m * sigma_m, (excess_m / gate_sigma) ** 2 - var_sep_m2)
+
+
 def position_measurement(p_hat, p_star, direction, n_states: int, sigma_m: float):
     """The scalar pseudo-measurement (z, H, R) that moves ``p_hat`` to ``p_star`` along ``direction``.
 

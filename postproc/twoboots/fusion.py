@@ -1,6 +1,6 @@
 """The two feet's navigators in lockstep on one clock, with the maximum-separation constraint [Skog2012].
 
-Each foot runs its own ``StreamNavigator`` (the production ZUPT filter + segment RTS smoother) on its own
+Each foot runs its own navigator (the ZUPT filter + segment RTS smoother of ``FilterSettings.engine``) on its own
 samples, stance mask (the single-foot run's, ZUPT onset delay applied beforehand, so every pushed sample is
 filtered at once) and initial state; the right foot's initial yaw is uncertain by the frame alignment's σ
 (``TwoBootSettings.heading_alignment_sigma_rad``), so the constraint can correct it. The session clock is
@@ -8,21 +8,25 @@ cut at the constraint instants; before each instant both navigators are pushed u
 belong to (within one sample period of) the same moment. There ``constraint.project_max_separation`` checks
 ‖p_L − p_R‖ ≤ γ and, when violated, injects the covariance-weighted projection into each foot as a scalar position pseudo-measurement
 (``apply_measurement``): the update reaches heading, velocity and biases through the covariance, and the
-smoother spreads it back over the segment before it.
+smoother spreads it back over the segment before it. With ``constraint_gate_sigma`` > 0 a violation far
+outside the two covariances is applied only as far as it is consistent with them
+(``constraint.separation_variance_m2``; off by default, docs/twoboots.md).
 
 Instants (``TwoBootSettings.instants``): the middle of every stance phase of either foot (default: the
 resting foot's position is best known there, and the swinging foot is somewhere in its stride, where the
 bound is most likely to bite), or every ``stance_check_interval_s`` within every stance phase.
 
 With γ = ∞ no update is ever applied and each foot's path is its single-foot path to 1e-9 m (same engine,
-same inputs, the right frame left unturned; tests/test_twoboots_fusion.py). The filterpy reference engine is
-a whole-record loop and cannot be driven in lockstep, so the fusion always runs on the fast engine
-(``StreamNavigator``), whatever ``FilterSettings.engine`` says (the summary records it).
+same inputs, the right frame left unturned; tests/test_twoboots_fusion.py). ``FilterSettings.engine`` picks
+the navigators: ``StreamNavigator`` (fast, numba) or ``reference.ReferenceNavigator`` (the filterpy loop); both
+take the same constraint measurement (``constraint.position_measurement``) through ``apply_measurement``, and
+agree to floating-point accuracy (tests/test_twoboots_engines.py).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -33,7 +37,7 @@ from bootnav.core.runs import runs
 from bootnav.core.timebase import time_base
 from bootnav.errors import InputError
 
-from .constraint import position_measurement, project_max_separation
+from .constraint import position_measurement, project_max_separation, separation_variance_m2
 from .settings import TwoBootSettings
 
 
@@ -77,6 +81,7 @@ class FusionOutput:
     n_active: int  # of those, where the bound was violated and both feet were updated
     max_separation_before_m: float  # largest ‖p̂_L − p̂_R‖ seen at a check (before its projection)
     seconds: float
+    n_gated: int = 0  # of the active ones, where the excess was outside the consistency gate (R raised)
 
 
 def constraint_instants(t_l: np.ndarray, zupt_l: np.ndarray, t_r: np.ndarray, zupt_r: np.ndarray,
@@ -109,18 +114,24 @@ def check_filter(filter_settings) -> None:
 
 
 def _navigator(foot: FootInput, fs):
-    """A StreamNavigator fed with the ZUPT mask directly (onset delay applied here, on the whole mask)."""
+    """The navigator of ``fs.engine`` fed with the ZUPT mask directly (onset delay applied here, on the whole
+    mask)."""
     from bootnav.postproc.ins.filter import delay_zupt_onsets
     from bootnav.postproc.ins.prepare import prepare_filter
-    from bootnav.postproc.ins.stream import StreamNavigator
 
     if foot.init_yaw_sigma_rad is not None:
         fs = dataclasses.replace(fs, init_yaw_sigma_rad=float(foot.init_yaw_sigma_rad))
     dt = time_base(foot.t_s).nominal_dt_s  # as run_filter: the median step of the record
     zupt = delay_zupt_onsets(foot.t_s, np.asarray(foot.stance, bool), fs.zupt_onset_delay_s,
                              fs.zupt_onset_max_fraction)
-    nav = StreamNavigator(fs, prepare_filter(foot.init, foot.gravity, fs, dt), dt, apply_onset_delay=False)
-    return nav, zupt
+    setup = prepare_filter(foot.init, foot.gravity, fs, dt)
+    if fs.engine == "reference":
+        from bootnav.postproc.ins.reference import ReferenceNavigator
+
+        return ReferenceNavigator(fs, setup, dt), zupt
+    from bootnav.postproc.ins.stream import StreamNavigator
+
+    return StreamNavigator(fs, setup, dt, apply_onset_delay=False), zupt
 
 
 def fuse(left: FootInput, right: FootInput, filter_settings, settings: TwoBootSettings,
@@ -163,7 +174,7 @@ def fuse(left: FootInput, right: FootInput, filter_settings, settings: TwoBootSe
     ends = [np.searchsorted(f.t_s, instants, side="right") for f in feet]
     done = [0, 0]
     rows: list[list] = [[], []]
-    n_checks = n_active = 0
+    n_checks = n_active = n_gated = 0
     max_sep = 0.0
     n_states = filter_settings.n_states
 
@@ -183,14 +194,21 @@ def fuse(left: FootInput, right: FootInput, filter_settings, settings: TwoBootSe
             continue
         n_checks += 1
         pl, pr = navs[0].position_n + left.start_n, navs[1].position_n + right.start_n
-        proj = project_max_separation(pl, navs[0].position_cov_n, pr, navs[1].position_cov_n,
-                                      settings.max_separation_m)
+        covs = (navs[0].position_cov_n, navs[1].position_cov_n)
+        proj = project_max_separation(pl, covs[0], pr, covs[1], settings.max_separation_m)
         max_sep = max(max_sep, proj.separation_m)
         if proj.active:
             n_active += 1
-            for nav, p_hat, p_star in ((navs[0], pl, proj.p_left), (navs[1], pr, proj.p_right)):
-                nav.apply_measurement(*position_measurement(p_hat, p_star, proj.direction, n_states,
-                                                            settings.constraint_sigma_m))
+            u = proj.direction
+            var_foot = [float(u @ c @ u) for c in covs]
+            r_sep = separation_variance_m2(proj.separation_m - settings.max_separation_m, sum(var_foot),
+                                           settings.constraint_sigma_m, settings.constraint_gate_sigma)
+            n_gated += r_sep > settings.constraint_sigma_m ** 2
+            for nav, p_hat, p_star, v in ((navs[0], pl, proj.p_left, var_foot[0]), (navs[1], pr, proj.p_right,
+                                                                                     var_foot[1])):
+                # each foot's share of R, so that the two scalar updates make the joint one
+                r_foot = max(settings.constraint_sigma_m ** 2, r_sep * v / max(sum(var_foot), 1e-300))
+                nav.apply_measurement(*position_measurement(p_hat, p_star, u, n_states, math.sqrt(r_foot)))
         if progress is not None and j % report == 0:
             progress(j / max(len(instants), 1))
     for i, f in enumerate(feet):
@@ -203,4 +221,4 @@ def fuse(left: FootInput, right: FootInput, filter_settings, settings: TwoBootSe
                                r.pos_sigma_n, np.asarray(f.stance, bool), navs[i].info))
     if progress is not None:
         progress(1.0)
-    return FusionOutput(fused[0], fused[1], n_checks, n_active, max_sep, time.perf_counter() - t0)
+    return FusionOutput(fused[0], fused[1], n_checks, n_active, max_sep, time.perf_counter() - t0, n_gated)

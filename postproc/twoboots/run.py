@@ -186,11 +186,11 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
         "software": f"bootnav {__version__}",
         "conventions": CONVENTIONS,
         "method": "maximum-separation constraint between two foot-mounted ZUPT filters [Skog2012]",
-        "engine": "fast (StreamNavigator in lockstep; the reference engine cannot be driven incrementally)",
+        "engine": settings.filter.engine,
         "feet": feet_summary,
         "walker": {"distance_m": 0.5 * sum(feet_summary[k]["fused"].get("distance_m", 0.0) for k in LABELS),
                    "distance_rule": "mean of the two fused feet's stride distances"},
-        "constraint": {"checks": fused.n_checks, "active_updates": fused.n_active,
+        "constraint": {"checks": fused.n_checks, "active_updates": fused.n_active, "gated_updates": fused.n_gated,
                        "max_separation_before_m": fused.max_separation_before_m,
                        "bound_m": tb.max_separation_m},
         "clock": clock,
@@ -214,10 +214,11 @@ def fuse_for_evaluation(left_result, right_result, settings, tb: TwoBootSettings
     Returns
     -------
     dict
-        ``{"left": (t_s, pos_n, stance), "right": (...), "seconds": s, "metrics": {...}}``: each fused foot's
-        path for the trial's METRICS.md scoring, and truth-free figures of the pair: the height change of
-        each foot alone and fused (``climb_*``: both feet of one walker climb the same), the constraint
-        updates, the clock check.
+        ``{"left": (t_s, pos_n, stance), "right": (...), "seconds": s, "metrics": {...}, "single_xy": {label:
+        (N, 2)}, "walker_xy": (N, 2)}``: each fused foot's path for the trial's METRICS.md scoring, truth-free
+        figures of the pair (the height change of each foot alone and fused, ``climb_*``: both feet of one
+        walker climb the same; the constraint updates, the clock check), and for the plots each foot alone
+        in the common frame and the walker (midpoint of the fused feet).
     """
     from bootnav.postproc.strides import path_summary
 
@@ -244,7 +245,8 @@ def fuse_for_evaluation(left_result, right_result, settings, tb: TwoBootSettings
     out = {label: (getattr(res.fused, label).t_s, getattr(res.fused, label).pos_n, getattr(res.fused, label).stance)
            for label in LABELS}
     out.update(seconds=time.perf_counter() - t0, metrics=metrics,
-               single_xy={label: single_in_common_frame(res, label)[:, :2] for label in LABELS})
+               single_xy={label: single_in_common_frame(res, label)[:, :2] for label in LABELS},
+               walker_xy=res.walker_pos_n[:, :2])
     return out
 
 

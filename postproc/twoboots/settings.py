@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from bootnav.errors import InputError
 
 CLOCK_MODES = ("recording", "gait")
+INSTANTS = ("stance-midpoints", "stance")
 
 
 @dataclass
@@ -33,6 +34,13 @@ class TwoBootSettings:
         1-σ of the separation bound used as a pseudo-measurement: how far the sensors may be outside the
         anthropometric bound (the sensor's lever arm on the boot, about 1 cm). Small: the projection is
         nearly hard, as in [Skog2012].
+    constraint_gate_sigma : float
+        Consistency gate g of the bound, in standard deviations of the separation: a violation more than g σ
+        outside the two filters' covariances is applied with a larger R (``constraint.separation_variance_m2``),
+        only as far as it is consistent; 0 (default): no gate, always the hard projection, which keeps the
+        feet's relative error within γ + their true distance at every check. 3 (the usual 3-σ gate of a
+        scalar innovation) keeps the walker nearer the common mode on stairs but lets the feet drift apart
+        there (docs/twoboots.md, docs/tuning-log.md).
     instants : str
         When the bound is checked: ``"stance-midpoints"`` (once in the middle of every stance phase of
         either foot: one foot rests, so its position is the best known) or ``"stance"`` (every sample of
@@ -64,6 +72,7 @@ class TwoBootSettings:
 
     max_separation_m: float = 1.0
     constraint_sigma_m: float = 0.01
+    constraint_gate_sigma: float = 0.0
     instants: str = "stance-midpoints"
     stance_check_interval_s: float = 0.1
     heading_alignment_m: float = 30.0
@@ -80,8 +89,11 @@ class TwoBootSettings:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"two-boot setting {name} must be a positive number, got {v!r}")
-        if self.instants not in ("stance-midpoints", "stance"):
-            raise InputError(f"two-boot setting instants must be 'stance-midpoints' or 'stance', got {self.instants!r}")
+        g = self.constraint_gate_sigma
+        if not (isinstance(g, (int, float)) and math.isfinite(g) and g >= 0):
+            raise InputError(f"two-boot setting constraint_gate_sigma must be a number >= 0 (0: no gate), got {g!r}")
+        if self.instants not in INSTANTS:
+            raise InputError(f"two-boot setting instants must be one of {', '.join(INSTANTS)}, got {self.instants!r}")
         if len(self.right_start_m) != 2 or not all(math.isfinite(float(v)) for v in self.right_start_m):
             raise InputError(f"two-boot setting right_start_m must be two finite numbers (forward, left), "
                              f"got {self.right_start_m!r}")
