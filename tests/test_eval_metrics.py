@@ -95,3 +95,28 @@ def test_stride_lengths_out_and_back_step_lengths_stance():
     r = m.stance_metrics(t, t < 5, t, t < 4)
     assert r["stance_recall"] == pytest.approx(1.0)
     assert r["stance_precision"] == pytest.approx(400 / 500)
+
+
+def test_out_and_back_straight_legs_leave_out_the_u_turn():
+    # 10 m out along y = 0 (footfalls every metre, t = 0..10), a half circle of radius 0.5 m (t = 10..12, its
+    # arc π·0.5 m is walked but not part of the 20 m course), 10 m back along y = 1 (t = 12..22)
+    out_t = np.arange(0.0, 11.0)
+    turn_t = np.linspace(10.0, 12.0, 9)[1:-1]
+    ang = np.pi * (turn_t - 10.0) / 2.0 - np.pi / 2
+    back_t = np.arange(12.0, 23.0)
+    stance_t = np.concatenate([out_t, turn_t, back_t])
+    xy = np.vstack([np.column_stack([out_t, 0 * out_t]),
+                    np.column_stack([10.0 + 0.5 * np.cos(ang), 0.5 + 0.5 * np.sin(ang)]),
+                    np.column_stack([10.0 - (back_t - 12.0), 1.0 + 0 * back_t])])
+    t_fine = np.linspace(0.0, 22.0, 2201)
+    pos = np.column_stack([np.interp(t_fine, stance_t, xy[:, 0]), np.interp(t_fine, stance_t, xy[:, 1]),
+                           np.zeros_like(t_fine)])
+    r = m.out_and_back_metrics(t_fine, pos, stance_t, xy, 0.0, 22.0, 20.0, uturn=(10.0, 12.0))
+    arc = float(np.sum(np.hypot(*np.diff(xy[10:19], axis=0).T)))  # the polyline through the turn's footfalls
+    assert r["distance_est_m"] == pytest.approx(20.0 + arc)
+    assert r["distance_err_pct"] > 5.0  # the turn's arc counted as error
+    assert r["distance_straight_est_m"] == pytest.approx(20.0) and r["distance_straight_err_pct"] == pytest.approx(0.0)
+    # no U-turn times, or times outside the window: no straight-leg figure
+    assert "distance_straight_err_pct" not in m.out_and_back_metrics(t_fine, pos, stance_t, xy, 0.0, 22.0, 20.0)
+    assert "distance_straight_err_pct" not in m.out_and_back_metrics(t_fine, pos, stance_t, xy, 0.0, 22.0, 20.0,
+                                                                      uturn=(21.0, 23.0))

@@ -172,19 +172,35 @@ def stride_length_metrics(t_est, pos_est, t_start, t_end, length_truth) -> dict:
     return {"stride_mae_m": float(np.mean(np.abs(e))), "stride_bias_m": float(np.mean(e)), "n_strides": int(len(e))}
 
 
-def out_and_back_metrics(t_est, pos_est, stance_t, stance_xy, t_start, t_end, distance_truth) -> dict:
-    """distance_err_pct of the estimated horizontal distance walked between two times (foot-mounted).
-
-    The walked distance is the horizontal length of the polyline through the position at ``t_start``, every
-    stance-phase (footfall) position whose time lies strictly inside the window, and the position at
-    ``t_end`` — so a footfall at either end of the window is neither lost nor counted twice.
-    """
-    start = _interp_rows(np.array([t_start, t_end]), np.asarray(t_est, float), np.asarray(pos_est, float)[:, :2])
+def _walked_m(t_est, pos_est, stance_t, stance_xy, t_start, t_end) -> float:
+    """Horizontal length of the polyline through the position at ``t_start``, every stance-phase (footfall)
+    position whose time lies strictly inside the window, and the position at ``t_end``."""
+    ends = _interp_rows(np.array([t_start, t_end]), np.asarray(t_est, float), np.asarray(pos_est, float)[:, :2])
     stance_t = np.asarray(stance_t, float)
     inside = (stance_t > t_start) & (stance_t < t_end)
-    p = np.vstack([start[:1], np.asarray(stance_xy, float)[inside, :2], start[1:]])
-    est = float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
-    return {"distance_est_m": est, "distance_err_pct": _ratio(100.0 * (est - distance_truth), distance_truth)}
+    p = np.vstack([ends[:1], np.asarray(stance_xy, float)[inside, :2], ends[1:]])
+    return float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
+
+
+def out_and_back_metrics(t_est, pos_est, stance_t, stance_xy, t_start, t_end, distance_truth,
+                         uturn: tuple[float, float] | None = None) -> dict:
+    """distance_err_pct of the estimated horizontal distance walked between two times (foot-mounted).
+
+    The walked distance is the length of the polyline through the position at ``t_start``, every footfall
+    inside the window and the position at ``t_end`` (``_walked_m``) — so a footfall at either end of the window
+    is neither lost nor counted twice. With the U-turn's times (``uturn``), also ``distance_straight_err_pct``
+    (a bootnav diagnostic, not in METRICS.md): the two straight legs only, i.e. the walk without the U-turn, against
+    the same course length. The truth is the course (2 × 10 m); a foot's real path also holds the turn's arc, so
+    the METRICS.md figure counts the turn as error and the straight-leg figure measures the filter's scale.
+    """
+    args = (t_est, pos_est, stance_t, stance_xy)
+    est = _walked_m(*args, t_start, t_end)
+    out = {"distance_est_m": est, "distance_err_pct": _ratio(100.0 * (est - distance_truth), distance_truth)}
+    if uturn is not None and t_start < uturn[0] <= uturn[1] < t_end:
+        straight = _walked_m(*args, t_start, uturn[0]) + _walked_m(*args, uturn[1], t_end)
+        out["distance_straight_est_m"] = straight
+        out["distance_straight_err_pct"] = _ratio(100.0 * (straight - distance_truth), distance_truth)
+    return out
 
 
 def step_distance_metrics(step_t, step_len, t_start, t_end, distance_truth,

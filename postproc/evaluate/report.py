@@ -18,6 +18,7 @@ HEADLINE = [
     "final_fp_err_pct", "mean_fp_err_m", "stride_count_err",
     "stride_mae_m", "stride_bias_m",
     "distance_err_pct", "abs_distance_err_pct", "foot_abs_distance_err_pct",
+    "distance_straight_err_pct", "abs_distance_straight_err_pct", "foot_abs_distance_straight_err_pct",
     "f1", "precision", "recall", "count_err_pct", "abs_count_err_pct",
     "step_len_mae_m", "step_len_bias_m", "seconds",
 ]
@@ -153,7 +154,7 @@ def write_report(results: list[TrialResult], doc: dict, out_dir: Path, header: s
     return path
 
 
-TWO_BOOT_METRICS = ("abs_distance_err_pct", "distance_err_pct", "stride_mae_m", "armse_2d", "closure_pct",
+TWO_BOOT_METRICS = ("abs_distance_err_pct", "distance_err_pct", "abs_distance_straight_err_pct", "stride_mae_m", "armse_2d", "closure_pct",
                     "final_fp_err_pct")
 
 

@@ -85,12 +85,17 @@ def read_imu(path: Path):
 
 # ----------------------------------------------------------------------------------------- estimate
 def estimate_foot(path: Path, settings) -> FootEstimate:
-    """Path and stance of one foot-mounted IMU file (``process``); reads no truth."""
+    """Path and stance of one foot-mounted IMU file (``process``); reads no truth.
+
+    The times are put back on the file's own clock, the one its truth files use: the importer starts a
+    recording at 0 and keeps the first sample's time as ``t0_source_s`` (10-20 ms on some voisard_ipol files,
+    ~5 ms on pyshoe_vicon)."""
     from bootnav.postproc.pipeline import process
 
     t0 = time.perf_counter()
     result = process(path, settings)
-    return FootEstimate(result.t_s, result.pos_n, np.asarray(result.stance, bool), time.perf_counter() - t0, result)
+    t_s = result.t_s + float(result.recording.meta.get("t0_source_s", 0.0))
+    return FootEstimate(t_s, result.pos_n, np.asarray(result.stance, bool), time.perf_counter() - t0, result)
 
 
 TWO_BOOT_FILES = ("imu_left.csv.gz", "imu_right.csv.gz")
@@ -107,7 +112,11 @@ def estimate_two_boots(estimates: dict, settings) -> dict:
 
     fused = fuse_for_evaluation(estimates[TWO_BOOT_FILES[0]][1].result, estimates[TWO_BOOT_FILES[1]][1].result,
                                 settings or ProcessSettings())
-    out = {name: FootEstimate(*fused[label], fused["seconds"]) for name, label in zip(TWO_BOOT_FILES, ("left", "right"))}
+    out = {}
+    for name, label in zip(TWO_BOOT_FILES, ("left", "right")):
+        t_s, pos_n, stance = fused[label]  # on the file's own clock, as estimate_foot's
+        t0 = float(estimates[name][1].result.recording.meta.get("t0_source_s", 0.0))
+        out[name] = FootEstimate(t_s + t0, pos_n, stance, fused["seconds"])
     out["metrics"] = fused["metrics"]
     out["single_xy"] = {name: fused["single_xy"][label] for name, label in zip(TWO_BOOT_FILES, ("left", "right"))}
     out["walker_xy"] = fused["walker_xy"]
@@ -183,9 +192,12 @@ def score_foot(est: FootEstimate, folder: Path, kinds: list[str], imu_name: str)
         onsets = est.t_s[starts]  # first sample of each stance phase
         out.update(M.step_event_metrics(onsets, c["t_s"][c["foot"] == letter]))
     if "out_and_back" in kinds:
+        uturn = (truth["uturn_t_start_s"], truth["uturn_t_end_s"]) if "uturn_t_start_s" in truth else None
         out.update(M.out_and_back_metrics(est.t_s, est.pos_n, stance_t, stance_p, truth["t_start_s"],
-                                          truth["t_end_s"], truth["distance_m"]))
+                                          truth["t_end_s"], truth["distance_m"], uturn=uturn))
         out["abs_distance_err_pct"] = abs(out["distance_err_pct"])
+        if "distance_straight_err_pct" in out:
+            out["abs_distance_straight_err_pct"] = abs(out["distance_straight_err_pct"])
     return out, plot
 
 
