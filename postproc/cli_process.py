@@ -192,7 +192,8 @@ class StageProgress:
             self.shown.update(f"bootnav process: {stage} {100 * fraction:3.0f} %")
 
     def compiling(self) -> None:
-        """numba compiles the filter kernels (a first run on this machine): say so, it takes seconds."""
+        """numba compiles kernels (a first run on this machine: the CSV writer's, then the filter's): say so,
+        it takes seconds."""
         self.shown.update("bootnav process: compiling numerical kernels (first run only)", force=True)
 
     def done(self) -> None:
@@ -254,11 +255,16 @@ def format_summary(summary: dict, files: dict) -> str:
 
 def _one(input_path: str, settings, out_dir: str, progress, into_recording: bool = False,
          force: bool = False) -> tuple[dict, dict]:
-    from bootnav.postproc.outputs import write_outputs
+    from bootnav.postproc.outputs import ChartWorker, write_outputs
     from bootnav.postproc.pipeline import process
 
-    result = process(input_path, settings, progress=progress)
-    files = write_outputs(result, out_dir, into_recording, force)
+    charts = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the run
+    try:
+        result = process(input_path, settings, progress=progress)
+        files = write_outputs(result, out_dir, into_recording, force, charts=charts)
+    finally:
+        if charts is not None:
+            charts.close()
     return result.summary, files
 
 
@@ -401,9 +407,11 @@ def run(args) -> int:
     if len(args.input) == 1:
         progress = StageProgress(quiet=args.quiet)
         from bootnav.postproc.ins.fast import compile_notice
+        from bootnav.postproc.outputs import warm_csv_writer
 
         try:
             with compile_notice(progress.compiling):
+                warm_csv_writer(progress.compiling)
                 chunk_s = args.chunk_s if args.chunk_s is not None else _auto_chunk_s(args, settings)
                 if chunk_s is not None:
                     if args.into_recording:

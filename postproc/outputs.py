@@ -32,8 +32,9 @@ No file is overwritten unless ``force=True`` (``--force``), and no output may be
 (``check_outputs``).
 
 Speed: the CSV files are formatted by numpy and one compiled loop over the rows (``_csv_text``: the same text
-as Python's ``%``), the HDF5 results are written on a thread meanwhile, and the charts are drawn by a forked
-process on another core (``_start_plots``).
+as Python's ``%``), the HDF5 results are written on a thread meanwhile, and the charts are drawn by two forked
+processes (``ChartWorker``), warmed up while the path is computed and given the small decimated chart stream;
+a chart failure is a warning, never a lost output.
 """
 
 from __future__ import annotations
@@ -43,9 +44,11 @@ import json
 import math
 import os
 import shutil
+import signal
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -159,6 +162,38 @@ def _csv_text_kernel(digits, negative, decimals, special_at, special_text, speci
 _KERNEL = []  # the compiled _csv_text_kernel (numba is imported on the first CSV written, not with this module)
 
 
+def _kernel():
+    """The numba dispatcher of ``_csv_text_kernel`` (cached on disk), made on first use."""
+    if not _KERNEL:
+        from numba import njit
+
+        _KERNEL.append(njit(cache=True, nogil=True)(_csv_text_kernel))
+    return _KERNEL[0]
+
+
+def warm_csv_writer(notice: Callable[[], None] | None = None) -> None:
+    """Load the CSV kernel (``_csv_text``) into this process, so that writing does not wait for it.
+
+    ``notice()`` is called first when numba must really compile it (a first run on this machine, or after an
+    edit of this module: about 2 s), not when it loads it from its cache, as ``ins.fast.compile_notice`` does
+    for the filter kernels; ``bootnav process`` calls it before the run with its progress line's notice.
+    """
+    kernel = _kernel()
+    if kernel.signatures:
+        return
+    if notice is not None and not _cached_on_disk(kernel):
+        notice()
+    _csv_text([np.zeros(1), np.zeros(1, np.int8)], ["%.1f", "%d"])  # the argument types of every CSV written
+
+
+def _cached_on_disk(dispatcher) -> bool:
+    """Whether numba's on-disk cache holds a valid (source stamp matching) entry of ``dispatcher``."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:  # numba internals changed: cannot tell, stay quiet
+        return True
+
+
 def _csv_text(columns: list[np.ndarray], fmts: list[str]) -> np.ndarray:
     """CSV text of equal-length ``columns`` (no header), ``fmt % value`` per field and ',' between them.
 
@@ -175,10 +210,7 @@ def _csv_text(columns: list[np.ndarray], fmts: list[str]) -> np.ndarray:
     (bytes,) uint8 array
         The ASCII text: n lines, each ending in a line feed.
     """
-    if not _KERNEL:
-        from numba import njit
-
-        _KERNEL.append(njit(cache=True, nogil=True)(_csv_text_kernel))
+    kernel = _kernel()
     k, n = len(columns), len(columns[0])
     digits = np.empty((k, n), np.int64)
     negative = np.empty((k, n), np.bool_)
@@ -197,7 +229,7 @@ def _csv_text(columns: list[np.ndarray], fmts: list[str]) -> np.ndarray:
     special_end = np.cumsum([len(t) for t in texts], dtype=np.int64)
     width = 23 * k + int(decimals.sum())  # per row: sign, <= 20 digits, point and ',' per field, the decimals
     out = np.empty(n * width + len(special_text), np.uint8)
-    size = _KERNEL[0](digits, negative, decimals, at[order], special_text, special_end, out)
+    size = kernel(digits, negative, decimals, at[order], special_text, special_end, out)
     return out[:size]
 
 
@@ -550,61 +582,201 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
     return target, group
 
 
-def _draw(result, out: Path) -> dict[str, str]:
-    """Charts 1-7 and path.html; {kind: path}."""
-    from .plots import make_html, make_plots
+class ChartWorker:
+    """Two forked processes that draw charts 1-7 and ``path.html`` while this one writes the other files.
 
-    files = {f"plot_{key}": str(path) for key, path in make_plots(result, out).items()}
-    files["html"] = str(make_html(result, out))
+    Started early (``start``: before the navigation, by ``bootnav process``), the child imports matplotlib
+    and warms it up (``plots.warm_up``) while the path is computed, then forks the second (which inherits
+    the warm matplotlib: no second import) and waits for one job: the decimated ``plots.ChartStream``
+    (about 2 MB, pickled; not the per-sample arrays). Each draws half of the charts (``CHART_PARTS``) while
+    this process writes the CSV and HDF5 files. A failure, whatever it is (an exception, a crash, being
+    killed), is reported by ``wait`` and becomes a warning: the other outputs never depend on the charts.
+    Ctrl-C reaches every process; the chart processes ignore it and are ended by ``close`` (SIGTERM: each
+    removes its temporary PNG and exits, and is reaped, so no zombie remains); when its parent dies, a chart
+    process notices within 0.1 s and ends the same way. The charts are written through temporary files
+    renamed over the targets (``plots``), so a chart is never half written.
+    """
+
+    def __init__(self, proc, conn):
+        self._proc, self._conn = proc, conn
+
+    @classmethod
+    def start(cls) -> ChartWorker | None:
+        """Fork the chart process; None where fork is not available (or this is a daemon process, which may
+        not have children): the charts are then drawn in this process."""
+        import multiprocessing as mp
+
+        if "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+            return None
+        ctx = mp.get_context("fork")
+        ours, theirs = ctx.Pipe(duplex=True)
+        proc = ctx.Process(target=_chart_child, args=(theirs, ours, os.getpid()), daemon=True,
+                           name="bootnav-charts")
+        proc.start()
+        theirs.close()
+        return cls(proc, ours)
+
+    def submit(self, stream, out: Path) -> None:
+        """Send the job: draw ``stream`` (a finished ``plots.ChartStream``) into ``out``."""
+        try:
+            self._conn.send((stream, Path(out)))
+        except OSError:  # the child is gone: ``wait`` reports it
+            pass
+
+    def wait(self) -> tuple[dict[str, str], str | None]:
+        """The child's answer: ({kind: path} of the files drawn, None) or ({}, the reason it failed)."""
+        try:
+            status, value = self._conn.recv()
+        except (EOFError, OSError):  # the child died without a word (killed, out of memory)
+            self._proc.join()
+            status, value = "error", f"the chart process ended with exit code {self._proc.exitcode}"
+        self._proc.join(timeout=1.0)  # it ends right after answering
+        self.close()
+        return (value, None) if status == "ok" else ({}, value)
+
+    def close(self) -> None:
+        """End the child if it still runs (SIGTERM) and reap it."""
+        self._conn.close()
+        if self._proc.is_alive():
+            self._proc.terminate()
+        self._proc.join()
+
+
+# What each of the two chart processes draws: about half of the drawing time each (the first chart, with three
+# axes, costs about two of the others; docs/tuning-log.md "Long recordings")
+CHART_PARTS = ({"keys": ("raw_imu", "acc_gravity_free", "velocity"), "html": False},
+               {"keys": ("position", "path_2d", "path_3d", "height"), "html": True})
+
+
+def _chart_child(conn, parent_end, parent_pid: int) -> None:
+    """Body of the chart process (``ChartWorker``): warm matplotlib up, fork the second chart process (it
+    inherits the warm matplotlib), take one job, draw ``CHART_PARTS[0]`` while the second draws
+    ``CHART_PARTS[1]``, answer ("ok", {kind: path}) or ("error", one-line message)."""
+    parent_end.close()  # the parent's end: its death must read as the end of this pipe here
+    _end_with_parent(parent_pid)
+    try:
+        from .plots import warm_up
+
+        warm_up()
+        ready = None
+    except Exception as exc:  # reported with the job: the parent is busy now
+        ready = f"{type(exc).__name__}: {exc}"
+    helper = _fork_helper() if ready is None else None
+    done = False
+    try:
+        _serve(conn, CHART_PARTS[0], helper, ready)
+        done = True
+    finally:
+        if helper is not None:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a late SIGTERM must not cut the reaping short
+            pid, link = helper
+            link.close()
+            if not done:  # stopped: the helper must not go on drawing
+                os.kill(pid, signal.SIGTERM)
+            os.waitpid(pid, 0)
+
+
+def _end_with_parent(parent_pid: int) -> None:
+    """Ctrl-C is the parent's to handle (it ends this process by ``ChartWorker.close``); SIGTERM unwinds the
+    drawing (its temporary file is removed); the death of the parent (its pid is no longer this process's
+    parent) is noticed within 0.1 s and ends this process the same way."""
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(0.1)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _fork_helper():
+    """Fork the second chart process; (pid, connection to it)."""
+    import multiprocessing as mp
+
+    mine, theirs = mp.Pipe(duplex=True)
+    parent = os.getpid()
+    pid = os.fork()
+    if pid == 0:  # the helper: serve one job, then leave without returning into the first one's code
+        code = 1
+        try:
+            mine.close()
+            _end_with_parent(parent)
+            _serve(theirs, CHART_PARTS[1], None, None)
+            code = 0
+        except BaseException:  # noqa: BLE001 - reported to the first process by the closed pipe
+            pass
+        finally:
+            os._exit(code)
+    theirs.close()
+    return pid, mine
+
+
+def _serve(conn, part: dict, helper, ready: str | None) -> None:
+    """Take one job from ``conn`` (EOF: none), pass it on to ``helper`` (pid, connection) if any, draw
+    ``part`` and answer with every file drawn, the helper's too, or the first failure."""
+    try:
+        stream, out = conn.recv()
+    except EOFError:
+        return
+    if helper is not None:
+        try:
+            helper[1].send((stream, out))
+        except OSError:  # it is gone: its recv below says so
+            pass
+    if ready is not None:
+        answer = ("error", ready)
+    else:
+        try:
+            answer = ("ok", _draw(stream, out, **part))
+        except Exception as exc:
+            answer = ("error", f"{type(exc).__name__}: {exc}")
+    if helper is not None:
+        try:
+            status, value = helper[1].recv()
+        except (EOFError, OSError):
+            status, value = "error", "the second chart process ended without an answer"
+        if answer[0] == "ok":
+            answer = ("ok", {**answer[1], **value}) if status == "ok" else (status, value)
+    try:
+        conn.send(answer)
+    finally:
+        conn.close()
+
+
+def _exit_on_sigterm(signum, frame) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: the unwinding must not be interrupted again
+    raise SystemExit(128 + signum)  # unwinds the drawing: its temporary file is removed
+
+
+def _draw(stream, out: Path, keys=None, html: bool = True) -> dict[str, str]:
+    """Charts 1-7 (those of ``keys``, all when None) and path.html from a finished ``plots.ChartStream``;
+    {kind: path}."""
+    from .plots import FILES, draw_charts, draw_html
+
+    files = {f"plot_{key}": str(path) for key, path in draw_charts(stream, out, keys or tuple(FILES)).items()}
+    if html:
+        files["html"] = str(draw_html(stream, out))
     return files
 
 
-def _plot_child(result, out: Path, conn) -> None:
-    """Body of the plotting process: draw, send back {kind: path} or the error's one-line message."""
+def _draw_here(stream, out: Path) -> tuple[dict[str, str], str | None]:
+    """Draw in this process (no chart process), a failure reported as ``ChartWorker.wait`` does."""
     try:
-        conn.send(("ok", _draw(result, out)))
-    except BaseException as exc:  # reported by the parent as its own error
-        conn.send(("error", f"{type(exc).__name__}: {exc}"))
-    finally:
-        conn.close()
+        return _draw(stream, out), None
+    except Exception as exc:  # noqa: BLE001 - the charts must never cost the other outputs
+        return {}, f"{type(exc).__name__}: {exc}"
 
 
-def _start_plots(result, out: Path):
-    """Start drawing in a forked process (it inherits ``result``, nothing is pickled), so the charts are drawn
-    on the second core while this one writes the CSV and HDF5 files. None where fork is unavailable: the
-    charts are then drawn in this process by ``_finish_plots``."""
-    import multiprocessing as mp
-
-    if "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:  # a daemon may not fork
-        return None
-    ctx = mp.get_context("fork")
-    parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_plot_child, args=(result, out, child), daemon=True)
-    proc.start()
-    child.close()
-    return proc, parent
-
-
-def _finish_plots(plotter, result, out: Path) -> dict[str, str]:
-    """Wait for the plotting process (or draw here without one); {kind: path} of the charts and path.html."""
-    if plotter is None:
-        return _draw(result, out)
-    proc, conn = plotter
-    try:
-        status, value = conn.recv()
-    except EOFError:  # the child died without a word (killed, out of memory)
-        proc.join()
-        status, value = "error", f"the plotting process ended with exit code {proc.exitcode}"
-    finally:
-        conn.close()
-    proc.join()
-    if status != "ok":
-        raise RuntimeError(f"{out}: drawing the charts failed: {value}")
-    return value
-
-
-def write_outputs(result, out_dir: str | Path, into_recording: bool = False, force: bool = False) -> dict[str, str]:
+def write_outputs(result, out_dir: str | Path, into_recording: bool = False, force: bool = False,
+                  charts: ChartWorker | None = None) -> dict[str, str]:
     """Write every output file into ``out_dir`` (created); updates ``result.summary``.
+
+    The charts are drawn by a ``ChartWorker`` while this process writes the CSV files and, on a thread, the
+    HDF5 results; a chart failure is a warning (in the summary and the report), never a lost output.
 
     Parameters
     ----------
@@ -616,6 +788,9 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
         Write the HDF5 results into the input recording (atomically) instead of ``out_dir/results.h5``.
     force
         Overwrite existing output files (inputs are never overwritten, ``check_outputs``).
+    charts
+        A chart process started earlier (``ChartWorker.start``), used and closed here; None: one is started
+        now when the settings ask for charts.
 
     Returns
     -------
@@ -624,16 +799,28 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
     """
     out = Path(out_dir)
     opts = result.settings.output
-    check_outputs(result.settings, out, [result.source], into_recording, force)
-    out.mkdir(parents=True, exist_ok=True)
-    result.summary["settings"] = result.settings.to_dict()  # output options may have changed since process()
-    files: dict[str, str] = {}
-    t0 = time.perf_counter()
-    plotter = _start_plots(result, out) if opts.plots else None  # before any thread: fork copies one thread
+    if charts is None and opts.plots:
+        charts = ChartWorker.start()  # before any thread: fork copies one thread
     try:
-        with ThreadPoolExecutor(max_workers=1) as pool:
-            # HDF5 compression runs outside the GIL: overlap it with the CSV formatting
+        check_outputs(result.settings, out, [result.source], into_recording, force)
+        out.mkdir(parents=True, exist_ok=True)
+        result.summary["settings"] = result.settings.to_dict()  # output options may have changed since process()
+        files: dict[str, str] = {}
+        t0 = time.perf_counter()
+        stream = None
+        chart_error = None
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            # HDF5 compression runs outside the GIL: overlap it with the chart stream and the CSV formatting
             h5_job = pool.submit(write_hdf5_results, result, out, into_recording, force) if opts.write_hdf5 else None
+            if opts.plots:
+                from .plots import ChartStream
+
+                try:
+                    stream = ChartStream.from_result(result)
+                except Exception as exc:  # noqa: BLE001 - the charts must never cost the other outputs
+                    chart_error = f"{type(exc).__name__}: {exc}"
+                if charts is not None and stream is not None:
+                    pool.submit(charts.submit, stream, out)  # a thread: a child still warming up reads it later
             files["trajectory"] = str(write_trajectory_csv(out / "trajectory.csv", result))
             files["steps"] = str(write_steps_csv(out / "steps.csv", result.steps))
             if opts.geojson and opts.geo_anchor:  # without an anchor, GIS tools would draw local metres at 0° N 0° E
@@ -643,16 +830,20 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
             if h5_job is not None:
                 h5, group = h5_job.result()
                 files["hdf5"] = f"{h5}:{group}"
-    except BaseException:
-        if plotter is not None:
-            plotter[0].terminate()
-            plotter[0].join()
-        raise
-    result.summary["timings_s"]["write"] = time.perf_counter() - t0
-    if opts.plots:
-        t1 = time.perf_counter()
-        files.update(_finish_plots(plotter, result, out))
-        result.summary["timings_s"]["plots"] = time.perf_counter() - t1  # the wait after writing (0 if done)
+        result.summary["timings_s"]["write"] = time.perf_counter() - t0
+        if opts.plots:
+            t1 = time.perf_counter()
+            if chart_error is not None:
+                drawn, error = {}, chart_error
+            else:
+                drawn, error = charts.wait() if charts is not None else _draw_here(stream, out)
+            if error:
+                result.warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
+            files.update(drawn)
+            result.summary["timings_s"]["plots"] = time.perf_counter() - t1  # the wait after writing (0 if done)
+    finally:
+        if charts is not None:
+            charts.close()
     files["summary"] = str(out / "summary.json")
     result.summary["files"] = files
     result.summary["warnings"] = list(result.warnings)

@@ -257,22 +257,10 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
         As ``process``, plus an option not available in chunks or a detector that cannot stream.
     """
     import json
-    import os
-    import shutil
 
-    import h5py
-
-    from bootnav.core.conventions import CONVENTIONS, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import attach_dimension_scales, write_group
 
-    from . import selftune
-    from .calibration import initial_alignment
-    from .detectors.stream import StreamStance
-    from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _replace_atomically,
-                          append_csv_rows, check_outputs, heading_columns, trajectory_columns, write_steps_csv)
-    from .strides import FootprintAccumulator, footprint_strides, footprint_summary
+    from .outputs import ChartWorker, check_outputs
 
     settings = settings or ProcessSettings()
     settings.validate()
@@ -291,8 +279,41 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     warnings: list[str] = []
     check_outputs(settings, out, [path], False, force)
     lap = _StageClock(progress)
-    timings = lap.timings
+    worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
+    try:
+        summary, files = _chunked_passes(path, settings, out, chunk_s, warnings, lap, worker, progress)
+    finally:
+        if worker is not None:
+            worker.close()
+    files["summary"] = str(out / "summary.json")
+    summary["files"] = files
+    (out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
+    return summary, files
 
+
+def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: float, warnings: list[str], lap,
+                    worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
+    """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
+    import json
+    import os
+    import shutil
+
+    import h5py
+
+    from bootnav.core.conventions import CONVENTIONS, __version__
+    from bootnav.core.jsonio import to_jsonable
+    from bootnav.logger.recording import attach_dimension_scales, write_group
+
+    from . import selftune
+    from .calibration import initial_alignment
+    from .detectors.stream import StreamStance
+    from .ins.stream import StreamNavigator
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _draw_here, _replace_atomically,
+                          append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
+    from .strides import FootprintAccumulator, footprint_strides, footprint_summary
+
+    name = str(path)
+    timings = lap.timings
     with h5py.File(path, "r") as f:
         if "imu" not in f:
             raise InputError(f"{path}: no /imu group; not a bootnav recording")
@@ -461,6 +482,10 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
                 "settings": settings.to_dict(),
                 "warnings": warnings,
             }
+            if charts is not None:  # drawn by the chart processes while the files are finished
+                charts.finish(t_mid, fp, steps, summary, settings)
+                if worker is not None:
+                    worker.submit(charts, out)
             files = {"trajectory": str(out / "trajectory.csv")}
             files["steps"] = str(write_steps_csv(out / "steps.csv", steps))
             if writer is not None:
@@ -480,19 +505,15 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
                 files["hdf5"] = f"{target}:{group}"
             lap("write")
             if charts is not None:
-                from .plots import draw_charts, draw_html
-
-                charts.finish(t_mid, fp, steps, summary, settings)
-                files.update({f"plot_{key}": str(p) for key, p in draw_charts(charts, out).items()})
-                files["html"] = str(draw_html(charts, out))
+                drawn, error = worker.wait() if worker is not None else _draw_here(charts, out)
+                if error:
+                    warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
+                files.update(drawn)
                 lap("plots")
         finally:
             if writer is not None:
                 writer.close()
             tmp.unlink(missing_ok=True)
-    files["summary"] = str(out / "summary.json")
-    summary["files"] = files
-    (out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     return summary, files
 
 

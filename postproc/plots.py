@@ -20,14 +20,19 @@ the samples at each coordinate's extremes (``decimate.PathExtremes``, at most
 ``OutputSettings.plot_max_points`` points), and every footprint. Records short enough are drawn sample by
 sample. Every number in the files comes from the full data.
 
-Speed: matplotlib is imported only when drawing; each figure is drawn once (``tight_layout`` lays it out,
-then its placeholder layout engine, which would make ``savefig`` draw twice, is removed); a decimated
-signal is a filled band (a line zig-zagging between each column's extremes costs Agg several times more);
-the shading is one polygon collection per axes; PNGs are compressed at zlib level 1.
+Every file is written to a hidden temporary file renamed over the target, so an interrupted run leaves no
+half-written chart. Speed: matplotlib is imported only when drawing (``bootnav process`` draws in two forked
+processes, warmed up by ``warm_up`` while the path is computed, each drawing a subset of the charts:
+``outputs.ChartWorker``); each figure is drawn once (``tight_layout`` lays it out, then its placeholder layout
+engine, which would make ``savefig`` draw twice, is removed); a decimated signal is a filled band (a line
+zig-zagging between each column's extremes costs Agg several times more); the shading is one polygon
+collection per axes; PNGs are compressed at zlib level 1.
 """
 
 from __future__ import annotations
 
+import os
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +68,31 @@ def _pyplot():
     plt.rcParams.update({"figure.dpi": DPI, "axes.grid": True, "grid.alpha": 0.3, "legend.fontsize": 8,
                          "legend.framealpha": 0.85})
     return plt
+
+
+def warm_up() -> None:
+    """Import matplotlib and draw one tiny figure (fonts, Agg, PNG encoder loaded), so that the charts drawn
+    next take only their own time: a chart process calls it while the path is being computed."""
+    import io
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(1, 1))
+    ax.plot([0, 1], [0, 1], label="x")
+    ax.set_title("x")
+    fig.savefig(io.BytesIO(), format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+    plt.close(fig)
+
+
+@contextmanager
+def _replacing(path: Path):
+    """Yield a hidden temporary path beside ``path``, renamed over it when the block succeeds and removed in
+    any case: a chart is either the previous file or the complete new one, never half written (Ctrl-C, kill)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def gravity_free_acc_n(q_nb: np.ndarray, acc_b: np.ndarray, gravity: float) -> np.ndarray:
@@ -267,8 +297,9 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     return draw_charts(ChartStream.from_result(result), out_dir)
 
 
-def draw_charts(stream: ChartStream, out_dir: str | Path) -> dict[str, Path]:
-    """Write charts 1-7 from a finished ``ChartStream`` into ``out_dir``; returns {name: path}."""
+def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> dict[str, Path]:
+    """Write charts 1-7 (those of ``keys``, names of ``FILES``) from a finished ``ChartStream`` into
+    ``out_dir``; returns {name: path}."""
     plt = _pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -284,7 +315,8 @@ def draw_charts(stream: ChartStream, out_dir: str | Path) -> dict[str, Path]:
     def save(fig, key):
         fig.tight_layout()
         fig.set_layout_engine(None)  # the placeholder tight_layout leaves would cost savefig a second draw
-        fig.savefig(out / FILES[key], pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+        with _replacing(out / FILES[key]) as tmp:
+            fig.savefig(tmp, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
         plt.close(fig)
         paths[key] = out / FILES[key]
 
@@ -295,24 +327,27 @@ def draw_charts(stream: ChartStream, out_dir: str | Path) -> dict[str, Path]:
         ax.set_xlim(t0, t1)
 
     # 1 raw IMU + stance
-    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(TIME_FIG_W_IN, 7), sharex=True,
-                                     gridspec_kw={"height_ratios": [3, 3, 1]})
-    _lines(a1, imu, 0, ["acc x", "acc y", "acc z"])
-    time_axes(a1, "specific force (m/s²)", first=True)
-    _legend(a1, loc="upper right", ncol=5)
-    _lines(a2, imu, 3, ["gyro x", "gyro y", "gyro z"])
-    time_axes(a2, "angular rate (rad/s)")
-    _legend(a2, loc="upper right", ncol=3)
-    _trace(a3, nav, 10, "k", 0.8)
-    a3.set_ylim(-0.2, 1.2)
-    a3.set_yticks([0, 1])
-    a3.set_ylabel("stance")
-    a3.set_xlabel("time (s)")
-    a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {summary['stance']['method']}")
-    save(fig, "raw_imu")
+    if "raw_imu" in keys:
+        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(TIME_FIG_W_IN, 7), sharex=True,
+                                         gridspec_kw={"height_ratios": [3, 3, 1]})
+        _lines(a1, imu, 0, ["acc x", "acc y", "acc z"])
+        time_axes(a1, "specific force (m/s²)", first=True)
+        _legend(a1, loc="upper right", ncol=5)
+        _lines(a2, imu, 3, ["gyro x", "gyro y", "gyro z"])
+        time_axes(a2, "angular rate (rad/s)")
+        _legend(a2, loc="upper right", ncol=3)
+        _trace(a3, nav, 10, "k", 0.8)
+        a3.set_ylim(-0.2, 1.2)
+        a3.set_yticks([0, 1])
+        a3.set_ylabel("stance")
+        a3.set_xlabel("time (s)")
+        a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {summary['stance']['method']}")
+        save(fig, "raw_imu")
 
     def time_chart(key, first, labels, ylabel, title, loc, extra=None, reference=None):
         """Charts 2-4: three nav-frame components against time, stance and saturation shaded."""
+        if key not in keys:
+            return
         fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
         _lines(ax, nav, first, labels)
         if extra is not None:
@@ -373,71 +408,74 @@ def draw_charts(stream: ChartStream, out_dir: str | Path) -> dict[str, Path]:
                   f"distance err {m['distance_error_pct']:.1f} %")
 
     # 5 path from above
-    fig, ax = plt.subplots(figsize=(7.5, 7.5))
-    ax.plot(pos[:, 0], pos[:, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
-    if len(fp):
-        ax.plot(fp[:, 0], fp[:, 1], ".", color="tab:blue", ms=4, label="footprints (stance)")
-    if ref_pts is not None:
-        ax.plot(ref_pts[:, 0], ref_pts[:, 1], ":", color="k", lw=2, label="reference path")
-    ax.plot(pos[0, 0], pos[0, 1], "o", color="tab:green", ms=9, label="start")
-    ax.plot(pos[-1, 0], pos[-1, 1], "s", color="tab:red", ms=8, label="end")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x east (m)")
-    ax.set_ylabel("y north (m)")
-    ax.set_title(f"Path from above{title_ref}\n{stats}", fontsize=10)
-    _legend(ax, loc="upper right")
-    save(fig, "path_2d")
+    if "path_2d" in keys:
+        fig, ax = plt.subplots(figsize=(7.5, 7.5))
+        ax.plot(pos[:, 0], pos[:, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
+        if len(fp):
+            ax.plot(fp[:, 0], fp[:, 1], ".", color="tab:blue", ms=4, label="footprints (stance)")
+        if ref_pts is not None:
+            ax.plot(ref_pts[:, 0], ref_pts[:, 1], ":", color="k", lw=2, label="reference path")
+        ax.plot(pos[0, 0], pos[0, 1], "o", color="tab:green", ms=9, label="start")
+        ax.plot(pos[-1, 0], pos[-1, 1], "s", color="tab:red", ms=8, label="end")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("x east (m)")
+        ax.set_ylabel("y north (m)")
+        ax.set_title(f"Path from above{title_ref}\n{stats}", fontsize=10)
+        _legend(ax, loc="upper right")
+        save(fig, "path_2d")
 
     # 6 3-D path
-    fig = plt.figure(figsize=(8, 7))
-    ax = fig.add_subplot(projection="3d")
-    ax.plot(pos[:, 0], pos[:, 1], pos[:, 2], color="tab:blue", lw=0.9, label="estimated path")
-    if ref_pts is not None:
-        ax.plot(ref_pts[:, 0], ref_pts[:, 1], ref_pts[:, 2], ":", color="k", lw=2, label="reference path")
-    ax.scatter(*pos[0], color="tab:green", s=40, label="start")
-    ax.scatter(*pos[-1], color="tab:red", marker="s", s=40, label="end")
-    lo, hi = pos.min(axis=0), pos.max(axis=0)
-    span = max(float((hi - lo).max()), 1.0)
-    mid = (lo + hi) / 2
-    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
-        setter(c - span / 2, c + span / 2)  # equal scale on all three axes
-    ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x east (m)")
-    ax.set_ylabel("y north (m)")
-    ax.set_zlabel("z up (m)")
-    ax.set_title(f"3-D path — {stats.splitlines()[0]}", fontsize=10)
-    _legend(ax, loc="upper left")
-    save(fig, "path_3d")
+    if "path_3d" in keys:
+        fig = plt.figure(figsize=(8, 7))
+        ax = fig.add_subplot(projection="3d")
+        ax.plot(pos[:, 0], pos[:, 1], pos[:, 2], color="tab:blue", lw=0.9, label="estimated path")
+        if ref_pts is not None:
+            ax.plot(ref_pts[:, 0], ref_pts[:, 1], ref_pts[:, 2], ":", color="k", lw=2, label="reference path")
+        ax.scatter(*pos[0], color="tab:green", s=40, label="start")
+        ax.scatter(*pos[-1], color="tab:red", marker="s", s=40, label="end")
+        lo, hi = pos.min(axis=0), pos.max(axis=0)
+        span = max(float((hi - lo).max()), 1.0)
+        mid = (lo + hi) / 2
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
+            setter(c - span / 2, c + span / 2)  # equal scale on all three axes
+        ax.set_box_aspect((1, 1, 1))
+        ax.set_xlabel("x east (m)")
+        ax.set_ylabel("y north (m)")
+        ax.set_zlabel("z up (m)")
+        ax.set_title(f"3-D path — {stats.splitlines()[0]}", fontsize=10)
+        _legend(ax, loc="upper left")
+        save(fig, "path_3d")
 
     # 7 height with floor lines
-    floors = settings.floor_settings()
-    fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
-    t_fp, fp_n = info["t_fp"], info["fp_n"]
-    z0 = float(fp_n[0, 2]) if len(fp_n) else float(stream.path.first[2][2])
-    _trace(ax, nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
-    if len(fp_n):
-        z_fp = fp_n[:, 2] - z0
-        if floors.stair_min_dz_m is not None:
-            ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",
-                    label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
-        ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
-                color="tab:orange", lw=1.5, label="floor level (counted)")
-        zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
-    else:
-        zmin = zmax = 0.0
-    k_lo = int(np.round(zmin / floors.floor_height_m)) - 1  # one storey of context below and above
-    k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
-    for k in range(k_lo, k_hi + 1):
-        ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
-        ax.text(t1, k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
-                ha="right", fontsize=8, color="grey")
-    reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
-    time_axes(ax, "height above start (m)", first=True)
-    ax.set_xlabel("time (s)")
-    ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
-                 f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
-    _legend(ax, loc="upper left")
-    save(fig, "height")
+    if "height" in keys:
+        floors = settings.floor_settings()
+        fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
+        t_fp, fp_n = info["t_fp"], info["fp_n"]
+        z0 = float(fp_n[0, 2]) if len(fp_n) else float(stream.path.first[2][2])
+        _trace(ax, nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
+        if len(fp_n):
+            z_fp = fp_n[:, 2] - z0
+            if floors.stair_min_dz_m is not None:
+                ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",
+                        label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
+            ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
+                    color="tab:orange", lw=1.5, label="floor level (counted)")
+            zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
+        else:
+            zmin = zmax = 0.0
+        k_lo = int(np.round(zmin / floors.floor_height_m)) - 1  # one storey of context below and above
+        k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
+        for k in range(k_lo, k_hi + 1):
+            ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
+            ax.text(t1, k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
+                    ha="right", fontsize=8, color="grey")
+        reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
+        time_axes(ax, "height above start (m)", first=True)
+        ax.set_xlabel("time (s)")
+        ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
+                     f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
+        _legend(ax, loc="upper left")
+        save(fig, "height")
     return paths
 
 
@@ -586,5 +624,6 @@ draw();
 </script></body></html>
 """
     path = out / "path.html"
-    path.write_text(page)
+    with _replacing(path) as tmp:
+        tmp.write_text(page)
     return path
