@@ -9,6 +9,8 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
+from dataclasses import fields
 
 import numpy as np
 import pytest
@@ -19,7 +21,7 @@ from bootnav.errors import InputError
 from bootnav.postproc.calibration import initial_alignment
 from bootnav.postproc.detectors import DetectorSettings, detect_stance
 from bootnav.postproc.ins import FilterSettings, run_filter
-from bootnav.postproc.ins.stream import NavRows, StreamNavigator
+from bootnav.postproc.ins.stream import _RING_CAPS, NavRows, StreamNavigator
 from bootnav.postproc.settings import ProcessSettings
 from tests.conftest import REPO
 
@@ -117,7 +119,8 @@ def test_memory_is_bounded_by_segment_and_lookahead(walks):
     _assert_same(rows, run_filter(t, acc, gyr, stance, init, G, fs, saturated=sat), 15)
     lookahead = math.ceil(fs.zupt_onset_delay_s / fs.zupt_onset_max_fraction / dt) + 2
     assert held <= nav.prm.max_segment + lookahead + 7
-    assert nav._buf_post.shape[0] == nav.prm.max_segment == math.ceil(0.3 / dt)
+    # the smoother's buffers: a fixed ring of segment caps, whatever the record's length
+    assert nav._buf_post.shape[0] == _RING_CAPS * nav.prm.max_segment and nav.prm.max_segment == math.ceil(0.3 / dt)
     # the default cap: rows of a whole stride are held, never the record
     rows, nav, held = _stream(walks["xio-real"], FilterSettings(), 1000)
     assert held <= nav.prm.max_segment + lookahead + 1000 < t.shape[0] / 2
@@ -320,3 +323,132 @@ def test_from_still_applies_the_accelerometer_calibration(walks, tmp_path):
     assert np.abs(nav.init_state.q_nb - init.q_nb).max() == 0.0
     sol = run_filter(t, acc_cal, gyr, stance, init, g, settings.filter, saturated=sat)
     _assert_same(rows, sol, 15)
+
+
+def _fields_bits(rows):
+    return {f.name: getattr(rows, f.name) for f in fields(NavRows) if f.name != "start"}
+
+
+@pytest.mark.parametrize("cap_s", [0.3, None])
+def test_smoothing_thread_gives_the_same_bits(walks, monkeypatch, cap_s):
+    """One whole-record push smooths most closed segments in the smoothing thread (the ring of segment
+    buffers wraps around several times with a 0.3 s cap); pushes of 7 samples smooth what closed since the
+    last hand-over in the pushing thread, and without the thread everything is smoothed there. All give the
+    same bits (signs of zeros included), and no smoothing thread outlives a push."""
+    from bootnav.postproc.ins import fast, stream
+
+    t, acc, gyr, stance, init, sat = walks["xio-real"]
+    fs = FilterSettings() if cap_s is None else FilterSettings(smoother_max_segment_s=cap_s)
+    where = []
+    smooth = fast.smooth_segments
+
+    def spy(closed, *args):
+        where.append((threading.current_thread().name, int(closed[:, 1].sum())))
+        return smooth(closed, *args)
+
+    StreamNavigator.from_initial_state(init, G, 0.01, fs)  # the kernels compiled (or loaded) before the spy
+    monkeypatch.setattr(fast, "ensure_compiled", lambda nav: 0.0)
+    monkeypatch.setattr(fast, "smooth_segments", spy)
+    monkeypatch.setattr(stream, "SMOOTHING_THREAD", True)  # whatever the machine's load
+    whole, nav, _ = _stream(walks["xio-real"], fs, t.shape[0])
+    threaded = sum(m for name, m in where if name.startswith("bootnav-smoother"))
+    assert threaded > 0.5 * t.shape[0]  # most segments were smoothed beside the filter
+    if cap_s is not None:
+        assert threaded > 3 * nav._buf_post.shape[0]  # the ring wrapped around
+    assert not [th for th in threading.enumerate() if th.name.startswith("bootnav-smoother")]
+    where.clear()
+    small, nav7, _ = _stream(walks["xio-real"], fs, 7)
+    assert any(name == threading.current_thread().name for name, _ in where)  # the end of a push: here
+    assert nav7.info["smoother_segments"] == nav.info["smoother_segments"]
+    assert nav7.info["smoother_skipped_steps"] == nav.info["smoother_skipped_steps"]
+    monkeypatch.setattr(stream, "SMOOTHING_THREAD", False)
+    where.clear()
+    alone, _, _ = _stream(walks["xio-real"], fs, t.shape[0])
+    assert where and all(name == threading.current_thread().name for name, _ in where)
+    for other in (small, alone):
+        for name, a in _fields_bits(whole).items():
+            b = _fields_bits(other)[name]
+            assert np.array_equal(a, b) and np.array_equal(np.signbit(a), np.signbit(b)), name
+
+
+def test_one_core_runs_the_same_code_without_deadlock(walks, tmp_path):
+    """A fresh process confined to one core (sched_setaffinity) with the smoothing thread forced on runs the
+    filter and the smoothing thread in turn: it finishes (no deadlock) with the same bits as this process."""
+    if not hasattr(os, "sched_setaffinity"):
+        pytest.skip("no sched_setaffinity on this platform")
+    t, acc, gyr, stance, init, sat = walks["sim-stairs"]
+    fs = FilterSettings(smoother_max_segment_s=0.3)
+    rows, _, _ = _stream(walks["sim-stairs"], fs, t.shape[0])
+    np.savez(tmp_path / "walk.npz", t=t, acc=acc, gyr=gyr, stance=stance, sat=sat, q=init.q_nb, bg=init.gyro_bias_b,
+             ba=getattr(init, "acc_bias_b", np.zeros(3)))
+    code = textwrap.dedent(f"""
+        import os, sys
+        import numpy as np
+        os.sched_setaffinity(0, {{min(os.sched_getaffinity(0))}})
+        from bootnav.core.timebase import time_base
+        from bootnav.postproc.ins import FilterSettings
+        from bootnav.postproc.ins import stream
+        from bootnav.postproc.ins.stream import NavRows, StreamNavigator
+        stream.SMOOTHING_THREAD = True
+        w = np.load(sys.argv[1])
+        init = type("I", (), dict(q_nb=w["q"], gyro_bias_b=w["bg"], acc_bias_b=w["ba"]))()
+        nav = StreamNavigator.from_initial_state(init, {G!r}, time_base(w["t"]).nominal_dt_s,
+                                                 FilterSettings(smoother_max_segment_s=0.3))
+        r = NavRows.concatenate([nav.push(w["t"], w["acc"], w["gyr"], w["stance"], saturated=w["sat"]), nav.finish()])
+        np.savez(sys.argv[2], pos=r.pos_n, q=r.q_nb, vel=r.vel_n)
+        """)
+    subprocess.run([sys.executable, "-c", code, str(tmp_path / "walk.npz"), str(tmp_path / "out.npz")], cwd=REPO,
+                   check=True, timeout=120)
+    one = np.load(tmp_path / "out.npz")
+    for name, a in (("pos", rows.pos_n), ("q", rows.q_nb), ("vel", rows.vel_n)):
+        assert np.array_equal(one[name], a) and np.array_equal(np.signbit(one[name]), np.signbit(a)), name
+
+
+@pytest.mark.parametrize("n", [9, 15])
+def test_smoother_kernel_restarts_where_the_prior_is_not_positive_definite(n):
+    """``smoother.rts_backward`` on a segment laid across the end of its ring of buffers: where P⁻(j+1) is
+    not positive definite (two such steps, one in each slot of the paired factorisation) it counts the step,
+    leaves row j as filtered and restarts from zero, i.e. it equals the readable ``rts_backward_numpy`` on the
+    pieces between those steps (1e-12 relative: different summation order); the same segment laid out
+    without wrapping gives the same bits."""
+    from bootnav.postproc.ins.smoother import rts_backward, rts_backward_numpy
+
+    rng = np.random.default_rng(7)
+    m, cap, b0 = 42, 64, 50  # buffer rows 50..63 then 0..27; steps paired (40, 39), ..., (2, 1), then 0 alone
+    a = rng.normal(size=(m, n, n))
+    p_post = a @ a.transpose(0, 2, 1) + n * np.eye(n)
+    p_pred = p_post + 0.1 * np.eye(n)
+    p_post += 1e-3 * rng.normal(size=(m, n, n))  # not exactly symmetric, as the filter's P
+    bad_steps = (30, 11)  # steps j whose P⁻(j+1) is not positive definite
+    for j in bad_steps:
+        p_pred[j + 1, 4, 4] = -1.0
+    fpar = np.concatenate([np.full((m, 1), 0.005), rng.normal(size=(m, 3)),
+                           np.array([np.linalg.qr(rng.normal(size=(3, 3)))[0].ravel() for _ in range(m)])], axis=1)
+    dx_upd = 1e-2 * rng.normal(size=(m, n))
+    low = np.tril_indices(n)
+
+    def run(first, capacity):
+        rows = (first + np.arange(m)) % capacity
+        post, pred = np.zeros((capacity, n, n)), np.zeros((capacity, n * (n + 1) // 2))
+        fp, dxu = np.zeros((capacity, 13)), np.zeros((capacity, n))
+        post[rows], pred[rows], fp[rows], dxu[rows] = p_post, p_pred[:, low[0], low[1]], fpar, dx_upd
+        out = [np.zeros((m + 3, 3)) for _ in range(4)]
+        q = np.tile([1.0, 0.0, 0.0, 0.0], (m + 3, 1))
+        bad = rts_backward(post, pred, fp, dxu, first, m, n, 3, out[0], out[1], q, out[2], out[3])
+        return bad, out, q
+
+    bad, (pos, vel, ba, bg), q = run(b0, cap)
+    assert bad == len(bad_steps)
+    expected = np.zeros((m, n))
+    edges = [0, *sorted(j + 1 for j in bad_steps), m]
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        expected[lo:hi] = rts_backward_numpy(p_post[lo:hi], p_pred[lo:hi], fpar[lo:hi], dx_upd[lo:hi], hi - lo, n)
+    scale = np.abs(expected).max()
+    assert np.all(pos[:3] == 0.0) and np.all(pos[3 + np.array(bad_steps)] == 0.0)
+    assert np.abs(pos[3:] - expected[:, 0:3]).max() <= 1e-12 * scale
+    assert np.abs(vel[3:] - expected[:, 3:6]).max() <= 1e-12 * scale
+    if n == 15:
+        assert np.abs(bg[3:] - expected[:, 12:15]).max() <= 1e-12 * scale
+    bad2, out2, q2 = run(0, m)
+    assert bad2 == bad and np.array_equal(q2, q)
+    assert all(np.array_equal(u, v) for u, v in zip(out2, (pos, vel, ba, bg)))

@@ -18,9 +18,11 @@ b̂ += δb, δx ← 0. The "+ k_n v_n" of [Heidari2019, eq. 3] is this with the 
 
 Python drives the kernel through ``stream.StreamNavigator`` (the one incremental engine; ``stream.run_fast``
 pushes a whole record through it): ``filter_chunk`` filters a chunk and carries the filter state and the
-smoother's open segment to the next call; ``close_segment`` smooths the last segment at the end of the record.
-Both release the GIL (``nogil``), so independent runs in threads use separate cores (the two timing probes
-of ``selftune.level_timing_offset``).
+smoother's open segment to the next call; it lists every segment it closes, ``close_segment`` ends the
+record's last one, and ``smooth_segments`` runs the RTS backward pass over listed segments. A closed segment
+depends on nothing the filter still writes, so the navigator smooths batches of them in a second thread
+while the filter goes on (a pipeline over two cores). All three release the GIL (``nogil``), so independent
+runs in threads use separate cores too (the two timing probes of ``selftune.level_timing_offset``).
 
 Numba's on-disk cache of a function is stamped with the hash of its own source file only, while the cached
 code contains the jitted functions it calls from other modules (``measurements.py``, ``kalman.py``,
@@ -47,10 +49,17 @@ from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, 
 from bootnav.postproc.ins.kalman import joseph3, sequential_update
 from bootnav.postproc.ins.measurements import KERNEL_REGISTRY, MAX_ROWS, N_KINDS, ZUPT, measure, zupt
 from bootnav.postproc.ins.riccati import gain_into
-from bootnav.postproc.ins.smoother import rts_backward
+from bootnav.postproc.ins.smoother import rts_backward, tri_index
 
 # smoother bookkeeping counters
 SMOOTHER_SKIPPED, SMOOTHER_SEGMENTS = 0, 1
+# the smoother's state ``seg``: open segment's length, its first output row, its first buffer row (absolute: the
+# buffer row is this modulo the ring's capacity), the oldest buffer row still needed (absolute), closed
+# segments waiting in ``closed``
+SEG_LEN, SEG_ROW, SEG_RING, SEG_TAIL, SEG_N_CLOSED = 0, 1, 2, 3, 4
+N_SEG = 5
+# a closed segment (row of ``closed``): its first buffer row (absolute), its length, its first output row
+CL_RING, CL_LEN, CL_ROW = 0, 1, 2
 
 
 @njit(cache=True)
@@ -92,28 +101,56 @@ def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
 
 
 @njit(cache=True, nogil=True)
-def close_segment(n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx, seg, counters, next_row):
-    """Smooth the open segment (``smoother.rts_backward`` corrects its output rows in place) and open the next
-    one at output row ``next_row``."""
-    if seg[0] > 1:
-        counters[SMOOTHER_SKIPPED] += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, seg[0], n, seg[1], pos, vel,
-                                                   q, ba, bg)
+def close_segment(seg, closed, counters, next_row):
+    """End the open segment: list it in ``closed`` to be smoothed (``smooth_segments``; one sample needs no
+    smoothing) and open the next one at output row ``next_row``, in the buffer rows that follow."""
+    m = seg[SEG_LEN]
+    if m > 1:
+        c = seg[SEG_N_CLOSED]
+        closed[c, CL_RING] = seg[SEG_RING]
+        closed[c, CL_LEN] = m
+        closed[c, CL_ROW] = seg[SEG_ROW]
+        seg[SEG_N_CLOSED] = c + 1
     counters[SMOOTHER_SEGMENTS] += 1
-    seg[0] = 0
-    seg[1] = next_row
+    seg[SEG_LEN] = 0
+    seg[SEG_ROW] = next_row
+    seg[SEG_RING] += m
+
+
+@njit(cache=True, nogil=True)
+def smooth_segments(closed, n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx):
+    """Smooth the closed segments listed in ``closed`` (rows CL_RING, CL_LEN, CL_ROW; ``smoother.rts_backward``
+    corrects their output rows in place). Returns the smoother's skipped steps.
+
+    Closed segments are independent of each other and of the forward filter (which only writes buffer rows
+    after the oldest one still listed, ``seg[SEG_TAIL]``, and output rows after theirs), so this may run in
+    another thread while ``filter_chunk`` goes on."""
+    bad = 0
+    for i in range(closed.shape[0]):
+        bad += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, closed[i, CL_RING], closed[i, CL_LEN], n,
+                            closed[i, CL_ROW], pos, vel, q, ba, bg)
+    return bad
 
 
 @njit(cache=True, nogil=True)
 def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active, n, ric_u, ric_lam, ric_t, st, P,
-                 pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, applied, counters):
+                 pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, closed, batch_rows, applied,
+                 counters):
     """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
+    Returns the input row to resume at: k1, or earlier when the smoother's closed segments are due
+    (``seg``'s SEG_N_CLOSED of them in ``closed``; call again from there after handing them on).
 
     Input row k (``dt_s``, ``acc``, ``gyro``, ``stance`` = the ZUPT mask, ``xvar``, ``ric_tau``) writes output
     row o0 + k. Input row k0 − 1 is the sample before (only its ZUPT flag is read: the heading aid's stance
     onset and the end of a stance phase; a False row before the record's first sample). The smoother's open
-    segment starts at output row ``seg[1]`` and holds ``seg[0]`` samples; it is closed (smoothed, its rows
-    corrected in place) when the next sample shows that it ended: after the last sample of a stance phase, or
-    when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one).
+    segment starts at output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in
+    ``closed`` for ``smooth_segments``) when the next sample shows that it ended: after the last sample of a
+    stance phase, or when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one).
+    Its buffers (``buf_post`` P⁺ whole, ``buf_pred`` P⁻'s packed lower triangle, ``buf_fpar``, ``buf_dx``) are
+    a ring of segments: sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel
+    returns after a close when the closed segments reach ``batch_rows`` buffer rows, when ``closed`` is full,
+    or when the next segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest
+    buffer row not smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on.
     ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
     (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
     smoother's bookkeeping.
@@ -124,10 +161,15 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active
     dx = np.zeros(n)
     z = np.zeros(MAX_ROWS)
     c = np.empty((3, 3))
+    cap = buf_post.shape[0]
     for k in range(k0, k1):
         r = o0 + k
-        if prm.smooth and seg[0] > 0 and (seg[0] >= prm.max_segment or (stance[k - 1] and not stance[k])):
-            close_segment(n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx, seg, counters, r)
+        if prm.smooth and seg[SEG_LEN] > 0 and (seg[SEG_LEN] >= prm.max_segment or (stance[k - 1] and not stance[k])):
+            close_segment(seg, closed, counters, r)
+            nc = seg[SEG_N_CLOSED]
+            if (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
+                    or seg[SEG_RING] + prm.max_segment - seg[SEG_TAIL] > cap):
+                return k
         dt = dt_s[k]
         qw, qx, qy, qz = st[iq], st[iq + 1], st[iq + 2], st[iq + 3]
         if dt > 0.0:
@@ -166,11 +208,11 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active
                     for i in range(3):
                         for m in range(3):
                             P[o + i, o + m] += qx_ * dt * c[i, col] * c[m, col]
-        j = seg[0]
+        j = (seg[SEG_RING] + seg[SEG_LEN]) % cap
         if prm.smooth:
             for a_ in range(n):
-                for b_ in range(n):
-                    buf_pred[j, a_, b_] = P[a_, b_]
+                for b_ in range(a_ + 1):
+                    buf_pred[j, tri_index(a_, b_)] = P[a_, b_]
             buf_fpar[j, 0] = dt
             buf_fpar[j, 1], buf_fpar[j, 2], buf_fpar[j, 3] = fx, fy, fz
             for a_ in range(3):
@@ -224,7 +266,8 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active
                 buf_dx[j, a_] = dx[a_]
                 for b_ in range(n):
                     buf_post[j, a_, b_] = P[a_, b_]
-            seg[0] = j + 1
+            seg[SEG_LEN] += 1
+    return k1
 
 
 def key_cache_on_sources(dispatchers, paths) -> bytes:
@@ -262,7 +305,7 @@ def kernel_sources(module_file=__file__) -> list[Path]:
     return sorted(seen)
 
 
-key_cache_on_sources((filter_chunk, close_segment, rts_backward, _propagate_cov), kernel_sources())
+key_cache_on_sources((filter_chunk, close_segment, smooth_segments, rts_backward, _propagate_cov), kernel_sources())
 
 _compile_listeners: list = []
 _compile_lock = threading.Lock()  # one compilation (and one notice) when threads start engines at once
@@ -289,9 +332,10 @@ def _cached_on_disk(dispatcher) -> bool:
 
 def _needs_compiling() -> bool:
     """Whether the kernels must be compiled (neither in this process nor in numba's cache)."""
-    if filter_chunk.signatures and close_segment.signatures:
+    kernels = (filter_chunk, close_segment, smooth_segments)
+    if all(k.signatures for k in kernels):
         return False
-    return not (_cached_on_disk(filter_chunk) and _cached_on_disk(close_segment))
+    return not all(_cached_on_disk(k) for k in kernels)
 
 
 def ensure_compiled(nav) -> float:
@@ -309,14 +353,16 @@ def _compile(nav) -> None:
     if _needs_compiling():
         for cb in list(_compile_listeners):
             cb()
-    if not filter_chunk.signatures or not close_segment.signatures:
+    if not all(k.signatures for k in (filter_chunk, close_segment, smooth_segments)):
         n = nav.n
         one3 = np.zeros((1, 3))
         none3, none4 = np.zeros((0, 3)), np.zeros((0, 4))
-        seg, counters = np.zeros(2, dtype=np.int64), np.zeros(2, dtype=np.int64)
+        seg, counters = np.zeros(N_SEG, dtype=np.int64), np.zeros(2, dtype=np.int64)
+        closed = np.zeros((1, 3), dtype=np.int64)
         filter_chunk(1, 1, np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1),
                      0, nav.prm, nav._active, n, *nav._ric, nav._st.copy(), nav._P.copy(), none3, none3.copy(), none4,
                      none3.copy(), none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred, nav._buf_fpar,
-                     nav._buf_dx, seg, np.zeros(N_KINDS, dtype=np.int64), counters)
-        close_segment(n, none3, none3.copy(), none4, none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred,
-                      nav._buf_fpar, nav._buf_dx, seg, counters, 0)
+                     nav._buf_dx, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
+        close_segment(seg, closed, counters, 0)
+        smooth_segments(closed[:0], n, none3, none3.copy(), none4, none3.copy(), none3.copy(), nav._buf_post,
+                        nav._buf_pred, nav._buf_fpar, nav._buf_dx)

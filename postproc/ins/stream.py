@@ -37,6 +37,11 @@ the error state there (z = H δx + ν, δx = x_true − x̂, e.g. z = p_measured
 smoother's buffers like the ZUPT so the backward pass stays consistent [RTS1965; Colomar2012].
 
 Each push costs ~0.1 ms of Python besides the samples' own time: push chunks of 10 ms or more of samples.
+Within a long push the smoother runs beside the filter when a core is free (``SMOOTHING_THREAD``): closed
+segments go in batches to a smoothing thread (``fast.smooth_segments``, GIL released) while the filter fills
+the other half of a fixed ring of buffers (the filter waits when the ring is full); at the end of the push the
+rest is smoothed and the thread ends, so the rows returned are final and no thread outlives a push. The
+arithmetic is the same in either thread: so is the result.
 
 API-STABLE
 
@@ -59,7 +64,10 @@ Usage (a stream user; ``source`` yields chunks of every sample from the first, t
 
 from __future__ import annotations
 
+import os
 import time
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -76,6 +84,36 @@ from bootnav.postproc.ins.settings import FilterSettings
 
 _ROWS3 = ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")
 _PUSH_MAX = 65_536  # samples per push in run_fast (bounded temporaries)
+# the smoother's segment buffers: a ring of this many segment caps (prm.max_segment samples each); closed
+# segments go to a smoothing thread in batches of at least half a cap's worth of samples, so the filter fills
+# one half of the ring while the other is smoothed. Memory and speed only (the result is the same): a larger
+# ring spreads the buffers over more cache, smaller batches cost more Python (docs/tuning-log.md)
+_RING_CAPS = 2
+_BATCH_CAPS = 0.5
+# smooth in a thread beside the filter? None: when a core is free at the push's first hand-over (runnable
+# tasks, this one included, ≤ usable cores − 1; on a busy machine, or in one of eval's worker processes, a
+# second thread gains no time and costs the cache traffic of handing the buffers over); True / False: always /
+# never. The result is the same either way.
+SMOOTHING_THREAD: bool | None = None
+
+
+def _runnable_tasks() -> int:
+    """Tasks running or ready to run on the machine now, this one included (Linux ``/proc/loadavg``; 1 where
+    it cannot be read)."""
+    try:
+        with open("/proc/loadavg", encoding="ascii") as f:
+            return int(f.read().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):
+        return 1
+
+
+def _smoothing_workers() -> int:
+    """Threads to smooth closed segments in, 0 for the pushing thread itself (``SMOOTHING_THREAD``)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    use = SMOOTHING_THREAD
+    if use is None:
+        use = cores >= 2 and _runnable_tasks() <= cores - 1
+    return max(1, min(2, cores - 1)) if use else 0  # two with three cores or more
 
 
 @dataclass
@@ -166,12 +204,17 @@ class StreamNavigator:
             self._ric = (np.eye(3), np.zeros(3), np.zeros((6, 3)))
         self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
         self._P = np.array(setup.P0, dtype=np.float64, order="C", copy=True)
-        nb = prm.max_segment if prm.smooth else 1
+        nb = _RING_CAPS * prm.max_segment if prm.smooth else 1
         self._buf_post = np.empty((nb, n, n))
-        self._buf_pred = np.empty((nb, n, n))
+        self._buf_pred = np.empty((nb, n * (n + 1) // 2))  # lower triangle of P⁻ (all the smoother reads)
         self._buf_fpar = np.empty((nb, 13))
         self._buf_dx = np.empty((nb, n))
-        self._seg = np.zeros(2, dtype=np.int64)
+        self._seg = np.zeros(fast.N_SEG, dtype=np.int64)
+        self._closed = np.zeros((nb // 2 + 1, 3), dtype=np.int64)  # closed segments hold ≥ 2 buffer rows each
+        self._batch_rows = max(1, int(_BATCH_CAPS * prm.max_segment))
+        self._in_flight: deque = deque()  # (future, first buffer row) of the batches being smoothed, oldest first
+        self._pool = None
+        self._workers = None  # smoothing threads of this push (_smoothing_workers), decided at its first hand-over
         self._applied = np.zeros(N_KINDS, dtype=np.int64)
         self._counters = np.zeros(2, dtype=np.int64)
         # queue of pushed samples not filtered yet (their ZUPT decision waits for the onset delay)
@@ -424,7 +467,7 @@ class StreamNavigator:
             st[BIAS_ACC] += dx[ERR_BA]
             st[BIAS_GYRO] += dx[ERR_BG]
         if self.prm.smooth:
-            j = int(self._seg[0]) - 1
+            j = int(self._seg[fast.SEG_RING] + self._seg[fast.SEG_LEN] - 1) % self._buf_post.shape[0]
             self._buf_dx[j] += dx
             self._buf_post[j] = P
         r = self._out_filled - 1
@@ -433,6 +476,54 @@ class StreamNavigator:
         o["acc_bias_b"][r], o["gyro_bias_b"][r] = st[BIAS_ACC], st[BIAS_GYRO]
         o["pos_sigma_n"][r] = np.sqrt(np.maximum(np.diag(P)[ERR_P], 0.0))
         self._n_external += 1
+
+    # ------------------------------------------------------------------------------------------ smoothing
+    def _hand_on(self, rows_out) -> None:
+        """Give the closed segments to the smoothing thread (they correct ``rows_out`` in place; without one,
+        smooth them here), then wait until the ring has room for the next segment (``fast.filter_chunk``
+        docstring)."""
+        seg, nc = self._seg, int(self._seg[fast.SEG_N_CLOSED])
+        if self._workers is None:
+            self._workers = _smoothing_workers()
+        if nc and not self._workers:
+            self._smooth_here(rows_out)
+        elif nc:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(max_workers=self._workers, thread_name_prefix="bootnav-smoother")
+            batch = self._closed[:nc].copy()
+            fut = self._pool.submit(fast.smooth_segments, batch, self.n, *rows_out, self._buf_post, self._buf_pred,
+                                    self._buf_fpar, self._buf_dx)
+            self._in_flight.append((fut, int(batch[0, fast.CL_RING])))
+            seg[fast.SEG_N_CLOSED] = 0
+        cap = self._buf_post.shape[0]
+        while self._in_flight and seg[fast.SEG_RING] + self.prm.max_segment - seg[fast.SEG_TAIL] > cap:
+            self._counters[fast.SMOOTHER_SKIPPED] += self._in_flight.popleft()[0].result()
+            seg[fast.SEG_TAIL] = self._in_flight[0][1] if self._in_flight else seg[fast.SEG_RING]
+        if not self._in_flight:  # nothing listed or smoothing: the open segment is the oldest buffer user
+            seg[fast.SEG_TAIL] = seg[fast.SEG_RING]
+
+    def _smooth_here(self, rows_out) -> None:
+        """Smooth the closed segments still listed, in this thread."""
+        nc = int(self._seg[fast.SEG_N_CLOSED])
+        if nc:
+            self._counters[fast.SMOOTHER_SKIPPED] += fast.smooth_segments(
+                self._closed[:nc], self.n, *rows_out, self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx)
+            self._seg[fast.SEG_N_CLOSED] = 0
+
+    def _drain(self, rows_out) -> None:
+        """Smooth every closed segment: those still listed here in this thread, while the smoothing thread
+        finishes its batches; afterwards every row before the open segment is final."""
+        seg = self._seg
+        self._smooth_here(rows_out)
+        try:
+            while self._in_flight:
+                self._counters[fast.SMOOTHER_SKIPPED] += self._in_flight.popleft()[0].result()
+        finally:
+            if self._pool is not None:
+                self._pool.shutdown()  # waits for whatever an error left running
+                self._pool = None
+            self._workers = None
+        seg[fast.SEG_TAIL] = seg[fast.SEG_RING]
 
     # -------------------------------------------------------------------------------------------- inside
     def _check(self, t_s, acc_b, gyro_b, stance):
@@ -569,21 +660,28 @@ class StreamNavigator:
         out["t_s"][n_open:] = t
         out["stance"][n_open:] = s[:L]
         out["zupt"][n_open:] = zupt
-        self._seg[1] -= self._out_from
+        self._seg[fast.SEG_ROW] -= self._out_from
         tc = time.perf_counter()
-        fast.filter_chunk(1, L + 1, dt, acc, gyr, zm, xvar, tau, n_open - 1, self.prm, self._active, self.n,
-                          *self._ric, self._st, self._P, out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"],
-                          out["gyro_bias_b"], out["pos_sigma_n"], self._buf_post, self._buf_pred, self._buf_fpar,
-                          self._buf_dx, self._seg, self._applied, self._counters)
+        rows_out = (out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"])
         filled = n_open + L
+        k = 1
+        try:
+            while k <= L:
+                k = fast.filter_chunk(k, L + 1, dt, acc, gyr, zm, xvar, tau, n_open - 1, self.prm, self._active,
+                                      self.n, *self._ric, self._st, self._P, *rows_out, out["pos_sigma_n"],
+                                      self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx, self._seg,
+                                      self._closed, self._batch_rows, self._applied, self._counters)
+                if k <= L:  # closed segments due: smooth them in another thread while the filter goes on
+                    self._hand_on(rows_out)
+            if final and self.prm.smooth and filled:
+                fast.close_segment(self._seg, self._closed, self._counters, filled)
+        finally:
+            if self.prm.smooth:
+                self._drain(rows_out)
         if final:
-            if self.prm.smooth and filled:
-                fast.close_segment(self.n, out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"],
-                                   out["gyro_bias_b"], self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx,
-                                   self._seg, self._counters, filled)
             n_final = filled
         else:
-            n_final = int(self._seg[1]) if self.prm.smooth else filled - 1
+            n_final = int(self._seg[fast.SEG_ROW]) if self.prm.smooth else filled - 1
         self.run_s += time.perf_counter() - tc
         if L:
             self._t_done_last = float(t[-1])
