@@ -181,17 +181,13 @@ def warm_csv_writer(notice: Callable[[], None] | None = None) -> None:
     kernel = _kernel()
     if kernel.signatures:
         return
-    if notice is not None and not _cached_on_disk(kernel):
-        notice()
+    if notice is not None:
+        from bootnav.postproc.ins.fast import cached_on_disk
+
+        if not cached_on_disk(kernel):
+            notice()
     _csv_text([np.zeros(1), np.zeros(1, np.int8)], ["%.1f", "%d"])  # the argument types of every CSV written
 
-
-def _cached_on_disk(dispatcher) -> bool:
-    """Whether numba's on-disk cache holds a valid (source stamp matching) entry of ``dispatcher``."""
-    try:
-        return bool(dispatcher._cache._cache_file._load_index())
-    except Exception:  # numba internals changed: cannot tell, stay quiet
-        return True
 
 
 def _csv_text(columns: list[np.ndarray], fmts: list[str]) -> np.ndarray:

@@ -266,7 +266,7 @@ def test_compile_notice_only_when_not_cached(tmp_path):
                                            G, 0.01)
     assert told == []  # compiled or loaded in this process by now: no notice
     code = ("from bootnav.postproc.ins import fast; "
-            "print(fast._cached_on_disk(fast.filter_chunk), fast._cached_on_disk(fast.close_segment))")
+            "print(fast.cached_on_disk(fast.filter_chunk), fast.cached_on_disk(fast.close_segment))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120,
                          env=dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty")), cwd=REPO).stdout
     assert out.split() == ["False", "False"]

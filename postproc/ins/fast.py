@@ -322,7 +322,7 @@ def compile_notice(callback):
         _compile_listeners.remove(callback)
 
 
-def _cached_on_disk(dispatcher) -> bool:
+def cached_on_disk(dispatcher) -> bool:
     """Whether numba's on-disk cache holds a valid (source stamp matching) entry of ``dispatcher``."""
     try:
         return bool(dispatcher._cache._cache_file._load_index())
@@ -335,7 +335,7 @@ def _needs_compiling() -> bool:
     kernels = (filter_chunk, close_segment, smooth_segments)
     if all(k.signatures for k in kernels):
         return False
-    return not all(_cached_on_disk(k) for k in kernels)
+    return not all(cached_on_disk(k) for k in kernels)
 
 
 def ensure_compiled(nav) -> float:
