@@ -91,6 +91,19 @@ def decompress(raw: bytes) -> tuple[bytes, str | None]:
     return b"".join(out), None if d.eof else "gzip stream cut off (truncated file)"
 
 
+def drop_nonfinite_lines(values: np.ndarray, line_numbers: np.ndarray, fields, bad: list):
+    """The rows of ``values`` (parsed lines, ``line_numbers``) whose every column is finite; each dropped line is
+    appended to ``bad`` as (line number, message naming its first NaN/inf column)."""
+    finite = np.isfinite(values).all(axis=1)
+    if finite.all():
+        return values, line_numbers
+    for i in np.flatnonzero(~finite):
+        j = int(np.flatnonzero(~np.isfinite(values[i]))[0])
+        bad.append((int(line_numbers[i]),
+                    f"column {j + 1} ({fields[j]}) is {str(float(values[i, j]))!r} (NaN/inf: line skipped)"))
+    return values[finite], line_numbers[finite]
+
+
 def parse_numeric_lines(lines: list[str], first_line_no: int, n_fields: int, delimiter: str = ",", *,
                         trailing: bool = False, decimal_comma: bool = False, comment_prefixes: tuple[str, ...] = (),
                         give_up_fraction: float | None = None
@@ -243,13 +256,7 @@ def parse_imu_csv(text: str, path: str | Path, *, max_bad_fraction: float = 0.01
                          f"{','.join(IMU_HEADER)!r} (or its first four columns for an accelerometer-only file)")
     n_fields = len(fields)
     values, line_numbers, bad = parse_numeric_lines(lines[1:], 2, n_fields)
-    finite = np.isfinite(values).all(axis=1)
-    if not finite.all():
-        for i in np.flatnonzero(~finite):
-            j = int(np.flatnonzero(~np.isfinite(values[i]))[0])
-            bad.append((int(line_numbers[i]),
-                        f"column {j + 1} ({fields[j]}) is {str(float(values[i, j]))!r} (NaN/inf: line skipped)"))
-        values, line_numbers = values[finite], line_numbers[finite]
+    values, line_numbers = drop_nonfinite_lines(values, line_numbers, fields, bad)
     bad = sorted(bad) + ([lost] if lost else [])
     n_data = n_lines - 1 + (1 if lost else 0)
     if not bad and values.shape[0] == 0:

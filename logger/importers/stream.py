@@ -259,13 +259,7 @@ def _parse_block(lines, first_line_no, fields, bad, parts, state, writer, over, 
     if not lines:
         return
     values, line_numbers, block_bad = csvio.parse_numeric_lines(lines, first_line_no, len(fields))
-    finite = np.isfinite(values).all(axis=1)
-    if not finite.all():
-        for i in np.flatnonzero(~finite):
-            j = int(np.flatnonzero(~np.isfinite(values[i]))[0])
-            block_bad.append((int(line_numbers[i]),
-                              f"column {j + 1} ({fields[j]}) is {str(float(values[i, j]))!r} (NaN/inf: line skipped)"))
-        values, line_numbers = values[finite], line_numbers[finite]
+    values, line_numbers = csvio.drop_nonfinite_lines(values, line_numbers, fields, block_bad)
     bad += block_bad
     if not values.shape[0]:
         return
