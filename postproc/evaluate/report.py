@@ -82,13 +82,7 @@ def plot_trial(result: TrialResult, out_dir: Path) -> list[Path]:
         if key:
             title += f"\n{key} = {_fmt(m[key])}"
         ax.set_title(title, fontsize=9)
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
-        fig.tight_layout()
-        p = out_dir / (result.id.replace("/", "__") + "__" + name.replace(".csv.gz", "") + ".png")
-        fig.savefig(p, dpi=90)
-        plt.close(fig)
-        paths.append(p)
+        paths.append(_finish_plot(fig, ax, out_dir, result.id, name.replace(".csv.gz", "")))
     return paths
 
 
@@ -114,10 +108,17 @@ def _plot_feet(result: TrialResult, name: str, feet_xy: dict, out_dir: Path) -> 
     m = result.metrics
     ax.set_title(f"{result.id} · {name}\nbound active at {_fmt(m.get('two_boots_active_updates'))} of "
                  f"{_fmt(m.get('two_boots_checks'))} checks", fontsize=9)
+    return _finish_plot(fig, ax, out_dir, result.id, name.replace(" ", "_"))
+
+
+def _finish_plot(fig, ax, out_dir: Path, trial_id: str, stem: str) -> Path:
+    """Grid, legend and layout of an eval plot; saved as ``<trial>__<stem>.png``, closed; returns the path."""
+    import matplotlib.pyplot as plt
+
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    p = out_dir / (result.id.replace("/", "__") + "__" + name.replace(" ", "_") + ".png")
+    p = out_dir / (trial_id.replace("/", "__") + "__" + stem + ".png")
     fig.savefig(p, dpi=90)
     plt.close(fig)
     return p
