@@ -26,6 +26,7 @@ from bootnav.core.timebase import GAP_FACTOR, gap_mask, nominal_period
 from bootnav.errors import InputError
 from bootnav.logger.recording import SATURATION_BITS
 
+from .detectors._common import row_norm, rows_finite
 from .settings import InputChecks
 
 AXIS_NAMES = {v: k for k, v in SATURATION_BITS.items()}  # bit -> "ax", ...
@@ -100,7 +101,7 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
     if np.all(np.isnan(gyro_b)):
         raise InputError(f"{name}: no gyroscope data (accelerometer-only file): foot-mounted ZUPT navigation "
                          "needs a gyro; use `bootnav pdr` for step-and-heading dead reckoning")
-    finite = np.isfinite(t_s) & np.all(np.isfinite(acc_b), axis=1) & np.all(np.isfinite(gyro_b), axis=1)
+    finite = np.isfinite(t_s) & rows_finite(acc_b) & rows_finite(gyro_b)
     if not finite.all():
         i = int(np.flatnonzero(~finite)[0])
         cols = [c for c, v in zip(("t_s", "ax", "ay", "az", "gx", "gy", "gz"),
@@ -149,13 +150,14 @@ def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray) -> np.ndarray:
     -------
     ndarray of uint8, shape (N,)
         Bit ``SATURATION_BITS[axis]`` set where that axis sits on a rail
-        (``bootnav.postproc.detectors._common.clipped_samples``).
+        (``bootnav.postproc.detectors._common.clipped_axes``).
     """
-    from .detectors._common import clipped_samples
+    from .detectors._common import clipped_axes
 
     bits = np.zeros(len(acc_b), dtype=np.uint8)
-    for k, x in enumerate((*acc_b.T, *gyro_b.T)):
-        bits |= clipped_samples(x[:, None]).astype(np.uint8) << k
+    for first, x in ((0, acc_b), (3, gyro_b)):
+        for k, mask in clipped_axes(x).items():
+            bits |= mask.astype(np.uint8) << (first + k)
     return bits
 
 
@@ -226,7 +228,7 @@ def stance_findings(t_s: np.ndarray, stance: np.ndarray, checks: InputChecks, me
     span = t_s[-1] - t_s[0]
     found = []
     if gyro_b is not None and stance.any():
-        w = float(np.median(np.linalg.norm(gyro_b[stance], axis=1)))
+        w = float(np.median(row_norm(gyro_b[stance])))
         if w > checks.max_stance_gyro_radps:
             found.append(Finding("stance_gyro", f"stance detector '{method}' marks {100 * frac:.0f} % of samples as "
                                  f"stance, but the sensor turns at a median {w:.2f} rad/s there (a resting foot: < "
@@ -287,7 +289,7 @@ def check_path_finite(name: str, t_s: np.ndarray, pos_n: np.ndarray, offset: int
     InputError
         At the first sample whose position is not finite (index in the recording, time).
     """
-    bad = np.flatnonzero(~np.all(np.isfinite(pos_n), axis=1))
+    bad = np.flatnonzero(~rows_finite(pos_n))
     if len(bad):
         raise InputError(f"{name}: the filter diverged at sample {bad[0] + offset} (t = {t_s[bad[0]]:.3f} s); "
                          "check the sensor ranges and the input units")

@@ -73,6 +73,7 @@ import numpy as np
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 from bootnav.errors import InputError
+from bootnav.postproc.detectors._common import row_dot, row_norm
 from bootnav.postproc.strides import footprints
 
 FAST, MISSED, VERTICAL, ROLLING, TINY = 1, 2, 4, 8, 16
@@ -170,7 +171,7 @@ def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: 
     when there is none (no motion, or motion without a rhythm).
     """
     dt = sample_period(t_s)
-    w = np.linalg.norm(gyro_b, axis=1)
+    w = row_norm(gyro_b)
     w = w - w.mean()
     n = len(w)
     if n < 4 or not np.any(w):
@@ -320,7 +321,7 @@ def stride_quality(t_s, pos_n, stance, gyro_b, gyro_bias_b, period_s: float,
     length = np.hypot(d[:, 0], d[:, 1])
     dur = np.diff(t_mid)
     swing = t_s[starts[1:]] - t_s[stops[:-1] - 1]
-    rate = np.linalg.norm(gyro_b - gyro_bias_b, axis=1)
+    rate = row_norm(gyro_b - gyro_bias_b)
     # median turning rate over each stance phase (sorted per phase via a lexsort on (phase, rate))
     ph = np.zeros(len(stance), np.int64)
     ph[starts[1:]] = 1
@@ -442,7 +443,7 @@ def select_stance(t_s, acc_b, gyro_b, init, gravity: float, detector_settings, f
     name0 = f"configured ({configured.method})"
     masks: dict[str, np.ndarray] = {name0: np.asarray(configured.stance, bool)}
     rows = [_row(name0, masks[name0], t_s, acc_b, gyro_b, init, gravity, filter_settings, saturated, period, s)]
-    rate0 = np.linalg.norm(gyro_b[masks[name0]] - np.asarray(init.gyro_bias_b), axis=1)
+    rate0 = row_norm(gyro_b[masks[name0]] - np.asarray(init.gyro_bias_b))
     if failed is None and not np.isfinite(rows[0]["J"]):
         failed = "no stride to score"
     if failed is None and rows[0]["bad_fraction"] > s.max_bad_fraction:
@@ -512,11 +513,11 @@ def _rotation_terms(acc_b, gyro_b, tau_s: float):
     u = −ω τ / ‖ω τ‖): their sum is the rotation by τ; negating the odd one gives the rotation by −τ, bit for bit
     (IEEE rounding is symmetric in sign), for the price of one."""
     th = -np.asarray(gyro_b, float) * tau_s
-    a = np.linalg.norm(th, axis=1)
+    a = row_norm(th)
     u = th / np.where(a > 0, a, 1.0)[:, None]
     c, sn = np.cos(a)[:, None], np.sin(a)[:, None]
     f = np.asarray(acc_b, float)
-    return f * c, np.cross(u, f) * sn, u * np.sum(u * f, axis=1)[:, None] * (1.0 - c)
+    return f * c, np.cross(u, f) * sn, u * row_dot(u, f)[:, None] * (1.0 - c)
 
 
 def level_stride_dz(t_s, pos_n, stance, max_dz_m: float = 0.1, min_length_m: float = 0.3,

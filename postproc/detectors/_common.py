@@ -35,8 +35,32 @@ def moving_mean(x: np.ndarray, n: int) -> np.ndarray:
     return uniform_filter1d(np.asarray(x, dtype=np.float64), size=int(n), axis=0, mode="nearest")
 
 
-def clipped_samples(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-6) -> np.ndarray:
-    """Samples of an (N, k) signal that sit at a per-axis full-scale plateau (bool (N,)).
+def row_norm(x: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each row of an (N, 3) array, equal to the last bit to ``np.linalg.norm(x, axis=1)``.
+
+    Same arithmetic (squares summed left to right, as numpy reduces a row of three, then sqrt) on whole
+    columns: numpy's reduction along a short last axis is several times slower.
+    """
+    sq = np.square(np.asarray(x, dtype=np.float64))
+    return np.sqrt(sq[:, 0] + sq[:, 1] + sq[:, 2])
+
+
+def row_dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Dot product of each row of two (N, 3) arrays, equal to the last bit to ``np.sum(x * y, axis=1)``
+    (``row_norm``'s column arithmetic)."""
+    p = x * y
+    return p[:, 0] + p[:, 1] + p[:, 2]
+
+
+def rows_finite(x: np.ndarray) -> np.ndarray:
+    """bool (N,): every value of the row of an (N, 3) array is finite (``np.all(np.isfinite(x), axis=1)``,
+    column by column as ``row_norm``)."""
+    f = np.isfinite(x)
+    return f[:, 0] & f[:, 1] & f[:, 2]
+
+
+def clipped_axes(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-6) -> dict[int, np.ndarray]:
+    """Per-axis full-scale plateaus of an (N, k) signal: {axis: bool (N,)} for the axes that have one.
 
     A clipped axis repeats its extreme value exactly; an unclipped one reaches its extreme once or twice.
     Each sign is tested on its own, because the two rails of a two's-complement sensor differ by one LSB
@@ -49,14 +73,28 @@ def clipped_samples(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 1:
         x = x[:, None]
+    out: dict[int, np.ndarray] = {}
+    for k in range(x.shape[1]):  # column by column: numpy reduces a strided column faster than axis 0 of (N, k)
+        col = x[:, k]
+        pos_peak, neg_peak = np.nanmax(col), -np.nanmin(col)
+        # -x >= p  <=>  x <= -p exactly (negation is exact): no negated copy of the column
+        for upper, peak, other in ((True, pos_peak, neg_peak), (False, neg_peak, pos_peak)):
+            if not (peak > 0 and peak >= other * (1.0 - 1e-3)):
+                continue
+            mask = col >= peak * (1.0 - rel_tol) if upper else col <= -(peak * (1.0 - rel_tol))
+            count = np.count_nonzero(mask)
+            if min_repeats <= count < 0.5 * x.shape[0]:
+                out[k] = out[k] | mask if k in out else mask
+    return out
+
+
+def clipped_samples(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-6) -> np.ndarray:
+    """Samples of an (N, k) signal that sit at a per-axis full-scale plateau on any axis (bool (N,));
+    ``clipped_axes`` says which plateau counts."""
+    x = np.asarray(x, dtype=np.float64)
     out = np.zeros(x.shape[0], dtype=bool)
-    pos_peak = np.nanmax(x, axis=0)
-    neg_peak = -np.nanmin(x, axis=0)
-    for y, peak, other in ((x, pos_peak, neg_peak), (-x, neg_peak, pos_peak)):
-        at_peak = y >= peak * (1.0 - rel_tol)
-        count = at_peak.sum(axis=0)
-        rail = (count >= min_repeats) & (count < 0.5 * x.shape[0]) & (peak > 0) & (peak >= other * (1.0 - 1e-3))
-        out |= np.any(at_peak & rail, axis=1)
+    for mask in clipped_axes(x, min_repeats=min_repeats, rel_tol=rel_tol).values():
+        out |= mask
     return out
 
 

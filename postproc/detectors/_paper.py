@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import postprocess
-from ._common import moving_mean, window_samples
+from ._common import moving_mean, row_norm, window_samples
 
 
 def log_otsu_threshold(statistic: np.ndarray, bins: int = 256) -> float:
@@ -74,7 +74,7 @@ def rest_magnitude(acc_b: np.ndarray, dt: float, *, window_s: float = 0.1, quant
     float
         m/s².
     """
-    f = np.linalg.norm(np.asarray(acc_b, dtype=np.float64), axis=1)
+    f = row_norm(acc_b)
     n = window_samples(window_s, dt, 3)
     sd = np.sqrt(np.maximum(moving_mean(f * f, n) - moving_mean(f, n) ** 2, 0.0))
     return float(np.median(f[sd <= np.quantile(sd, quantile)]))

@@ -22,7 +22,7 @@ import numpy as np
 from bootnav.core.runs import runs
 
 from . import postprocess
-from ._common import as_imu_arrays, dilate, median_dt, window_samples
+from ._common import as_imu_arrays, dilate, median_dt, rows_finite, window_samples
 
 
 @dataclass
@@ -151,7 +151,7 @@ class StanceDetector:
         t_s, acc_b, gyro_b = as_imu_arrays(t_s, acc_b, gyro_b)
         dt = median_dt(t_s)
         bad = np.zeros(t_s.shape[0], dtype=bool) if excluded is None else np.asarray(excluded, dtype=bool)
-        bad = bad | ~np.all(np.isfinite(acc_b), axis=1) | ~np.all(np.isfinite(gyro_b), axis=1)
+        bad = bad | ~rows_finite(acc_b) | ~rows_finite(gyro_b)
         if bad.any():  # NaNs must not poison the moving sums; their samples are excluded below
             acc_b = np.where(np.isfinite(acc_b), acc_b, 0.0)
             gyro_b = np.where(np.isfinite(gyro_b), gyro_b, 0.0)

@@ -9,13 +9,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import moving_mean
+from ._common import moving_mean, row_norm
 from .base import WindowedDetector, register
 
 
 def mag_statistic(acc_b: np.ndarray, n: int, sigma_acc: float, gravity: float) -> np.ndarray:
     """MAG statistic T (N,) over a centred window of ``n`` samples."""
-    return moving_mean((np.linalg.norm(np.asarray(acc_b, dtype=np.float64), axis=1) - gravity) ** 2, n) / sigma_acc**2
+    return moving_mean((row_norm(acc_b) - gravity) ** 2, n) / sigma_acc**2
 
 
 @register("mag")

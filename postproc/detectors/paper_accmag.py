@@ -17,13 +17,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._common import row_norm
 from ._paper import PaperRule, rest_magnitude
 from .base import ThresholdDetector, register
 
 
 def paper_accmag_statistic(acc_b: np.ndarray, rest_mps2: float) -> np.ndarray:
     """| ‖f_k‖ − rest_mps2 | (N,), m/s²."""
-    return np.abs(np.linalg.norm(np.asarray(acc_b, dtype=np.float64), axis=1) - rest_mps2)
+    return np.abs(row_norm(acc_b) - rest_mps2)
 
 
 @register("paper_accmag")

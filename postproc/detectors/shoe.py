@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import moving_mean
+from ._common import moving_mean, row_norm
 from ._paper import PaperRule
 from .base import WindowedDetector, register
 
@@ -35,7 +35,7 @@ def shoe_statistic(acc_b: np.ndarray, gyro_b: np.ndarray, n: int, sigma_acc: flo
     acc_b = np.asarray(acc_b, dtype=np.float64)
     gyro_b = np.asarray(gyro_b, dtype=np.float64)
     f_mean = moving_mean(acc_b, n)
-    f_mean_norm = np.linalg.norm(f_mean, axis=1)
+    f_mean_norm = row_norm(f_mean)
     w2 = np.einsum("ij,ij->i", gyro_b, gyro_b)
     if not literal:
         a2 = moving_mean(np.einsum("ij,ij->i", acc_b, acc_b), n)
@@ -47,7 +47,7 @@ def shoe_statistic(acc_b: np.ndarray, gyro_b: np.ndarray, n: int, sigma_acc: flo
     idx = np.arange(acc_b.shape[0])
     for off in range(-half, n - half):  # loop over window offsets only (N is a handful of samples)
         j = np.clip(idx + off, 0, acc_b.shape[0] - 1)
-        acc_sum += np.linalg.norm(acc_b[j] - gravity * u, axis=1)
+        acc_sum += row_norm(acc_b[j] - gravity * u)
     return acc_sum / n / sigma_acc + moving_mean(w2, n) / sigma_gyro
 
 

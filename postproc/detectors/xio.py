@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._common import row_norm
 from ._paper import PaperRule, rest_magnitude
 from .base import ThresholdDetector, register
 
@@ -33,7 +34,7 @@ def xio_statistic(acc_b: np.ndarray, dt: float, gravity: float, *, highpass_hz: 
     from scipy.signal import butter, sosfiltfilt
 
     fs = 1.0 / dt
-    m = np.linalg.norm(np.asarray(acc_b, dtype=np.float64), axis=1) / gravity
+    m = row_norm(acc_b) / gravity
     if m.size < 16:
         return np.abs(m - 1.0)
     hp = butter(1, highpass_hz, btype="highpass", fs=fs, output="sos")
