@@ -52,6 +52,7 @@ from typing import Callable
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.jsonio import to_jsonable
 from bootnav.errors import InputError
@@ -232,7 +233,7 @@ def _csv_text(columns: list[np.ndarray], fmts: list[str]) -> np.ndarray:
 def _write_csv(path: Path, header: tuple[str, ...], columns: list[np.ndarray], fmts: list[str]) -> None:
     """Write columns as CSV, ``fmt % value`` per field (``_csv_text``, in blocks of rows: no full (N, k) copy
     of the data or of the text is ever made)."""
-    with open(path, "wb") as f:
+    with atomic.replacing(path) as f:  # never a half-written CSV under its name (kill -9, full disk)
         f.write((",".join(header) + "\n").encode("ascii"))
         append_csv_rows(f, columns, fmts)
 
@@ -448,22 +449,6 @@ def check_outputs(settings, out_dir: str | Path, inputs, into_recording: bool = 
                     raise InputError(f"{rec}: {group} exists; use --force to replace it, or --results-name NAME")
 
 
-def _fsync(path: Path) -> None:
-    """Flush a file (or a directory entry) to disk."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _replace_atomically(tmp: Path, target: Path) -> None:
-    """fsync ``tmp``, rename it over ``target`` (atomic on one file system), fsync the directory."""
-    _fsync(tmp)
-    os.replace(tmp, target)
-    _fsync(target.parent)
-
-
 class ResultsWriter:
     """Per-sample results of ``/results/<name>`` appended block by block to resizable datasets.
 
@@ -535,7 +520,7 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
     name = result.settings.output.results_name
     group = f"/results/{name}"
     target = Path(result.source) if into_recording else out_dir / "results.h5"  # checked by check_outputs
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    tmp = atomic.temporary_beside(target)
     try:
         if result.source_is_hdf5 and result.source:
             shutil.copy2(result.source, tmp)  # the whole recording: /imu, /events, /truth, earlier results
@@ -572,7 +557,7 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
                     {"description": "one row per stride, see postproc/strides.py"}, step_units)
         attach_dimension_scales(tmp, group)  # xarray/netCDF readers see named dims (t_s, axis), as in /imu
         attach_dimension_scales(tmp, f"{group}/steps")
-        _replace_atomically(tmp, target)
+        atomic.commit(tmp, target)
     finally:
         tmp.unlink(missing_ok=True)
     return target, group
@@ -821,7 +806,7 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
             files["steps"] = str(write_steps_csv(out / "steps.csv", result.steps))
             if opts.geojson and opts.geo_anchor:  # without an anchor, GIS tools would draw local metres at 0° N 0° E
                 p = out / "path.geojson"
-                p.write_text(json.dumps(geojson_path(result, opts.geo_anchor)))
+                atomic.write_text(p, json.dumps(geojson_path(result, opts.geo_anchor)))
                 files["geojson"] = str(p)
             if h5_job is not None:
                 h5, group = h5_job.result()
@@ -843,5 +828,5 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
     files["summary"] = str(out / "summary.json")
     result.summary["files"] = files
     result.summary["warnings"] = list(result.warnings)
-    (out / "summary.json").write_text(json.dumps(to_jsonable(result.summary), indent=1, allow_nan=False) + "\n")
+    atomic.write_text(out / "summary.json", json.dumps(to_jsonable(result.summary), indent=1, allow_nan=False) + "\n")
     return files

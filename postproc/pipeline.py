@@ -37,6 +37,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
@@ -287,7 +288,7 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
             worker.close()
     files["summary"] = str(out / "summary.json")
     summary["files"] = files
-    (out / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
+    atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     return summary, files
 
 
@@ -295,7 +296,6 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                     worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
     import json
-    import os
     import shutil
 
     import h5py
@@ -308,7 +308,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from .calibration import initial_alignment
     from .detectors.stream import StreamStance
     from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _draw_here, _replace_atomically,
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
 
@@ -412,7 +412,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         opts = settings.output
         group = f"/results/{opts.results_name}"
         target = out / "results.h5"
-        tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+        tmp = atomic.temporary_beside(target)
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
         fp_acc = FootprintAccumulator()
         charts = None
@@ -428,7 +428,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
             if opts.write_hdf5:
                 shutil.copy2(path, tmp)
             writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
-            with open(out / "trajectory.csv", "wb") as csv:
+            with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
                 csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
 
                 def emit(r) -> None:
@@ -501,7 +501,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                             {"description": "one row per stride, see postproc/strides.py"}, step_units)
                 attach_dimension_scales(tmp, group)
                 attach_dimension_scales(tmp, f"{group}/steps")
-                _replace_atomically(tmp, target)
+                atomic.commit(tmp, target)
                 files["hdf5"] = f"{target}:{group}"
             lap("write")
             if charts is not None:

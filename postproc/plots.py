@@ -31,12 +31,11 @@ collection per axes; PNGs are compressed at zlib level 1.
 
 from __future__ import annotations
 
-import os
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.core.runs import runs
 
 from .decimate import PathExtremes, TimeEnvelope
@@ -83,16 +82,6 @@ def warm_up() -> None:
     plt.close(fig)
 
 
-@contextmanager
-def _replacing(path: Path):
-    """Yield a hidden temporary path beside ``path``, renamed over it when the block succeeds and removed in
-    any case: a chart is either the previous file or the complete new one, never half written (Ctrl-C, kill)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def gravity_free_acc_n(q_nb: np.ndarray, acc_b: np.ndarray, gravity: float) -> np.ndarray:
@@ -315,8 +304,8 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
     def save(fig, key):
         fig.tight_layout()
         fig.set_layout_engine(None)  # the placeholder tight_layout leaves would cost savefig a second draw
-        with _replacing(out / FILES[key]) as tmp:
-            fig.savefig(tmp, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+        png = {"format": "png", "pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}}
+        atomic.replace_with(out / FILES[key], lambda tmp: fig.savefig(tmp, **png))  # never half written
         plt.close(fig)
         paths[key] = out / FILES[key]
 
@@ -624,6 +613,5 @@ draw();
 </script></body></html>
 """
     path = out / "path.html"
-    with _replacing(path) as tmp:
-        tmp.write_text(page)
+    atomic.write_text(path, page)
     return path

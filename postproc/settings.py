@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bootnav.core import atomic
 from bootnav.errors import InputError
 
 from .calibration import CalibrationSettings
@@ -232,7 +233,7 @@ class ProcessSettings:
     def save(self, path: str | Path) -> Path:
         """Write ``to_json`` to ``path``; returns the path."""
         path = Path(path)
-        path.write_text(self.to_json() + "\n")
+        atomic.write_text(path, self.to_json() + "\n")  # crash-safe
         return path
 
 

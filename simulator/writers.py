@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.core.conventions import __version__
 from bootnav.errors import InputError
 from bootnav.logger.crc import crc16_ccitt_false_rows
@@ -168,7 +169,7 @@ def write_sd_txt(res: SimResult, path: str | os.PathLike) -> Path:
               f"dlpf={0 if p.dlpf_cfg is None else p.dlpf_cfg} smplrt_div={res.decimation - 1} fw={__version__} "
               f"device_id=0x{SIM_DEVICE_ID:08X}")
     path = Path(path)
-    with open(path, "wb") as f:
+    with atomic.replacing(path) as f:  # crash-safe: complete or absent
         f.write(header.encode("ascii") + b"\n")
         f.write(b"\n".join(sd_lines(res)) + b"\n")
     return path

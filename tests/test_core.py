@@ -217,3 +217,29 @@ def test_canonical_sign_and_continuous_option():
     yaws = np.linspace(0, 4 * math.pi, 400)
     q = rot.quat_from_euler_zyx(0 * yaws, 0 * yaws, yaws, canonical=False)
     assert np.abs(np.diff(q, axis=0)).max() < 0.05  # no sign flip along a growing yaw
+
+
+def test_atomic_write_is_all_or_nothing(tmp_path):
+    from bootnav.core import atomic
+
+    target = tmp_path / "out.csv"
+    target.write_text("old\n")
+
+    def half_then_fail(tmp):
+        tmp.write_text("half")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError):
+        atomic.replace_with(target, half_then_fail)
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    with pytest.raises(KeyboardInterrupt):
+        with atomic.replacing(target) as f:
+            f.write(b"partial")
+            raise KeyboardInterrupt
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    with atomic.replacing(target, "w") as f:
+        f.write("new\n")
+        assert target.read_text() == "old\n"  # nothing under the name until the block ends
+    assert target.read_text() == "new\n"
+    atomic.write_text(tmp_path / "fresh.json", "{}\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fresh.json", "out.csv"]

@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 import pytest
 
+from bootnav.core import atomic
 from bootnav.postproc import plots
 from bootnav.postproc.outputs import ChartWorker, _draw_here, write_outputs
 from bootnav.postproc.pipeline import process
@@ -87,10 +88,12 @@ def test_a_chart_failure_is_a_warning_and_the_other_outputs_are_complete(result,
 
 def _slow_chart(stream, out_dir, keys=None):
     """A chart that is being written when the child is stopped: its temporary file exists, then a mark."""
-    with plots._replacing(out_dir / "1_raw_imu.png") as tmp:
+    def write(tmp):
         tmp.write_bytes(b"half a chart")
         (out_dir / "started").touch()
         time.sleep(60)
+
+    atomic.replace_with(out_dir / "1_raw_imu.png", write)
 
 
 def _wait_for(path, timeout_s=30.0):

@@ -29,7 +29,6 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import math
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from bootnav.core import csvio
+from bootnav.core import atomic, csvio
 from bootnav.core.timebase import (TIME_SCALE, is_u32_counter, spread_coarse_seconds, time_events, timing_summary,
                                    unwrap_counter)
 from bootnav.errors import DiskFullError, InputError
@@ -729,14 +728,9 @@ def write_atomically(out, write) -> Path:
     """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
     try:
-        write(tmp)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, out)
+        atomic.replace_with(out, write)
     except (DiskFullError, OSError) as exc:
-        tmp.unlink(missing_ok=True)
         if isinstance(exc, DiskFullError) or is_disk_full(exc):
             state = "left as it was" if out.exists() else "not created"
             raise DiskFullError(f"disk full at {out}: 0 frames written ({state}; an import writes all or nothing)") \
@@ -745,9 +739,6 @@ def write_atomically(out, write) -> Path:
         reason = re.search(r"error message = '([^']*)'", str(exc))
         raise InputError(f"{out}: cannot write ({reason.group(1) if reason else exc}); choose a writable place") \
             from exc
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
     return out
 
 

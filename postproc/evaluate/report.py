@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.core.jsonio import to_jsonable
 from bootnav.postproc.evaluate.runner import TrialResult, dataset_summary
 
@@ -44,7 +45,7 @@ def write_metrics_json(results: list[TrialResult], path: Path, extra: dict | Non
     }
     if extra:
         doc.update(extra)
-    path.write_text(json.dumps(to_jsonable(doc), indent=1, allow_nan=False))
+    atomic.write_text(path, json.dumps(to_jsonable(doc), indent=1, allow_nan=False))
     return doc
 
 
@@ -151,7 +152,7 @@ def write_report(results: list[TrialResult], doc: dict, out_dir: Path, header: s
         lines.append("")
     lines += two_boot_section(doc)
     path = out_dir / "report.md"
-    path.write_text("\n".join(lines))
+    atomic.write_text(path, "\n".join(lines))
     return path
 
 

@@ -16,6 +16,8 @@ each file is written to a temporary name and renamed (an interrupted run leaves 
 
 from __future__ import annotations
 
+from bootnav.core import atomic
+
 DETECTOR_NAMES = ["robust", "peak_valley", "zero_crossing", "pan_tompkins", "template", "two_axis", "footpath",
                   "leppakoski", "li", "peak_group"]
 LENGTH_NAMES = ["frequency_variance", "renaudin", "weinberg", "ladetto", "footpath", "constant", "frequency"]
@@ -229,20 +231,12 @@ def _check_outputs(args) -> None:
             raise InputError(f"{target} exists; use --force to overwrite it (or choose another --out)")
 
 
-def _atomic(path, write) -> None:
-    """``write(tmp)`` then rename over ``path``: an interrupted run never leaves a half-written file."""
-    import os
-
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    write(tmp)
-    os.replace(tmp, path)
-
-
 def _csv(path, columns: dict, fmt="%.6f") -> None:
     import numpy as np
 
-    _atomic(path, lambda tmp: np.savetxt(tmp, np.column_stack(list(columns.values())), delimiter=",", fmt=fmt,
-                                         header=",".join(columns), comments=""))
+    table = np.column_stack(list(columns.values()))
+    atomic.replace_with(path, lambda tmp: np.savetxt(tmp, table, delimiter=",", fmt=fmt, header=",".join(columns),
+                                                     comments=""))
 
 
 def run(args) -> int:
@@ -303,7 +297,7 @@ def run(args) -> int:
         summary["plots"] = [p.name for p in write_plots(res, out)]
     summary["runtime_s"] = time.perf_counter() - t0
     text = json.dumps(to_jsonable(summary), indent=1, allow_nan=False)
-    _atomic(out / "summary.json", lambda tmp: tmp.write_text(text))
+    atomic.write_text(out / "summary.json", text)
     msg = f"{res.count} steps, {summary['distance_m']:.1f} m, heading from {res.heading_source}"
     if res.gps is not None:
         msg += f", {res.gps['mean_m']:.1f} m mean / {res.gps['final_m']:.1f} m final from GPS"

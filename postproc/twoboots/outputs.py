@@ -22,11 +22,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.jsonio import to_jsonable
 from bootnav.errors import InputError
@@ -76,19 +76,6 @@ def fused_process_result(result, label: str):
     return fused
 
 
-def _tmp(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
-def _atomic_text(path: Path, text: str) -> None:
-    tmp = _tmp(path)
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _csv(header: list[str], columns: list, fmts: list[str]) -> str:
     """A small CSV (one row per stride: a loop per row is fine here) as text."""
     rows = [",".join(header)]
@@ -130,7 +117,7 @@ def stride_rows(result) -> dict[str, np.ndarray]:
 def write_h5(result, path: Path) -> None:
     import h5py
 
-    tmp = _tmp(path)
+    tmp = atomic.temporary_beside(path)
     try:
         with h5py.File(tmp, "w") as f:
             f.attrs["software"] = f"bootnav {__version__}"
@@ -152,7 +139,7 @@ def write_h5(result, path: Path) -> None:
             w = f.create_group("walker")
             w.create_dataset("t_s", data=result.walker_t_s, compression="gzip").attrs["units"] = "s"
             w.create_dataset("pos_n", data=result.walker_pos_n, compression="gzip").attrs["units"] = "m"
-        os.replace(tmp, path)
+        atomic.commit(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
 
@@ -184,10 +171,10 @@ def plot_paths(result, path: Path) -> None:
                  f"{cs['bound_m']:.2f} m)")
     ax.legend(loc="best", fontsize=8)
     ax.grid(True, alpha=0.3)
-    tmp = _tmp(path)
+    tmp = atomic.temporary_beside(path)
     try:
         fig.savefig(tmp, dpi=110, format="png")
-        os.replace(tmp, path)
+        atomic.commit(tmp, path)
     finally:
         plt.close(fig)
         tmp.unlink(missing_ok=True)
@@ -204,15 +191,10 @@ def write_two_boot_outputs(result, out_dir: str | Path, force: bool = False) -> 
         foot_files = write_outputs(fused_process_result(result, label), out / label, False, force)
         files.update({f"{label}_{k}": v for k, v in foot_files.items()})
     header, cols = walker_columns(result)
-    tmp = _tmp(out / "walker.csv")
-    try:
-        _write_csv(tmp, tuple(header), cols, ["%.6f"] + ["%.4f"] * 9)  # per-sample rows: the fast block writer
-        os.replace(tmp, out / "walker.csv")
-    finally:
-        tmp.unlink(missing_ok=True)
+    _write_csv(out / "walker.csv", tuple(header), cols, ["%.6f"] + ["%.4f"] * 9)  # the fast block writer, crash-safe
     files["walker"] = str(out / "walker.csv")
     rows = stride_rows(result)
-    _atomic_text(out / "strides.csv", _csv(list(rows), list(rows.values()),
+    atomic.write_text(out / "strides.csv", _csv(list(rows), list(rows.values()),
                                            ["%s", "%.6f", "%.4f", "%.4f", "%.4f", "%.4f", "%.4f", "%.5f", "%.3f",
                                             "%.4f"]))
     files["strides"] = str(out / "strides.csv")
@@ -222,6 +204,6 @@ def write_two_boot_outputs(result, out_dir: str | Path, force: bool = False) -> 
         plot_paths(result, out / "two_boots_path.png")
         files["two_boots_plot"] = str(out / "two_boots_path.png")
     result.summary["files"] = dict(files)
-    _atomic_text(out / "two_boots.json", json.dumps(to_jsonable(result.summary), indent=1) + "\n")
+    atomic.write_text(out / "two_boots.json", json.dumps(to_jsonable(result.summary), indent=1) + "\n")
     files["summary"] = str(out / "two_boots.json")
     return files
