@@ -70,6 +70,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from bootnav.core.peaks import local_maxima
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 from bootnav.errors import InputError
@@ -190,34 +191,6 @@ def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: 
     if peaks.size == 0:
         return float("nan")
     return float((lo + peaks[np.argmax(ac[lo:hi][peaks])]) * dt)
-
-
-def local_maxima(x: np.ndarray) -> np.ndarray:
-    """Indices of the local maxima of ``x``, the peaks ``scipy.signal.find_peaks(x)`` returns (no condition).
-
-    A peak is a sample, or a run of equal samples (its middle index, rounded down), higher than both
-    neighbours; the first and last samples are never peaks. Written with numpy because importing
-    ``scipy.signal`` costs ~0.7 s (it loads ``scipy.stats``), more than all of ``bootnav process``'s other imports.
-
-    Parameters
-    ----------
-    x : (N,) float array.
-
-    Returns
-    -------
-    (K,) int64 array of indices, increasing.
-    """
-    x = np.asarray(x)
-    n = len(x)
-    if n < 3:
-        return np.zeros(0, np.int64)
-    change = np.flatnonzero(x[1:] != x[:-1]) + 1  # first index of each run of equal values but the first
-    first = np.concatenate(([0], change))
-    last = np.concatenate((change, [n])) - 1
-    inner = (first > 0) & (last < n - 1)
-    first, last = first[inner], last[inner]
-    peak = (x[first - 1] < x[first]) & (x[last + 1] < x[first])
-    return ((first[peak] + last[peak]) // 2).astype(np.int64)
 
 
 def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, detector_settings,

@@ -46,6 +46,8 @@ def test_simulator_simulate_is_the_function_whatever_is_imported_first(first):
 def test_local_maxima_are_scipy_find_peaks():
     from scipy.signal import find_peaks
 
+    from bootnav.core.peaks import local_maxima
+
     rng = np.random.default_rng(7)
     for k in range(2000):
         x = rng.integers(0, 4, int(rng.integers(0, 40))).astype(float)  # plateaus of every length, at the ends too
@@ -53,7 +55,7 @@ def test_local_maxima_are_scipy_find_peaks():
             x = rng.normal(size=x.size)
         if k % 5 == 0 and x.size:
             x[rng.integers(0, x.size, 2)] = np.nan
-        assert np.array_equal(S.local_maxima(x), find_peaks(x)[0])
+        assert np.array_equal(local_maxima(x), find_peaks(x)[0])
 
 
 @pytest.fixture(scope="module")

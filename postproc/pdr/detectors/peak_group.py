@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from bootnav.core.peaks import local_maxima
 from bootnav.postproc.pdr.signals import G0, butter_filter, clean_time, magnitude, nominal_rate_hz, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -33,17 +34,7 @@ def clamp(a_g: np.ndarray, a_filter: float = 1.2) -> np.ndarray:
 
 def candidate_peaks(a: np.ndarray, plateau: str = "last") -> np.ndarray:
     """Local maxima: rise then fall; flat runs resolved to their last ('last') or middle sample."""
-    a = np.asarray(a, float)
-    d = np.diff(a)
-    nz = np.nonzero(d)[0]
-    if nz.size < 2:
-        return np.zeros(0, int)
-    s = np.sign(d[nz])
-    # a rise (nz[k]) followed by the next non-zero difference being a fall (nz[k+1])
-    k = np.nonzero((s[:-1] > 0) & (s[1:] < 0))[0]
-    first = nz[k] + 1  # first sample of the top (plateau start)
-    last = nz[k + 1]  # last sample of the top: a[last+1] - a[last] < 0
-    return last if plateau == "last" else (first + last) // 2
+    return local_maxima(np.asarray(a, float), plateau)
 
 
 def group_main_peaks(idx: np.ndarray, height: np.ndarray, gap: float) -> np.ndarray:
