@@ -580,6 +580,7 @@ class ChartWorker:
 
     def __init__(self, proc, conn):
         self._proc, self._conn = proc, conn
+        self._unsent: str | None = None  # why the job could not be sent (then ``wait`` must not wait for it)
 
     @classmethod
     def start(cls) -> ChartWorker | None:
@@ -603,9 +604,14 @@ class ChartWorker:
             self._conn.send((stream, Path(out)))
         except OSError:  # the child is gone: ``wait`` reports it
             pass
+        except Exception as exc:  # noqa: BLE001 - not sent (e.g. out of memory pickling): never wait for it
+            self._unsent = f"{type(exc).__name__}: {exc}"
 
     def wait(self) -> tuple[dict[str, str], str | None]:
         """The child's answer: ({kind: path} of the files drawn, None) or ({}, the reason it failed)."""
+        if self._unsent is not None:
+            self.close()
+            return {}, self._unsent
         try:
             status, value = self._conn.recv()
         except (EOFError, OSError):  # the child died without a word (killed, out of memory)

@@ -103,6 +103,22 @@ def _wait_for(path, timeout_s=30.0):
         time.sleep(0.02)
 
 
+class _Unpicklable:
+    def __reduce__(self):
+        raise MemoryError("no memory left to pickle the charts")
+
+
+def test_a_job_that_cannot_be_sent_is_reported_not_waited_for(tmp_path):
+    worker = ChartWorker.start()
+    pid = worker._proc.pid
+    worker.submit(_Unpicklable(), tmp_path)
+    t0 = time.monotonic()
+    drawn, error = worker.wait()  # would block forever on the child's answer if it waited
+    assert time.monotonic() - t0 < 10.0
+    assert drawn == {} and error == "MemoryError: no memory left to pickle the charts"
+    assert _gone(pid)
+
+
 def test_close_ends_a_drawing_child_without_a_half_written_chart(result, tmp_path, monkeypatch):
     monkeypatch.setattr(plots, "draw_charts", _slow_chart)
     worker = ChartWorker.start()
