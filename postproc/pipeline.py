@@ -300,7 +300,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
     import h5py
 
-    from bootnav.core.conventions import CONVENTIONS, __version__
+    from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
     from bootnav.logger.recording import attach_dimension_scales, write_group
 
@@ -469,7 +469,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
                           "duration_s": float(t_all[n - 1] - t_all[0]), "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
-                "software": f"bootnav {__version__}",
+                "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                            "phases": int(len(fp)), "noise_floor_log10": floor},
                 "navigation": {"stance_choice": f"configured ({settings.detector.method})", "chunked": True,

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.core.conventions import CONVENTIONS
+from bootnav.core.conventions import CONVENTIONS, SOFTWARE
 from bootnav.errors import InputError
 
 
@@ -231,6 +231,7 @@ class PdrResult:
     def summary(self) -> dict:
         d = float(np.sum(self.length_m))
         return {
+            "software": dict(SOFTWARE),
             "steps": self.count,
             "distance_m": d,
             "mean_step_length_m": float(np.mean(self.length_m)) if self.count else None,
