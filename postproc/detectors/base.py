@@ -14,8 +14,8 @@ docstring its one-line description (``bootnav process --list-detectors``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import ClassVar
+from dataclasses import dataclass, field, fields
+from typing import Callable, ClassVar
 
 import numpy as np
 
@@ -52,6 +52,12 @@ class StanceResult:
 
 
 DETECTORS: dict[str, type["StanceDetector"]] = {}
+
+# physical ranges of parameters (``StanceDetector.BOUNDS``): (test, what the message says)
+POSITIVE: tuple[Callable[[float], bool], str] = (lambda v: v > 0, "> 0")
+NON_NEGATIVE: tuple[Callable[[float], bool], str] = (lambda v: v >= 0, ">= 0")
+FRACTION: tuple[Callable[[float], bool], str] = (lambda v: 0 < v < 1, "in (0, 1)")
+AT_LEAST_ONE: tuple[Callable[[float], bool], str] = (lambda v: v >= 1, ">= 1")
 
 
 def register(name: str):
@@ -117,11 +123,35 @@ class StanceDetector:
     """
 
     name: ClassVar[str] = ""
+    #: parameter -> its physical range; merged along the class hierarchy. Without an entry, a ``sigma_*``
+    #: must be > 0 and a duration ``*_s`` >= 0 (``check``).
+    BOUNDS: ClassVar[dict] = {"gravity_mps2": POSITIVE}
 
     gravity_mps2: float = 9.80665
     min_swing_s: float = 0.0
     min_stance_s: float = 0.0
     saturation_guard_s: float = 0.02
+
+    @classmethod
+    def bounds(cls, name: str):
+        """(test, text) of parameter ``name``'s range, or None when any finite value is physical."""
+        for klass in cls.__mro__:
+            if name in vars(klass).get("BOUNDS", {}):
+                return vars(klass)["BOUNDS"][name]
+        if name.startswith("sigma_"):
+            return POSITIVE
+        return NON_NEGATIVE if name.endswith("_s") else None
+
+    def check(self) -> None:
+        """Raise ValueError naming the first parameter outside its physical range (``BOUNDS``)."""
+        for f in fields(self):
+            value = getattr(self, f.name)
+            rule = self.bounds(f.name)
+            if rule is None or value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+                continue
+            test, text = rule
+            if not test(value):
+                raise ValueError(f"{f.name} must be {text}, got {value!r}")
 
     @classmethod
     def description(cls) -> str:
@@ -181,6 +211,7 @@ class ThresholdDetector(StanceDetector):
     """
 
     DEFAULT_THRESHOLD: ClassVar[float]
+    BOUNDS: ClassVar[dict] = {"threshold": POSITIVE, "hysteresis_ratio": AT_LEAST_ONE}
 
     threshold: float | None = None
     hysteresis_ratio: float = 1.0
@@ -223,6 +254,8 @@ class WindowedDetector(ThresholdDetector):
     window_samples: the window in samples, overriding ``window_s`` (to reproduce a published setting
         literally, e.g. OpenShoe's 3 samples at 820 Hz [Nilsson2012]).
     """
+
+    BOUNDS: ClassVar[dict] = {"window_s": POSITIVE, "window_samples": POSITIVE}
 
     window_s: float = 0.025
     window_samples: int | None = None

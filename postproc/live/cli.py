@@ -76,7 +76,6 @@ def run(args) -> int:
     import tempfile
     from pathlib import Path
 
-    import dataclasses
     import threading
 
     from bootnav.cli import Progress
@@ -93,7 +92,7 @@ def run(args) -> int:
     settings = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
     if args.detector:
         try:
-            settings.detector = dataclasses.replace(settings.detector, method=args.detector)
+            settings.detector = settings.detector.with_method(args.detector)
         except ValueError as exc:
             raise BootnavError(f"--detector {args.detector}: {exc}") from None
     settings.validate()
