@@ -185,7 +185,7 @@ class StageProgress:
     """
 
     def __init__(self, quiet: bool = False):
-        from bootnav.cli import Progress
+        from bootnav.core.progress import Progress
 
         self.shown = Progress(quiet=quiet)
         self.t0 = time.perf_counter()

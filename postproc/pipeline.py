@@ -308,7 +308,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from .calibration import initial_alignment
     from .detectors.stream import StreamStance
     from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _draw_here,
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
 
@@ -505,7 +505,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 files["hdf5"] = f"{target}:{group}"
             lap("write")
             if charts is not None:
-                drawn, error = worker.wait() if worker is not None else _draw_here(charts, out)
+                drawn, error = worker.wait() if worker is not None else draw_here(charts, out)
                 if error:
                     warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
                 files.update(drawn)

@@ -74,7 +74,7 @@ from bootnav.core.peaks import local_maxima
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 from bootnav.errors import InputError
-from bootnav.postproc.detectors._common import row_dot, row_norm
+from bootnav.core.arrays import row_dot, row_norm
 from bootnav.postproc.detectors.shoe import ShoeDetector
 from bootnav.postproc.strides import footprints
 

@@ -217,7 +217,7 @@ class ProcessSettings:
         InputError
             An unknown key (named with its dotted path) or a value the dataclass refuses.
         """
-        return _from_plain(cls, data or {}, "")
+        return from_plain(cls, data or {}, "")
 
     @classmethod
     def from_json(cls, text: str) -> "ProcessSettings":
@@ -255,7 +255,7 @@ def _to_plain(obj: Any) -> Any:
 RETIRED_KEYS = {".filter.gap_factor", ".checks.gap_factor"}
 
 
-def _from_plain(cls, data: Any, where: str):
+def from_plain(cls, data: Any, where: str):
     if not isinstance(data, dict):
         raise InputError(f"settings{where}: expected an object for {cls.__name__}, got {type(data).__name__}")
     upgrade = getattr(cls, "upgrade_saved", None)  # a section whose layout changed reads its older form
@@ -271,7 +271,7 @@ def _from_plain(cls, data: Any, where: str):
     for name, value in data.items():
         hint = hints.get(name)
         if dataclasses.is_dataclass(hint):
-            kwargs[name] = _from_plain(hint, value, f"{where}.{name}")
+            kwargs[name] = from_plain(hint, value, f"{where}.{name}")
         elif isinstance(value, list) and _is_tuple_hint(hint):
             kwargs[name] = tuple(value)
         else:

@@ -350,7 +350,7 @@ def test_clipping_plateaus_are_detected_without_a_mask():
     res = detect_stance(t, acc_c, gyro_c, DetectorSettings(), G)
     assert not res.stance[k:k + 6].any()
     assert res.info["n_saturated"] >= 6
-    from bootnav.postproc.detectors._common import clipped_samples
+    from bootnav.core.arrays import clipped_samples
 
     # a constant (dead or noise-free) axis repeats its extreme everywhere: that is not clipping
     assert not clipped_samples(np.column_stack([np.full(100, G), np.linspace(-1, 1, 100)])).any()
@@ -499,7 +499,7 @@ def test_clipping_on_both_rails_of_a_twos_complement_sensor():
     """MPU6050 rails are -32768 and +32767 counts (3e-5 apart, relative): both plateaus are found, as the
     iez_mpu6050 README counts (raw value at -32768 or 32767); a value repeated below the opposite extreme
     (e.g. duplicated rows) is not a rail."""
-    from bootnav.postproc.detectors._common import clipped_samples
+    from bootnav.core.arrays import clipped_samples
 
     lsb = math.radians(1.0 / 131.0)  # ±250 °/s range
     x = np.sin(np.linspace(0, 12 * np.pi, 1200)) * 40000 * lsb

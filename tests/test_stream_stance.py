@@ -10,7 +10,7 @@ import pytest
 import bootnav
 from bootnav.errors import InputError
 from bootnav.postproc.detectors import DetectorSettings, detect_stance
-from bootnav.postproc.detectors._common import median_dt
+from bootnav.core.arrays import median_dt
 from bootnav.postproc.detectors.stream import StreamStance, streamable_detectors
 from bootnav.postproc.ins import FilterSettings, run_filter
 from bootnav.postproc.ins.filter import delay_zupt_onsets

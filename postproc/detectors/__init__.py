@@ -24,7 +24,7 @@ from bootnav.core.validate import check_value
 from bootnav.errors import InputError
 
 from . import postprocess
-from ._common import as_imu_arrays, clipped_samples, saturation_mask
+from bootnav.core.arrays import as_imu_arrays, clipped_samples, saturation_mask
 from .base import DETECTORS, StanceDetector, StanceResult, detector_class, register
 
 from . import adaptive, ared, mag, mv, paper_accmag, shoe, xio  # noqa: F401  (importing them fills DETECTORS)

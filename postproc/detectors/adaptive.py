@@ -44,7 +44,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import postprocess
-from ._common import window_samples
+from bootnav.core.arrays import window_samples
 from .base import FRACTION, NON_NEGATIVE, POSITIVE, StanceDetector, register
 from .shoe import shoe_statistic
 

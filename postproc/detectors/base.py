@@ -22,7 +22,7 @@ import numpy as np
 from bootnav.core.runs import runs
 
 from . import postprocess
-from ._common import as_imu_arrays, dilate, median_dt, rows_finite, window_samples
+from bootnav.core.arrays import as_imu_arrays, dilate, median_dt, rows_finite, window_samples
 
 
 @dataclass

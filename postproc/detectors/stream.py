@@ -39,7 +39,7 @@ import numpy as np
 
 from bootnav.errors import InputError
 
-from ._common import window_samples
+from bootnav.core.arrays import window_samples
 from .base import StanceDetector, WindowedDetector
 
 _HIST_LO, _HIST_STEP, _HIST_N = -20.0, 1e-3, 60_000  # log10 T histogram of the running noise floor
@@ -203,7 +203,7 @@ class StreamStance:
         """The detector's ``detect`` on the buffer with the nominal period (``base.StanceDetector.detect``'s
         steps; samples a..b−1 are the ones being decided)."""
         from . import postprocess
-        from ._common import dilate
+        from bootnav.core.arrays import dilate
 
         det = self.detector
         dt = self.dt_s

@@ -23,7 +23,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ._common import row_norm
+from bootnav.core.arrays import row_norm
 from ._paper import PaperRule, rest_magnitude
 from .base import POSITIVE, ThresholdDetector, register
 
