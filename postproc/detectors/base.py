@@ -7,7 +7,7 @@ statistic and the rule that turns it into a raw stance mask (``_classify``); the
 detector shares, once: NaN and excluded-sample handling and the post-processing of the mask (minimum swing,
 saturation guard, minimum stance).
 
-``@register("name")`` enters a class into ``DETECTORS`` (name -> class); the name is the ``method`` of
+``@register("name")`` enters a class into ``DETECTORS`` (name -> class, ``bootnav.core.registry``); the name is the ``method`` of
 ``DetectorSettings`` and the choice of ``bootnav process --detector``, the first line of the class
 docstring its one-line description (``bootnav process --list-detectors``).
 """
@@ -19,6 +19,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
+from bootnav.core.registry import Registry, description
 from bootnav.core.runs import runs
 
 from . import postprocess
@@ -51,7 +52,10 @@ class StanceResult:
         return runs(self.stance)
 
 
-DETECTORS: dict[str, type["StanceDetector"]] = {}
+#: name -> class of every stance detector (``bootnav.core.registry``: the pattern of the PDR step detectors and
+#: step-length models too)
+DETECTORS = Registry("stance detector")
+register = DETECTORS.register
 
 # physical ranges of parameters (``StanceDetector.BOUNDS``): (test, what the message says)
 POSITIVE: tuple[Callable[[float], bool], str] = (lambda v: v > 0, "> 0")
@@ -60,52 +64,9 @@ FRACTION: tuple[Callable[[float], bool], str] = (lambda v: 0 < v < 1, "in (0, 1)
 AT_LEAST_ONE: tuple[Callable[[float], bool], str] = (lambda v: v >= 1, ">= 1")
 
 
-def register(name: str):
-    """Class decorator: enter a ``StanceDetector`` subclass into ``DETECTORS`` under ``name``.
-
-    Parameters
-    ----------
-    name : str
-        Registry name (``DetectorSettings.method``, ``--detector``); must be new.
-
-    Returns
-    -------
-    callable
-        The decorator; it sets ``cls.name`` and returns the class unchanged otherwise.
-    """
-
-    def enter(cls):
-        if name in DETECTORS:
-            raise ValueError(f"stance detector {name!r} registered twice ({DETECTORS[name].__name__}, {cls.__name__})")
-        cls.name = name
-        DETECTORS[name] = cls
-        return cls
-
-    return enter
-
-
 def detector_class(name: str) -> type["StanceDetector"]:
-    """The registered class of ``name``.
-
-    Parameters
-    ----------
-    name : str
-        Registry name.
-
-    Returns
-    -------
-    type
-        The ``StanceDetector`` subclass.
-
-    Raises
-    ------
-    ValueError
-        For an unknown name; the message lists the registered names.
-    """
-    try:
-        return DETECTORS[name]
-    except KeyError:
-        raise ValueError(f"unknown stance detector {name!r}; choose one of {', '.join(sorted(DETECTORS))}") from None
+    """The registered class of ``name``; ValueError listing the registered names for an unknown one."""
+    return DETECTORS.get_class(name)
 
 
 @dataclass(kw_only=True)
@@ -156,7 +117,7 @@ class StanceDetector:
     @classmethod
     def description(cls) -> str:
         """One line for listings: the first line of the class docstring."""
-        return (cls.__doc__ or cls.__name__).strip().splitlines()[0]
+        return description(cls)
 
     def detect(self, acc_b, gyro_b, t_s, *, excluded=None) -> StanceResult:
         """Stance mask of one recording.
