@@ -176,8 +176,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         from bootnav.postproc.ins.stream import run_fast as run_engine
     else:
         from bootnav.postproc.ins.reference import run_reference as run_engine
-    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep.q0_nb, prep.gyro_bias0_b, prep.acc_bias0_b, settings,
-                            tb, prep.P0, zupt_gain, prm, progress, extra_var)
+    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep, settings, tb, progress, extra_var)
     elapsed = time.perf_counter() - t0
     biases = settings.n_states == 15
     info = {

@@ -285,13 +285,11 @@ class ReferenceNavigator:
         return NavRows(0, *(o[name] for name in _ROWS[:-1]), o["zupt"].copy(), o["zupt"])
 
 
-def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, settings, tb, P0, zupt_gain, prm,
-                  progress=None, extra_var=None):
+def run_reference(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None):
     """The filter as a per-sample loop (arguments and results as ``stream.run_fast``): the whole record
     pushed through a ``ReferenceNavigator`` in up to 10 chunks (one per progress report)."""
     N = t_s.shape[0]
-    nav = ReferenceNavigator(settings, FilterSetup(q0_nb, gyro_bias0_b, acc_bias0_b, P0, zupt_gain, prm, []),
-                             tb.nominal_dt_s)
+    nav = ReferenceNavigator(settings, setup, tb.nominal_dt_s)
     stance = np.asarray(stance, dtype=bool)
     bounds = np.linspace(0, N, (10 if progress is not None and N >= 10 else 1) + 1).astype(np.int64)
     t0 = time.perf_counter()
