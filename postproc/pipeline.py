@@ -3,7 +3,7 @@
 The stages are the paper's pipeline [Heidari2019] with the standard reconstructions it cites; each is
 timed in ``summary["timings_s"]`` and each lives in its own module, read top to bottom:
 
-1. **load** (``source``): the recording or imported file; a reference file (``reference``) is read first, so a
+1. **load** (``source``): the recording or imported file; a reference file (``reference_path``) is read first, so a
    bad one fails before any work.
 2. **checks** (``source.crop``, ``checks``): crop to ``crop_s``, refuse samples that would give a garbage path
    (NaN, time going backwards, gaps the integration cannot bridge, too short) with the sample index and time;
@@ -18,7 +18,7 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    refused.
 5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
    ``selftune.min_stride_m`` are not strides), distance, closure, floors.
-6. **reference** (``reference``), when a reference is given: its metrics [Heidari2019, Table 1].
+6. **reference** (``reference_path``), when a reference is given: its metrics [Heidari2019, Table 1].
 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
@@ -79,7 +79,7 @@ class ProcessResult:
     index: slice = field(default_factory=lambda: slice(None))  # processed samples within the recording
     saturation_intervals: list[dict] = field(default_factory=list)
     metrics: dict | None = None  # reference metrics [Heidari2019, Table 1] when a reference was given
-    reference: Any = None  # reference.Reference
+    reference: Any = None  # reference_path.Reference
     navigation: Any = None  # navigate.Navigation: stance choice, timing offset, confidence, stride flags
 
 
@@ -131,7 +131,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         filter.
     """
     from .calibration import apply_accel_calibration, initial_alignment
-    from .reference import compute_metrics, load_reference, truth_reference
+    from .reference_path import compute_metrics, load_reference, truth_reference
 
     settings = settings or ProcessSettings()
     settings.validate()

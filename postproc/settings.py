@@ -133,7 +133,7 @@ class ProcessSettings:
         INS adds millimetres per flat stride, so 0.1 m removes the drift and keeps every flight; the price
         is that a gentle ramp never counts.
     reference : str or None
-        Reference for the accuracy metrics (``reference``): a file, an inline JSON object, or ``"truth"``
+        Reference for the accuracy metrics (``reference_path``): a file, an inline JSON object, or ``"truth"``
         (a simulated recording's ``/truth``).
     """
 

@@ -119,7 +119,7 @@ def is_closed_loop(reference: Any) -> bool:
 
     Parameters
     ----------
-    reference : reference.Reference or None
+    reference : reference_path.Reference or None
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """Fast engine: the whole ZUPT error-state filter (+ segment RTS smoother) as one numba kernel.
 
 No per-sample Python loop: Python only slices the record into a few chunks (for the progress callback).
-The algebra is exactly ``reference.py``'s, written for speed:
+The algebra is exactly ``filterpy_engine.py``'s, written for speed:
 
 * mechanization with scalar locals (no small-array allocation per sample);
 * covariance propagation P ← F P Fᵀ + Q_d in place with the block structure of
@@ -12,7 +12,7 @@ The algebra is exactly ``reference.py``'s, written for speed:
   model's H = [0 I 0] is a constant index block (``kalman.py``: no H matrix, closed-form 3×3 innovation
   inverse or a scalar gain, Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ by blocks).
 
-Error-state conventions (shared with reference.py, see ``bootnav.postproc.ins.filter``): δx = x_true − x̂, so
+Error-state conventions (shared with filterpy_engine.py, see ``bootnav.postproc.ins.filter``): δx = x_true − x̂, so
 the ZUPT pseudo-measurement is z = 0 − v̂ = δv + noise, δx = K z, then p̂ += δp, v̂ += δv, q̂ ← exp(δθ/2) ⊗ q̂,
 b̂ += δb, δx ← 0. The "+ k_n v_n" of [Heidari2019, eq. 3] is this with the minus sign of z absorbed in k_n.
 

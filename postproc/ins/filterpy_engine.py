@@ -1,4 +1,6 @@
-"""Reference engine: the ZUPT error-state filter as a textbook per-sample loop on filterpy's ``KalmanFilter``.
+"""Reference engine (``FilterSettings.engine = "reference"``): the ZUPT error-state filter as a textbook
+per-sample loop on filterpy's ``KalmanFilter``. (A reference *path* for the accuracy metrics is another idea:
+``postproc.reference_path``.)
 
 Transparent on purpose (slow: a Python loop): every step reads like the equations in ``filter.py``'s
 docstring, so the fast numba engine can be checked against it (tests/test_ins_engines.py: same trajectory to
