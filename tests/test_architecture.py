@@ -192,3 +192,10 @@ def test_no_cycle_between_subpackages(graph):
         for d in packages[p]:
             packages.setdefault(d, set())
     assert [c for c in cycles(packages) if any(len(x.split(".")) == 3 for x in c)] == []
+
+
+def test_core_is_the_ground_floor(graph):
+    """``bootnav.core`` (errors, arrays, progress, registry, ...) imports only itself."""
+    bad = sorted((m, d) for m, deps in graph.items() if m.startswith("bootnav.core")
+                 for d in deps if not d.startswith("bootnav.core"))
+    assert bad == []

@@ -10,7 +10,7 @@ import math
 import types
 import typing
 
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 
 def check_value(hint, value, where: str) -> None:
