@@ -57,7 +57,8 @@ def device_options(args) -> dict:
     device = getattr(args, "device", None)
     if device is None:
         if given:
-            flags = ", ".join("--" + f.replace("_", "-") for f in _TEMPERATURE_FLAGS if getattr(args, f, None) is not None)
+            flags = ", ".join("--" + f.replace("_", "-") for f in _TEMPERATURE_FLAGS
+                              if getattr(args, f, None) is not None)
             raise InputError(f"{flags}: give --device D too (the temperature coefficients belong to one unit)")
         return {}
     try:

@@ -32,6 +32,10 @@ tables 6.1/6.2 unless marked [ENG] (engineering assumption, no datasheet figure 
 * timestamps [ENG]: Arduino ``micros()`` (4 us resolution) on a ceramic resonator, clock error sigma
   1000 ppm, read-latency jitter sigma 20 us (clipped at +-3 sigma);
 * dropped samples [ENG]: bursts (SD-card write stalls) at 0.01 per second, mean burst 3 samples.
+
+One unit (``simulate(..., device=D)``, ``simulator/device.py``): the sensitivity matrices, the mean turn-on
+biases, temperature coefficients and clock error come from the device id; ``ErrorModel`` then draws only this
+power-on's bias repeatability and the noise from its generator, and follows the chip temperature.
 """
 
 from __future__ import annotations

@@ -4,7 +4,10 @@ The exact signals are evaluated at the internal rate f_i = m * rate_hz (m chosen
 the profile's 1 kHz; ``ideal``: m = 1), passed through the error model in blocks (the DLPF and the bias
 random walk carry their state across blocks, so the result does not depend on the block size) and
 decimated to the output rate. One ``numpy.random.Generator(seed)`` makes every random draw, in this
-order: scenario choices, turn-on constants, per-block noise and bias walks, timestamps, drops.
+order: scenario choices, turn-on constants, per-block noise and bias walks, timestamps, drops. With a
+``device`` the unit's stable constants come from its own generator (``device.draw_unit``) and the seed's
+generator draws, in the same order, this power-on's bias repeatability instead of the turn-on constants,
+and no clock error.
 
 ``LongSimulation`` generates recordings of any length (a whole shift) block by block without keeping them:
 ``writers.write_long_h5`` appends each block to the HDF5 file as it comes.
@@ -19,7 +22,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from bootnav.core.runs import runs
-from bootnav.logger.mpu6050 import TEMP_LSB_PER_DEGC, TEMP_OFFSET_DEGC
+from bootnav.logger.mpu6050 import INT16_MAX, INT16_MIN, TEMP_LSB_PER_DEGC, TEMP_OFFSET_DEGC
 from bootnav.logger.recording import SATURATION_BITS, make_events
 from bootnav.simulator.device import DeviceModel, DeviceUnit, TemperatureProfile, draw_unit
 from bootnav.simulator.gait import GAIT_CODES
@@ -72,6 +75,11 @@ class SimResult:
 
     def saturation_counts(self) -> dict[str, int]:
         return {name: int(np.count_nonzero(self.saturated & (1 << bit))) for name, bit in SATURATION_BITS.items()}
+
+
+def temp_counts(temp_degc: np.ndarray) -> np.ndarray:
+    """TEMP_OUT register counts of a die temperature (T = raw / 340 + 36.53 C), clipped to int16."""
+    return np.clip(np.rint((temp_degc - TEMP_OFFSET_DEGC) * TEMP_LSB_PER_DEGC), INT16_MIN, INT16_MAX).astype(np.int16)
 
 
 def _kinematics(traj, t: np.ndarray, mount: Mount):
@@ -208,7 +216,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         truth.update(device_truth(unit, model))
     if not prof.ideal:
         warm = tprof.chip(t_true[idx])  # die warm-up after power-on (device.TemperatureProfile)
-        temp = np.rint((warm - TEMP_OFFSET_DEGC) * TEMP_LSB_PER_DEGC).astype(np.int16)
+        temp = temp_counts(warm)
         t_device = (t_us[idx] % (1 << 32)).astype(np.uint32)
         seq = (idx % (1 << 16)).astype(np.uint16)
     attrs = {
@@ -396,7 +404,7 @@ class LongSimulation:
             temp = t_device = seq = None
             if not prof.ideal:
                 warm = self.temperature.chip(t_true[sel])
-                temp = np.rint((warm - TEMP_OFFSET_DEGC) * TEMP_LSB_PER_DEGC).astype(np.int16)
+                temp = temp_counts(warm)
                 t_device = (t_us[sel] % (1 << 32)).astype(np.uint32)
                 seq = (idx % (1 << 16)).astype(np.uint16)
             n_kept += sel.size

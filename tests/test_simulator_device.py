@@ -151,7 +151,8 @@ def test_split_keeps_the_datasheet_spread():
     means_a = np.array([u.acc_bias_mean_mps2 for u in units])
     assert np.std(means_a, axis=0) == pytest.approx(sig_a * math.sqrt(1 - r**2), rel=tol)
     k_g = np.array([u.gyro_bias_tempco_radps_per_degc for u in units])
-    assert np.std(k_g) == pytest.approx(math.radians(model.gyro_bias_tempco_sigma_dps_per_degc), rel=5 / math.sqrt(6 * n))
+    sig_k = math.radians(model.gyro_bias_tempco_sigma_dps_per_degc)
+    assert np.std(k_g) == pytest.approx(sig_k, rel=5 / math.sqrt(6 * n))  # 3 axes x n units
     unit = units[0]
     b0 = np.array([ErrorModel(PROF, 1000.0, np.random.default_rng(s), unit).b0_g for s in range(n)])
     assert np.std(b0, axis=0) == pytest.approx(np.full(3, sig_g * r), rel=tol)
