@@ -30,8 +30,10 @@ STANDARD_MOTIONS = [
     (0, 0, 2 * math.pi), (0, 0, -2 * math.pi),  # two full turns flat on the table
     (0.9, 0.9, 0.0), (0.0, -0.8, 0.8), (-0.6, 0.0, -0.9), (0.5, 0.7, 0.3),  # oblique poses
 ]
-NO_X_MOTIONS = [(0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0),
-                (0, D, 0), (0, 0, 2 * math.pi), (0, 0.5, 0), (0, 0.5, 0), (0, -1.0, 0), (0, D, 0)]
+# every face reached by turns about y and z only (z is horizontal after the first pitch): no rotation about x
+NO_X_MOTIONS = [(0, D, 0), (0, 0, D), (0, 0, D), (0, 0, D), (0, 0, D), (0, D, 0), (0, D, 0), (0, D, 0),
+                (0, 0, 2 * math.pi), (0, 0.6, 0), (0, 0, 0.7), (0, -0.6, 0), (0, 0, -0.7), (0, -D, 0),
+                (0, 0, 0.8), (0, 0, -0.8), (0, D, 0)]
 
 
 @dataclass
