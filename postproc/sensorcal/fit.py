@@ -61,9 +61,9 @@ class Session:
 class CalibrationResult:
     """What ``calibrate`` returns: the calibration, the poses and motions it used, residuals, warnings."""
 
-    calibration: SensorCalibration
+    calibration: SensorCalibration | None  # None (and gyro None) when the accelerometer is undetermined
     accel: AccelFit
-    gyro: GyroFit
+    gyro: GyroFit | None
     gyro_bias_sigma: np.ndarray
     poses: list  # StaticPoses per session
     motions: GyroData
@@ -232,6 +232,13 @@ def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None
                         "coefficient fitted; add a session at another temperature (warm or cold boot) for one")
 
     afit = fit_accelerometer(acc_mean, g, dT)
+    acc_undetermined, _ = _check(afit, None, np.full(3, np.inf), s)
+    if acc_undetermined:
+        # the up directions the gyro fit needs come from the accelerometer: nothing to fit the gyro against
+        if require_determined:
+            raise InputError(f"{names}: {undetermined_message(acc_undetermined)}")
+        return CalibrationResult(None, afit, None, None, poses, None, np.zeros(3), warnings, s,
+                                 acc_undetermined + [("gyroscope", float("inf"), 0.0, acc_undetermined[0][3])], [])
     acc_sigma = afit.sigma()
     acc_tri = TriadCalibration(afit.matrix, afit.bias, afit.temp_coeff, acc_sigma,
                                float(np.sqrt(np.mean(afit.residuals**2))))
@@ -285,6 +292,8 @@ def _check(afit: AccelFit, gfit: GyroFit, cover: np.ndarray, s: SensorCalSetting
     """Parameters not determined (above the 'undetermined' limits) and those missing the goals."""
     undetermined, below = [], []
     for triad, fit in (("accelerometer", afit), ("gyroscope", gfit)):
+        if fit is None:
+            continue
         for name, sd in fit.sigma().items():
             if "session" in name:
                 continue
