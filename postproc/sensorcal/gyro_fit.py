@@ -181,7 +181,8 @@ def _unit(v):
 class _Model:
     """Residuals of the module docstring for parameters θ = (C, b_s, d_s) and given accelerometer params."""
 
-    def __init__(self, gd: GyroData, acc_theta: np.ndarray, pose_sigma: float, turn_sigma: float):
+    def __init__(self, gd: GyroData, accel, acc_theta: np.ndarray, pose_sigma: float, turn_sigma: float):
+        self.accel = accel
         self.gd = gd
         self.turns = np.flatnonzero(gd.turn_n != 0)
         self.target = 2.0 * math.pi * gd.turn_n[self.turns]
@@ -190,8 +191,10 @@ class _Model:
         self.set_accel(acc_theta)
 
     def set_accel(self, acc_theta):
-        c, b, k = unpack(acc_theta, acc_theta.shape[0] > 9)
-        self.f = np.ascontiguousarray((self.gd.acc - b - self.gd.dtemp[:, None] * k) @ c.T)
+        a = self.accel
+        c, _, k, _ = unpack(acc_theta, a.fit_temp, a.n_sessions)
+        b_s = a.session_bias(acc_theta)  # (S, 3): each power-on's own bias
+        self.f = np.ascontiguousarray((self.gd.acc - b_s[self.gd.sess] - self.gd.dtemp[:, None] * k) @ c.T)
 
     def omega(self, theta):
         gd = self.gd
@@ -237,7 +240,7 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
     """Nonlinear least squares for C, b_s, d_s (module docstring); ``accel`` an ``accel_fit.AccelFit``."""
     from scipy.optimize import least_squares
 
-    model = _Model(gd, accel.theta, pose_sigma_rad, turn_sigma_rad)
+    model = _Model(gd, accel, accel.theta, pose_sigma_rad, turn_sigma_rad)
     n_mo, n_po = 3 * gd.mo_from.shape[0], 3 * gd.pose_start.shape[0]
     theta = theta0
     for _ in range(3):  # variance components: weigh the pose halves by their own scatter against the motions'
@@ -260,7 +263,7 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
     s2 = float(r @ r) / max(n_obs - theta0.shape[0], 1)
     inv_n = _pinv_normal(sol.jac)
     cov = s2 * inv_n
-    if np.all(np.isfinite(accel.cov)):
+    if np.all(np.isfinite(accel.cov_data)):
         cov = cov + _accel_propagation(sol, inv_n, model, accel)
     u_pred, u_to, r_pose, yaw = model.parts(sol.x)
     ang = np.arccos(np.clip(np.einsum("ij,ij->i", _unit(u_pred), u_to), -1.0, 1.0))
@@ -276,7 +279,7 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
 def _accel_propagation(sol, inv_n, model: _Model, accel) -> np.ndarray:
     """A Σ_a Aᵀ with A = ∂θ/∂θ_a = −(JᵀJ)⁻¹ Jᵀ ∂r/∂θ_a (implicit function theorem at the optimum;
     ∂r/∂θ_a by central differences), Σ_a the accelerometer fit's covariance."""
-    cov_a = accel.cov
+    cov_a = accel.cov_data
     cols = []
     try:
         for j in range(accel.theta.shape[0]):
@@ -294,13 +297,13 @@ def _accel_propagation(sol, inv_n, model: _Model, accel) -> np.ndarray:
     return a @ cov_a @ a.T
 
 
-def detect_turns(gd: GyroData, theta0: np.ndarray, acc_theta: np.ndarray, turn_min_rad: float,
+def detect_turns(gd: GyroData, theta0: np.ndarray, accel, turn_min_rad: float,
                  turn_max_tilt_rad: float) -> np.ndarray:
     """Full turns (n per motion, 0 for others): same up direction before and after (within
     ``turn_max_tilt_rad``), at least ``turn_min_rad`` turned about it, at the initial parameters."""
     saved = gd.turn_n
     gd.turn_n = np.zeros(gd.mo_from.shape, np.int64)
-    model = _Model(gd, acc_theta, 1.0, 1.0)
+    model = _Model(gd, accel, accel.theta, 1.0, 1.0)
     try:
         w = model.omega(theta0)
         sums = pose_sums(w, gd.dt, model.f, gd.pose_start, gd.pose_mid, gd.pose_stop)
@@ -315,12 +318,12 @@ def detect_turns(gd: GyroData, theta0: np.ndarray, acc_theta: np.ndarray, turn_m
     return np.where(turn, np.rint(yaw / (2 * math.pi)), 0).astype(np.int64)
 
 
-def axis_coverage(gd: GyroData, theta0: np.ndarray, acc_theta: np.ndarray) -> np.ndarray:
+def axis_coverage(gd: GyroData, theta0: np.ndarray, accel) -> np.ndarray:
     """(3,) rad: per body axis, Σ over non-turn motions of |∫ω_a dt| × sin(angle of axis a to the vertical,
     the larger of before and after): how much rotation about that axis gravity could see."""
     if gd.mo_from.size == 0:
         return np.zeros(3)
-    model = _Model(gd, acc_theta, 1.0, 1.0)
+    model = _Model(gd, accel, accel.theta, 1.0, 1.0)
     w = model.omega(theta0)
     u = _unit(np.array([model.f[m] for m in gd.pose_mid]))
     cs = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (w[:-1] + w[1:]) * gd.dt[:-1, None], axis=0)])
