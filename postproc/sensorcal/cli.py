@@ -169,26 +169,28 @@ def format_report(res, cal=None) -> str:
         f", T_ref {cal.temp_ref_degc:.1f} °C"
     lines.append(f"device {cal.device_id or '?'}: {len(res.poses)} session(s), {n_poses} static poses, "
                  f"{len(res.motions.label)} motions ({n_turns} full turns){tr}")
-    lines.append(f"{'parameter':<34}{'value':>14}{'1σ':>12}")
+    lines.append(f"  {'parameter':<32}{'value':>14}{'1σ':>12}")
+
+    def row(label, value, sd, fmt):
+        lines.append(f"  {label:<32}{value:>14{fmt}}{sd:>12{fmt}}")
 
     def rows(title, tri, bias_unit, scale_bias, k_unit):
         lines.append(title)
         for i, a in enumerate("xyz"):
-            sd = tri.sigma.get(f"C_{a}{a}", float("nan"))
-            lines.append(f"  scale correction {a} (C_{a}{a} - 1) %{100 * (tri.matrix[i, i] - 1):>14.4f}{100 * sd:>12.4f}")
+            row(f"scale correction {a} (C_{a}{a}-1) %", 100 * (tri.matrix[i, i] - 1),
+                100 * tri.sigma.get(f"C_{a}{a}", float("nan")), ".4f")
         for i, a in enumerate("xyz"):
             for j, b in enumerate("xyz"):
                 key = f"C_{a}{b}"
                 if i != j and key in tri.sigma:
-                    lines.append(f"  misalignment {key} °{'':<15}{math.degrees(tri.matrix[i, j]):>14.4f}"
-                                 f"{math.degrees(tri.sigma[key]):>12.4f}")
+                    row(f"misalignment {key} °", math.degrees(tri.matrix[i, j]), math.degrees(tri.sigma[key]), ".4f")
         for i, a in enumerate("xyz"):
-            lines.append(f"  bias {a} {bias_unit:<24}{tri.bias[i] * scale_bias:>14.5f}"
-                         f"{tri.sigma.get(f'bias_{a}', float('nan')) * scale_bias:>12.5f}")
+            row(f"bias {a} {bias_unit}", tri.bias[i] * scale_bias,
+                tri.sigma.get(f"bias_{a}", float("nan")) * scale_bias, ".5f")
         if np.any(tri.bias_temp_coeff):
             for i, a in enumerate("xyz"):
-                lines.append(f"  bias temp coeff {a} {k_unit:<15}{tri.bias_temp_coeff[i] * scale_bias:>14.6f}"
-                             f"{tri.sigma.get(f'temp_coeff_{a}', float('nan')) * scale_bias:>12.6f}")
+                row(f"bias temp coeff {a} {k_unit}", tri.bias_temp_coeff[i] * scale_bias,
+                    tri.sigma.get(f"temp_coeff_{a}", float("nan")) * scale_bias, ".6f")
 
     rows("accelerometer (C upper triangular: body frame = accelerometer axes)", cal.acc, "m/s²", 1.0, "m/s²/°C")
     rows("gyroscope (C full: into the accelerometer frame)", cal.gyro, "°/s", math.degrees(1.0), "°/s/°C")

@@ -119,10 +119,6 @@ def load_session(path: str | Path) -> Session:
     return session_from_recording(rec)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
 def build_gyro_data(sessions, poses, temp_ref: float, s: SensorCalSettings) -> GyroData:
     """Concatenate the sessions and list the usable motions between consecutive poses (``gyro_fit.GyroData``).
 
