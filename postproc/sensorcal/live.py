@@ -228,7 +228,7 @@ def run_live(args, settings: SensorCalSettings) -> int:
     """The guided live mode (module docstring)."""
     from bootnav.logger.serial_recorder import RecorderSettings
 
-    from .cli import finish
+    from .report import finish
     from .fit import MIN_POSES, Session, calibrate, load_session
 
     if not math.isfinite(args.hold) or not args.hold >= settings.min_pose_s + 2 * settings.edge_trim_s:
