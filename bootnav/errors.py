@@ -1,4 +1,5 @@
-"""Errors shown to the user as ``bootnav CMD: error: MESSAGE`` (exit code 1)."""
+"""Errors shown to the user as ``bootnav CMD: error: MESSAGE`` (exit code 1), and the warning category of the
+Python API (``warnings.simplefilter("error", bootnav.errors.BootnavWarning)`` turns them into exceptions)."""
 
 
 class BootnavError(Exception):
@@ -11,3 +12,8 @@ class InputError(BootnavError):
 
 class DiskFullError(BootnavError):
     """The disk (or the file-size limit) is full: the message says what was safely written and where."""
+
+
+class BootnavWarning(UserWarning):
+    """A problem the Python API found and worked around (also in the result's ``warnings``): a failed check, a
+    fallback, a borderline unit."""

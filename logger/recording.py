@@ -689,6 +689,17 @@ class Recording:
     def events_of(self, kind: str) -> np.ndarray:
         return self.events[self.events["kind"] == kind.encode()]
 
+    def __repr__(self) -> str:
+        """One line (a notebook prints it): source, samples, duration, rate, what else it holds."""
+        n = self.n
+        dur = float(self.t_s[-1] - self.t_s[0]) if n > 1 else 0.0
+        rate = f", {self.rate_hz:.1f} Hz" if n > 2 else ""
+        extra = [name for name, v in (("temp", self.temp_degc), ("truth", self.truth)) if v is not None]
+        n_sat = int(np.count_nonzero(self.saturated)) if self.saturated is not None else 0
+        return (f"Recording({self.path.name if self.path else self.meta.get('source_file', 'arrays')!r}, {n} samples, "
+                f"{dur:.1f} s{rate}, {len(self.events)} events, {n_sat} saturated"
+                + (f", {'+'.join(extra)}" if extra else "") + ")")
+
 
 def _open_for_read(path: Path) -> h5py.File:
     """Open read-only; a file left with SWMR/consistency flags (writer running or killed) in SWMR mode.
