@@ -333,7 +333,8 @@ class PathResult:
 
     def to_dataframe(self):
         """Per-sample table indexed by time ``t_s`` (s), the columns of ``trajectory.csv``: position ``x_m y_m
-        z_m``, velocity ``vx_mps vy_mps vz_mps``, ``stance``, attitude ``qw qx qy qz`` (``q_nb``).
+        z_m``, velocity ``vx_mps vy_mps vz_mps``, ``stance``, attitude ``qw qx qy qz`` (``q_nb``), the sensor's
+        heading ``sensor_yaw_enu_rad`` / ``sensor_heading_deg_cw_from_north``.
 
         Returns
         -------
@@ -344,11 +345,13 @@ class PathResult:
         ImportError
             pandas is not installed.
         """
+        from bootnav.postproc.outputs import TRAJECTORY_COLUMNS, trajectory_columns
+
         pd = _pandas()
-        p, v, q = self.pos_n_m, self.vel_n_mps, self.q_nb
-        return pd.DataFrame({"x_m": p[:, 0], "y_m": p[:, 1], "z_m": p[:, 2], "vx_mps": v[:, 0], "vy_mps": v[:, 1],
-                             "vz_mps": v[:, 2], "stance": self.stance, "qw": q[:, 0], "qx": q[:, 1], "qy": q[:, 2],
-                             "qz": q[:, 3]}, index=pd.Index(self.t_s, name="t_s"))
+        cols = dict(zip(TRAJECTORY_COLUMNS, trajectory_columns(self.t_s, self.pos_n_m, self.vel_n_mps, self.stance,
+                                                                self.q_nb)))
+        cols["stance"] = self.stance
+        return pd.DataFrame(cols, index=pd.Index(cols.pop("t_s"), name="t_s"))
 
     def steps_dataframe(self):
         """One row per stride indexed by its time ``t_s``, the other columns of ``steps.csv`` (pandas required,
