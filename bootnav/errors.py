@@ -10,6 +10,11 @@ class InputError(BootnavError):
     """Bad input data: unreadable, wrong units, non-monotonic time, no stance, ..."""
 
 
+class UsageError(BootnavError):
+    """Options missing, contradictory or out of range, found after parsing: exit status 2, as argparse's own
+    usage errors."""
+
+
 class DiskFullError(BootnavError):
     """The disk (or the file-size limit) is full: the message says what was safely written and where."""
 

@@ -39,13 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="ProcessSettings as JSON (detector, filter, floors), as for `bootnav process`")
     parser.add_argument("--detector", metavar="NAME",
                         help="stance detector (default: the settings'; streamable: adaptive, shoe, ared, mv, mag, "
-                             "shoe-literal with a threshold). The view shows a stride a detector look-ahead after its "
-                             "stance phase: 1.4 s for adaptive, 0.07 s for shoe; with either, a provisional (hollow) "
-                             "marker about 0.2 s after the foot stopped")
+                             "shoe-literal with a threshold). The final stride is drawn a median 1.8-2.0 s after its "
+                             "stance phase began with adaptive, 0.63 s with shoe; with either, a provisional (hollow) "
+                             "marker a median 0.27-0.31 s after it (benchmarks/bench_live.py, docs/live.md)")
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to serve on (default 127.0.0.1; any other needs --token)")
     parser.add_argument("--http-port", type=int, default=8017, metavar="N",
-                        help="TCP port of the page (default 8017; 0 picks a free one)")
+                        help="TCP port number of the page (default 8017; 0 picks a free one)")
     parser.add_argument("--token", metavar="T",
                         help="access token every request must carry; 'auto' generates one (printed in the URL)")
 
