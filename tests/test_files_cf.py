@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 import subprocess
 import sys
 
@@ -61,11 +62,21 @@ def test_xarray_decodes_si_text_axis_and_a_monotonic_index_without_bootnav(tmp_p
         assert acc.attrs["units"] == "m/s^2" and acc.attrs["raw_units"] == "count"
 
 
-def test_trajectory_csv_has_attitude_and_heading_in_both_conventions(tmp_path):
-    out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "process", str(SIM), "--out", str(out), "--no-plots",
-                           "-q"], capture_output=True, text=True, timeout=180, cwd=tmp_path)
+@pytest.fixture(scope="module")
+def processed(tmp_path_factory):
+    """``bootnav process`` on a copy of the simulated walk, as a user runs it: (recording, output folder)."""
+    tmp = tmp_path_factory.mktemp("cf")
+    rec = tmp / "walk.h5"
+    rec.write_bytes(SIM.read_bytes())
+    out = tmp / "out"
+    proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "process", str(rec), "--out", str(out), "--no-plots",
+                           "-q"], capture_output=True, text=True, timeout=180, cwd=REPO)
     assert proc.returncode == 0, proc.stderr
+    return rec, out
+
+
+def test_trajectory_csv_has_attitude_and_heading_in_both_conventions(processed):
+    _, out = processed
     with open(out / "trajectory.csv") as fh:
         rows = list(csv.reader(fh))
     header, data = rows[0], np.array(rows[1:], float)
@@ -82,13 +93,8 @@ def test_trajectory_csv_has_attitude_and_heading_in_both_conventions(tmp_path):
     assert np.all(np.minimum(diff, 360 - diff) < 0.01)
 
 
-def test_results_h5_refers_to_the_recording_and_loads_like_it(tmp_path):
-    rec = tmp_path / "walk.h5"
-    rec.write_bytes(SIM.read_bytes())
-    out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "bootnav.cli", "process", str(rec), "--out", str(out), "--no-plots",
-                           "-q"], capture_output=True, text=True, timeout=180, cwd=REPO)
-    assert proc.returncode == 0, proc.stderr
+def test_results_h5_refers_to_the_recording_and_loads_like_it(processed, tmp_path):
+    rec, out = processed
     res = out / "results.h5"
     with h5py.File(res) as f:
         assert f.attrs["recording_sha256"] == file_sha256(rec) and f.attrs["recording_file"] == "../walk.h5"
@@ -102,8 +108,8 @@ def test_results_h5_refers_to_the_recording_and_loads_like_it(tmp_path):
     moved = tmp_path / "moved"
     moved.mkdir()
     (moved / "out").mkdir()
-    rec.rename(moved / "walk.h5")
-    res.rename(moved / "out" / "results.h5")
+    shutil.copy(rec, moved / "walk.h5")  # copies: the module's other tests read the originals
+    shutil.copy(res, moved / "out" / "results.h5")
     assert load(moved / "out" / "results.h5").n == b.n
     # recording gone: a one-line error naming it (bootnav info, like every reader)
     (moved / "walk.h5").unlink()
