@@ -5,18 +5,28 @@
     import bootnav
 
     rec = bootnav.load("walk.h5")                     # a recording, or any file `bootnav import` reads
-    res = bootnav.process(rec, reference='{"closed_loop": true}')
+    res = bootnav.process(rec, reference={"closed_loop": True}, detector="shoe")
     res.pos_n_m, res.stance, res.steps["stride_length_m"], res.summary["distance_m"]
     res = bootnav.process(t_s, acc_mps2, gyro_radps)  # or straight from arrays (SI units, body frame)
-    df = res.to_dataframe()                           # pandas (optional), columns as trajectory.csv
+    res = bootnav.process(t_s, acc_g, gyro_dps, acc_unit="g", gyro_unit="dps")  # other units, declared
+    res = bootnav.process(df)                         # a DataFrame: t_s, ax_mps2 ... gz_radps (FRAME_COLUMNS)
+    df = res.to_dataframe()                           # pandas (optional), columns as trajectory.csv, index t_s
     res.save("out/")                                  # every file `bootnav process --out out/` writes
     steps = bootnav.pdr(t_s, acc_mps2, gyro_radps)    # step-and-heading for waist / phone sensors
     both = bootnav.process_two_boots("left.h5", "right.h5")  # two feet of one walker, fused (or one multi-boot file)
     both.left.pos_n_m, both.walker_pos_n_m, both.strides["step_width_m"], both.save("out/")
 
 Settings are given as keywords: any field of ``bootnav.postproc.settings.ProcessSettings`` (``PdrSettings``
-for ``pdr``), nested ones as dicts, e.g. ``process(rec, crop_s=(0, 60), detector={"method": "shoe"})``; or a
-whole object / dict / JSON file as ``settings=``. Frames and units: ``bootnav.CONVENTIONS``.
+for ``pdr``), nested ones as dicts or by name, e.g. ``process(rec, crop_s=(0, 60), detector={"method": "shoe"})``
+or ``detector="shoe"``; or a whole object / dict / JSON file as ``settings=``. Frames and units:
+``bootnav.CONVENTIONS``.
+
+Arrays are checked against physics as ``bootnav import`` checks a file (``bootnav.logger.importers.checks``, the
+one definition, here in the API's words: ``API_WORDS``): gravity at rest ≈ 1 means g, gyro peaks beyond any
+foot mean deg/s, time steps ≫ 1 s mean ms; a mismatch is an ``InputError`` naming the keyword that declares the
+unit (``acc_unit="g"``, ``gyro_unit="dps"``, ``time_unit="ms"``; ``check_units=False`` keeps the arrays as
+given). Every message speaks the API's keywords (``force=True``, ``crop_s=(t0, t1)``: ``api_words``), and every
+warning of a result is also issued as a Python warning of category ``bootnav.errors.BootnavWarning``.
 
 ``import bootnav`` imports none of this (nor numpy): the package resolves these names on first use.
 """
