@@ -1,24 +1,7 @@
-"""Errors shown to the user as ``bootnav CMD: error: MESSAGE`` (exit code 1), and the warning category of the
+"""The user-facing errors, ``bootnav.errors`` as every module imports them; defined in ``bootnav.core.errors``
+(the ground floor, which imports nothing else of the package). ``BootnavWarning`` is the warning category of the
 Python API (``warnings.simplefilter("error", bootnav.errors.BootnavWarning)`` turns them into exceptions)."""
 
+from bootnav.core.errors import BootnavError, BootnavWarning, DiskFullError, InputError, UsageError
 
-class BootnavError(Exception):
-    """An error whose message says what is wrong and where (file, line, byte offset)."""
-
-
-class InputError(BootnavError):
-    """Bad input data: unreadable, wrong units, non-monotonic time, no stance, ..."""
-
-
-class UsageError(BootnavError):
-    """Options missing, contradictory or out of range, found after parsing: exit status 2, as argparse's own
-    usage errors."""
-
-
-class DiskFullError(BootnavError):
-    """The disk (or the file-size limit) is full: the message says what was safely written and where."""
-
-
-class BootnavWarning(UserWarning):
-    """A problem the Python API found and worked around (also in the result's ``warnings``): a failed check, a
-    fallback, a borderline unit."""
+__all__ = ["BootnavError", "BootnavWarning", "DiskFullError", "InputError", "UsageError"]
