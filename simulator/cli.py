@@ -34,7 +34,8 @@ def add_arguments(parser) -> None:
     dev.add_argument("--ambient-degc", type=float, metavar="C",
                      help="ambient temperature at power-on, C (default 25; needs --device)")
     dev.add_argument("--ambient-ramp-degc-per-min", type=float, metavar="R",
-                     help="ambient ramp, C per minute (e.g. a boot carried into a hot building; needs --device)")
+                     help="ambient ramp, C per minute (e.g. a boot carried into a hot building; default 0: none; "
+                          "needs --device)")
     dev.add_argument("--ambient-ramp-start-s", type=float, metavar="S", help="start of the ramp, s (default 0)")
     dev.add_argument("--ambient-ramp-duration-s", type=float, metavar="S",
                      help="length of the ramp, s (default: to the end)")

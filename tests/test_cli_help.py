@@ -17,7 +17,7 @@ from tests.conftest import REPO
 # ratio says dimensionless) and its default (or that it is required / has none)
 UNIT = re.compile(r"(?<![\w-])(s|ms|us|µs|Hz|kHz|m|mm|cm|m/s|m/s\^?2|rad/s|rad|deg|°|deg/s|dps|g|MB|GB|bytes?|"
                   r"samples?|%|ppm|seconds?|metres?|degrees?|baud|bit/s|x|processes|cores|states|"
-                  r"dimensionless|seed|number)(?![\w-])", re.IGNORECASE)
+                  r"dimensionless|seed|number|(?-i:C|degC|°C))(?![\w-])", re.IGNORECASE)
 DEFAULT = re.compile(r"default|required|\bnone\b", re.IGNORECASE)
 
 
