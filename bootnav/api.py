@@ -441,11 +441,12 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
 
     notes: list = []
     units = dict(acc_unit=acc_unit, gyro_unit=gyro_unit, time_unit=time_unit, check_units=check_units)
-    arrays = _source_and_units(source, acc_mps2, gyro_radps, True, units)
     with _ApiWords():
+        chosen = _settings(ProcessSettings, settings, overrides)  # a bad setting first, before any data is read
+        arrays = _source_and_units(source, acc_mps2, gyro_radps, True, units)
         if arrays is not None:
             source = _recording_of_arrays(*arrays[:3], notes=notes, **arrays[3])
-        res = _path_result(run(source, _settings(ProcessSettings, settings, overrides), progress))
+        res = _path_result(run(source, chosen, progress))
     res.warnings[:0] = notes
     _warn(res.warnings)
     return res

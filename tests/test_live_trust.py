@@ -123,6 +123,7 @@ def test_page_header_alarm_label_link_line_and_offsets_in_a_browser(tmp_path):
         driver.get(server.url)
         for _ in range(50):
             st = driver.js("""const c = document.getElementById("conn");
+              if (!document.getElementById("alarm-1") || !document.getElementById("link-1")) return null;
               const heads = [...document.querySelectorAll("circle.head")].map(e => [e.dataset.boot, +e.getAttribute("cx")]);
               const spans = [...document.querySelectorAll("#link-1 span")];
               return {header: c.textContent, cls: c.className, heads: heads,
@@ -131,12 +132,13 @@ def test_page_header_alarm_label_link_line_and_offsets_in_a_browser(tmp_path):
                 parts: spans.map(s => [s.textContent, s.getClientRects().length]),
                 linkLines: Math.round(document.getElementById("link-1").getBoundingClientRect().height /
                   parseFloat(getComputedStyle(spans.length ? spans[0] : document.body).lineHeight || 16))};""")
-            if len(st["heads"]) == 2 and st["parts"]:
+            if st and len(st["heads"]) == 2 and st["parts"]:
                 break
             time.sleep(0.1)
     finally:
         driver.quit()
         server.stop()
+    assert st, "the page never showed both boots"
     assert "ff1: ok" in st["header"] and "ff2: disconnected" in st["header"] and st["cls"] == "bad", st
     assert st["alarmShown"] and st["alarm"] == "SIGNAL LOST"
     assert len(st["parts"]) == 5 and all(n == 1 for _, n in st["parts"]), st["parts"]  # no figure split
