@@ -177,7 +177,8 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     lap("navigation")
 
     min_stride = settings.selftune.min_stride_m
-    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY))  # a kept stride is not tiny
+    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
+                            settings.floor_settings(), nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
@@ -388,7 +389,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         timing: dict = {}
         tau = 0.0
         if st.timing_calibration:  # pass 2: the two probe filters of the vertical timing calibration
-            probe_filter = replace(settings.filter, smoother="none")
+            probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
             navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, probe_filter) for s in (-1, 1)}
             fps = {s: FootprintAccumulator() for s in (-1, 1)}
             for ch in stance_stream():
@@ -459,7 +460,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
             t_mid, fp = fp_acc.finish()
             min_stride = settings.selftune.min_stride_m
-            steps = footprint_strides(t_mid, fp, min_stride)
+            steps = footprint_strides(t_mid, fp, min_stride, floors=settings.floor_settings())
             if len(steps["t_s"]) == 0:
                 raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
                                  "(is the sensor on a walking foot?)")
@@ -496,7 +497,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                          **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
                 write_group(tmp, group, {}, attrs, replace=False)
                 step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                              "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg"}
+                              "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
                 write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
                             {"description": "one row per stride, see postproc/strides.py"}, step_units)
                 attach_dimension_scales(tmp, group)

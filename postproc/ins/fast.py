@@ -134,7 +134,7 @@ def smooth_segments(closed, n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar
 
 @njit(cache=True, nogil=True)
 def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active, n, ric_u, ric_lam, ric_t, st, P,
-                 pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, closed, batch_rows, applied,
+                 pos, vel, q, ba, bg, pos_sig, pos_cen, buf_post, buf_pred, buf_fpar, buf_dx, seg, closed, batch_rows, applied,
                  counters):
     """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
     Returns the input row to resume at: k1, or earlier when the smoother's closed segments are due
@@ -151,7 +151,8 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active
     returns after a close when the closed segments reach ``batch_rows`` buffer rows, when ``closed`` is full,
     or when the next segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest
     buffer row not smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on.
-    ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
+    ``pos_sig`` gets the filter's position 1-σ per axis, ``pos_cen`` the east-north covariance P_EN (m²; the
+horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
     (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
     smoother's bookkeeping.
     """
@@ -259,6 +260,7 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active
             ba[r, i] = st[iba + i]
             bg[r, i] = st[ibg + i]
             pos_sig[r, i] = math.sqrt(max(P[DP + i, DP + i], 0.0))
+        pos_cen[r] = P[DP, DP + 1]
         for i in range(4):
             q[r, i] = st[iq + i]
         if prm.smooth:
@@ -361,7 +363,7 @@ def _compile(nav) -> None:
         closed = np.zeros((1, 3), dtype=np.int64)
         filter_chunk(1, 1, np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1),
                      0, nav.prm, nav._active, n, *nav._ric, nav._st.copy(), nav._P.copy(), none3, none3.copy(), none4,
-                     none3.copy(), none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred, nav._buf_fpar,
+                     none3.copy(), none3.copy(), none3.copy(), np.zeros(0), nav._buf_post, nav._buf_pred, nav._buf_fpar,
                      nav._buf_dx, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
         close_segment(seg, closed, counters, 0)
         smooth_segments(closed[:0], n, none3, none3.copy(), none4, none3.copy(), none3.copy(), nav._buf_post,
