@@ -17,7 +17,8 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    smoother (``ins.run_filter``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking foot is
    refused.
 5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
-   ``selftune.min_stride_m`` are not strides), distance, closure, floors.
+   ``selftune.min_stride_m`` are not strides), distance, closure, floors; before them the storeys
+   (``floors.snap_storeys``: flights counted in risers, landings on discrete storeys).
 6. **reference** (``reference``), when a reference is given: its metrics [Heidari2019, Table 1].
 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
@@ -43,6 +44,7 @@ from bootnav.logger.recording import Recording
 
 from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
                      saturation_intervals, saturation_warnings, stride_findings)
+from .floors import snap_storeys
 from .navigate import navigate
 from .selftune import TINY
 from .settings import ProcessSettings
@@ -172,19 +174,25 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     nav, stance = navi.nav, navi.stance
     pos_n = np.asarray(nav.pos_n)
     check_path_finite(name, t_s, pos_n, offset)
+    storeys = None
+    floors = settings.floor_settings()
+    if floors.storeys:
+        pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                      floors.riser_max_m)
     warnings += navi.warnings
     warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
     lap("navigation")
 
     min_stride = settings.selftune.min_stride_m
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            settings.floor_settings(), nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
+                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
     findings = stride_findings(steps, settings.checks, navi.choice)
     warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, settings.floor_settings(), min_stride)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
+    path_stats["storeys"] = storeys.summary() if storeys is not None else None
     lap("strides")
     metrics = None
     if ref is not None:

@@ -227,17 +227,27 @@ class FloorSettings:
     stair_min_dz_m: None = count floors from the footprint height; a value (m) = from stair strides only
         (|Δz| >= this), see the module docstring.
     hysteresis_m: extra height beyond the half-storey boundary before a level change counts (m).
+    storeys: keep the height on discrete storeys where the stairs say so (``floors``).
+    riser_min_m, riser_max_m: range of a riser's height (m).
     """
 
     floor_height_m: float = 3.0
     hysteresis_m: float = 0.5
     stair_min_dz_m: float | None = None
+    storeys: bool = True
+    riser_min_m: float = 0.15
+    riser_max_m: float = 0.20
 
     def __post_init__(self):
         if not self.floor_height_m > 0:
             raise ValueError(f"floor_height_m must be > 0, got {self.floor_height_m}")
         if self.stair_min_dz_m is not None and not 0 < self.stair_min_dz_m < self.floor_height_m:
             raise ValueError(f"stair_min_dz_m must be None or in (0, floor_height_m), got {self.stair_min_dz_m}")
+        if not 0 < self.riser_min_m < self.riser_max_m < self.floor_height_m:
+            raise ValueError(f"riser_min_m, riser_max_m must satisfy 0 < min < max < floor_height_m, got "
+                             f"{self.riser_min_m}, {self.riser_max_m}")
+        if not isinstance(self.storeys, bool):
+            raise ValueError(f"storeys must be true or false, got {self.storeys!r}")
         if not 0 <= self.hysteresis_m < self.floor_height_m / 2:
             raise ValueError(
                 f"hysteresis_m must be in [0, floor_height_m/2) = [0, {self.floor_height_m / 2}), got {self.hysteresis_m}"
