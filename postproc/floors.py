@@ -16,7 +16,11 @@ floor is at that floor's height again. This stage uses both, on the footprints o
    estimated so far (the pooled Σ|H| / ΣN of the agreeing flights before, 0.175 m before the first). The
    flight's riser count N = Σ n_i and its climbed height H = Σ Δz_i *agree* when
    N r_min − r_min/2 ≤ |H| ≤ N r_max + r_min/2 (``riser_min_m``, ``riser_max_m``).
-3. **Storeys.** Only when they agree, the landing height becomes the storey estimate start + sign(H) N r̂
+3. **Floors are flat.** The footprints of level strides are put at the height of the floor they are on (the
+   start's, or the landing of the flight that led there): the filter's hold leaves a bounded wobble of a
+   centimetre or two per stride (its gain is below one), which would otherwise be carried into the next
+   flight's start and add up over a mission.
+4. **Storeys.** Only when they agree, the landing height becomes the storey estimate start + sign(H) N r̂
    (r̂ now including this flight), and if a level already visited (the start's, or an earlier landing's) is
    within half a riser of it, exactly that level: coming back to a floor puts the walker at its height again.
    When they disagree nothing is forced: the landing keeps the filter's height (and is remembered as a level).
@@ -76,12 +80,12 @@ def storey_offsets(fp_z: np.ndarray, level_max_dz_m: float, riser_min_m: float, 
     nonlevel = np.abs(dz) >= level_max_dz_m
     tol = 0.5 * riser_min_m
     levels = [z[0]]
+    plateau = z[0]  # height of the floor (or landing) the walker is on, corrected
     sum_h, sum_n = 0.0, 0
-    offset = 0.0
     k = 0
     while k < k_n - 1:
         if not nonlevel[k]:
-            off[k + 1] = offset
+            off[k + 1] = plateau - z[k + 1]  # a level stride: on the same floor
             k += 1
             continue
         sgn = np.sign(dz[k])
@@ -90,15 +94,17 @@ def storey_offsets(fp_z: np.ndarray, level_max_dz_m: float, riser_min_m: float, 
             j += 1
         # strides k..j-1 are the flight, footprint j its landing; one stride is a step (a kerb, kneeling
         # down, standing up), not a flight: left as the filter says
+        offset = off[k]
         if j - k < MIN_FLIGHT_STRIDES:
             off[k + 1:j + 1] = offset
+            plateau = z[j] + offset
             k = j
             continue
         r_hat = sum_h / sum_n if sum_n else 0.5 * (riser_min_m + riser_max_m)
         n_i = np.maximum(1, np.rint(np.abs(dz[k:j]) / r_hat)).astype(int)
         n_risers, climbed = int(n_i.sum()), float(z[j] - z[k])
         out.flights += 1
-        start, land = z[k] + offset, z[j] + offset
+        start, land = plateau, z[j] + offset
         target = land
         if n_risers * riser_min_m - tol <= abs(climbed) <= n_risers * riser_max_m + tol:
             sum_h, sum_n = sum_h + abs(climbed), sum_n + n_risers
@@ -114,7 +120,7 @@ def storey_offsets(fp_z: np.ndarray, level_max_dz_m: float, riser_min_m: float, 
         new_offset = offset + (target - land)
         frac = np.cumsum(np.abs(dz[k:j])) / max(np.abs(dz[k:j]).sum(), 1e-12)
         off[k + 1:j + 1] = offset + frac * (new_offset - offset)
-        offset = new_offset
+        plateau = target
         k = j
     out.riser_m = sum_h / sum_n if sum_n else float("nan")
     return out

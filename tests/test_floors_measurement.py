@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bootnav.postproc.ins import FilterSettings, run_filter
-from bootnav.postproc.ins.layout import HEIGHT, LVL_HAVE_REF, LVL_REF_Z, POS, initial_nominal_state
+from bootnav.postproc.ins.layout import HEIGHT, LVL_HAVE_REF, LVL_PENDING, LVL_REF_Z, POS, initial_nominal_state
 from bootnav.postproc.ins.measurements import LevelHeightMeasurement
 from bootnav.postproc.ins.params import kernel_params
 from tests.test_ins_engines import messy_walk  # noqa: F401  (fixture)
@@ -25,7 +25,7 @@ N = 15
 
 def test_level_height_z_h_r_at_stance_onsets():
     meas = LevelHeightMeasurement(PRM, N)
-    stance = np.array([True, False, True, True, False, True, False, True, False, True])
+    stance = np.array([True, False, True, True, False, True, True, True, False, True])
     acc = gyr = np.zeros((len(stance), 3))
     st = initial_nominal_state([1.0, 0.0, 0.0, 0.0], np.zeros(3), np.zeros(3))
     dx = np.zeros(N)
@@ -41,11 +41,13 @@ def test_level_height_z_h_r_at_stance_onsets():
     assert h.shape == (1, N) and h[0, HEIGHT] == 1.0 and np.count_nonzero(h) == 1 and HEIGHT == 2
     assert r.shape == (1, 1) and r[0, 0] == pytest.approx(SIGMA_LEVEL**2, rel=1e-15)
     assert st[LVL_REF_Z] == 1.0  # the floor's height is kept
-    assert at(3, 1.5) is None and st[LVL_REF_Z] == 1.0  # mid-stance: nothing, memory untouched
+    assert at(3, 1.005) is None and st[LVL_REF_Z] == 1.0  # mid-stance after a level stride: memory untouched
     assert at(5, 1.0 + 0.34) is None and st[LVL_REF_Z] == pytest.approx(1.34, abs=1e-15)  # stair stride: new floor
-    z, _, _ = at(7, 1.34 - 0.05)  # level again, 5 cm down: below the 8 cm gate
-    assert z == pytest.approx([0.05], abs=1e-12)
-    assert at(9, 1.34 - MAX_DZ - 1e-6) is None  # just beyond the gate: a step down, not level
+    assert st[LVL_PENDING] == 1.0
+    assert at(6, 1.35) is None and at(7, 1.36) is None  # the foot settles: the reference follows it
+    assert st[LVL_REF_Z] == pytest.approx(1.36, abs=1e-15)
+    z, _, _ = at(9, 1.36 - 0.05)  # level again, 5 cm down: below the 8 cm gate
+    assert z == pytest.approx([0.05], abs=1e-12) and st[LVL_PENDING] == 0.0
 
 
 def test_level_height_uses_the_height_corrected_by_earlier_updates():

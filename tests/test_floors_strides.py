@@ -107,7 +107,10 @@ def test_a_flight_whose_risers_and_height_disagree_is_left_as_the_filter_says():
     assert res.flights == 1 and res.agreeing == 0 and not np.any(res.offset_fp)
 
 
-def test_level_walks_and_single_steps_are_not_flights():
-    z = np.array([0.0, 0.01, -0.02, 0.0, -0.12, -0.12, 0.0, 0.0])  # drift, then kneel down and stand up
+def test_level_walks_are_flat_and_single_steps_are_not_flights():
+    """Drift on a floor (each stride below the gate) is flattened to the floor's height; kneeling down and
+    standing up (one non-level stride each) move the plateau without counting a flight."""
+    z = np.array([0.0, 0.01, -0.02, 0.0, -0.12, -0.13, -0.01, 0.02])
     res = storey_offsets(z, LEVEL, RMIN, RMAX)
-    assert res.flights == 0 and not np.any(res.offset_fp)
+    assert res.flights == 0
+    assert np.allclose(z + res.offset_fp, [0.0, 0.0, 0.0, 0.0, -0.12, -0.12, 0.0, 0.0], atol=1e-12)

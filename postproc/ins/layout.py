@@ -26,10 +26,11 @@ BIAS_GYRO = slice(13, 16)
 # heading-aid memory: horizontal position at the previous stance onset, whether there was one (1.0 / 0.0),
 # and the reference heading (rad, NaN until the first long enough stride sets it)
 HDE_PREV_X, HDE_PREV_Y, HDE_HAVE_PREV, HDE_REF_HEADING = 16, 17, 18, 19
-# level-stride memory (``measurements.level_height``): the reference height (m: the floor the foot stands on,
-# set at the previous stance onset) and whether there is one (1.0 / 0.0)
-LVL_REF_Z, LVL_HAVE_REF = 20, 21
-N_NOMINAL = 22
+# level-stride memory (``measurements.level_height``): the reference height (m: the floor the foot stands on),
+# whether there is one (1.0 / 0.0), and whether it follows the foot to the end of the current stance phase
+# (1.0 after a stride that was not level: the new floor's height is where the foot settles)
+LVL_REF_Z, LVL_HAVE_REF, LVL_PENDING = 20, 21, 22
+N_NOMINAL = 23
 
 # error state: first index of each 3-block (numba kernels), and the blocks as slices (NumPy code)
 DP, DV, DTH, DBA, DBG = 0, 3, 6, 9, 12

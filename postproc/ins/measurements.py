@@ -39,7 +39,8 @@ import numpy as np
 from numba import njit
 
 from bootnav.postproc.ins.layout import (BIAS_GYRO, DBG, DP, DV, HDE_HAVE_PREV, HDE_PREV_X, HDE_PREV_Y,
-                                         HDE_REF_HEADING, HEIGHT, LVL_HAVE_REF, LVL_REF_Z, POS, VEL, YAW)
+                                         HDE_REF_HEADING, HEIGHT, LVL_HAVE_REF, LVL_PENDING, LVL_REF_Z, POS,
+                                         VEL, YAW)
 from bootnav.postproc.ins.params import KernelParams
 from bootnav.postproc.ins.settings import FilterSettings
 
@@ -118,13 +119,16 @@ def heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z):
 def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     """Height hold on a level stride, at stance onsets: z = h_ref − ĥ = δp_U + ν, H selects δp_U, R = σ_level².
 
-    h_ref is the height of the floor the foot stood on at the previous stance onset (``LVL_REF_Z``, layout.py);
-    ĥ the height now, after the earlier updates of this sample (the ZUPT). A stride is *level* when its
-    estimated height change |ĥ − h_ref| is below ``level_max_dz_m`` (half the lowest riser): the foot's own
-    motion tells a flat stride from a stair stride [MunozDiaz2018], and the drift of one stride is far below a
-    riser. Then the walker is on the same floor, and the height change since the last footfall is zero up to
-    the floor's flatness; the reference is kept (a level walk never random-walks the floor's height). Any
-    other stride (stairs, a ramp) gets no measurement and its landing height becomes the new reference.
+    h_ref is the height of the floor the foot stood on (``LVL_REF_Z``, layout.py); ĥ the height now, after the
+    earlier updates of this sample (the ZUPT). A stride is *level* when its estimated height change
+    |ĥ − h_ref| is below ``level_max_dz_m`` (half the lowest riser): the foot's own motion tells a flat
+    stride from a stair stride [MunozDiaz2018], and the drift of one stride is far below a riser. Then the
+    walker is on the same floor, and the height change since the last footfall is zero up to the floor's
+    flatness; the reference is kept (a level walk never random-walks the floor's height). Any other stride
+    (stairs, a ramp) gets no measurement, and the new reference is the height where the foot settles: it
+    follows the foot through the rest of that stance phase (``LVL_PENDING``; the ZUPTs after the onset still
+    move the height by millimetres to a centimetre after a stair swing). The first stance phase sets the
+    first reference the same way.
 
     Why R = σ_level² alone: h_ref is the filter's own earlier estimate, so its error is the same accumulated
     height error δh the current state carries (fully correlated), and z = h_ref − ĥ measures only the height
@@ -134,15 +138,20 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     the last stride's uncertainty, not the mission's: ``docs/floors.md``. Horizontal states are touched only
     through their (small) correlation with δp_U.
     """
-    if not stance[k] or (k > 0 and stance[k - 1]):
+    if not stance[k]:
         return 0, HEIGHT, 0.0
     h = st[POS.start + 2] + dx[HEIGHT]
+    if k > 0 and stance[k - 1]:  # within a stance phase: the reference follows the foot after a non-level stride
+        if st[LVL_PENDING] > 0.5:
+            st[LVL_REF_Z] = h
+        return 0, HEIGHT, 0.0
     m = 0
     if st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m:
         z[0] = st[LVL_REF_Z] - h
         m = 1
+        st[LVL_PENDING] = 0.0
     else:
-        st[LVL_REF_Z], st[LVL_HAVE_REF] = h, 1.0
+        st[LVL_REF_Z], st[LVL_HAVE_REF], st[LVL_PENDING] = h, 1.0, 1.0
     return m, HEIGHT, prm.var_level
 
 
