@@ -8,6 +8,8 @@ height: a flight is a whole number of risers of 0.15–0.20 m (issue 24; buildin
 floor is at that floor's height again. This stage uses both, on the footprints of the smoothed path
 (``strides.footprints``), after the filter:
 
+0. **Rolls.** A footprint closer than ``min_stride_m`` horizontally to the next is the foot before it rolled
+   onto its heel or toe (stairs down land toe-first): the rolled foot's footprint stands for both.
 1. **Flights.** A stride (footprint to footprint) is *level* when |Δz| < ``level_max_dz_m`` (the filter's
    gate, half the lowest riser); a flight is a maximal run of consecutive non-level strides of one sign
    (a half landing in a U-shaped stairwell splits a storey into two flights). A single non-level stride is
@@ -61,19 +63,31 @@ class StoreyResult:
                 "max_correction_m": float(np.abs(self.offset_fp).max()) if len(self.offset_fp) else 0.0}
 
 
-def storey_offsets(fp_z: np.ndarray, level_max_dz_m: float, riser_min_m: float, riser_max_m: float) -> StoreyResult:
+def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, riser_max_m: float,
+                   min_stride_m: float = 0.0) -> StoreyResult:
     """Height corrections of the footprints (module docstring).
 
     Parameters
     ----------
-    fp_z : (K,) footprint heights, m (the smoothed path's, in order).
+    fp : (K, 3) footprints, m (the smoothed path's, in order); (K,) heights alone are accepted (no rolls).
     level_max_dz_m : a stride with |Δz| below this is level, m.
     riser_min_m, riser_max_m : the range of a riser's height, m.
+    min_stride_m : a footprint closer than this (horizontally) to the next one is the foot before it rolled
+        onto its heel or toe (``FilterSettings.level_min_stride_m``): it takes the next one's correction and
+        is not a stride of its own.
     """
-    z = np.asarray(fp_z, float)
+    fp = np.asarray(fp, float)
+    k_all = len(fp)
+    if fp.ndim == 1:
+        fp = np.column_stack((np.arange(k_all) * (min_stride_m + 1.0), np.zeros(k_all), fp))
+    out = StoreyResult(np.zeros(k_all), 0, 0, 0, 0, float("nan"))
+    if k_all < 2:
+        return out
+    far = np.hypot(*np.diff(fp[:, :2], axis=0).T) >= min_stride_m
+    kept = np.flatnonzero(np.append(far, True))  # the last footprint of every cluster of close ones
+    z = fp[kept, 2]
     k_n = len(z)
     off = np.zeros(k_n)
-    out = StoreyResult(off, 0, 0, 0, 0, float("nan"))
     if k_n < 2:
         return out
     dz = np.diff(z)
@@ -123,17 +137,18 @@ def storey_offsets(fp_z: np.ndarray, level_max_dz_m: float, riser_min_m: float, 
         plateau = target
         k = j
     out.riser_m = sum_h / sum_n if sum_n else float("nan")
+    out.offset_fp = off[np.searchsorted(kept, np.arange(k_all))]  # a dropped footprint: its cluster's last one
     return out
 
 
 def snap_storeys(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, level_max_dz_m: float, riser_min_m: float,
-                 riser_max_m: float) -> tuple[np.ndarray, StoreyResult]:
+                 riser_max_m: float, min_stride_m: float = 0.0) -> tuple[np.ndarray, StoreyResult]:
     """The path with its heights corrected (a new array; ``pos_n`` is not modified) and the flights' report.
 
     Each sample gets the correction interpolated in time between the footprints' mid times (constant on a
     floor, spread along a flight; before the first / after the last footprint, theirs)."""
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
-    res = storey_offsets(fp[:, 2], level_max_dz_m, riser_min_m, riser_max_m)
+    res = storey_offsets(fp, level_max_dz_m, riser_min_m, riser_max_m, min_stride_m)
     out = np.array(pos_n, dtype=float, copy=True)
     if len(t_mid) and np.any(res.offset_fp):
         out[:, 2] += np.interp(t_s, t_mid, res.offset_fp)

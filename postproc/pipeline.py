@@ -178,7 +178,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     floors = settings.floor_settings()
     if floors.storeys:
         pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                      floors.riser_max_m)
+                                      floors.riser_max_m, settings.filter.level_min_stride_m)
     warnings += navi.warnings
     warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
     lap("navigation")

@@ -50,6 +50,22 @@ def test_level_height_z_h_r_at_stance_onsets():
     assert z == pytest.approx([0.05], abs=1e-12) and st[LVL_PENDING] == 0.0
 
 
+def test_a_heel_or_toe_roll_is_not_held_and_moves_the_reference():
+    """A move shorter than level_min_stride_m (here 2 cm forward, 3 cm down: the heel dropping after a
+    toe-first landing) is not a stride: no measurement, and the reference follows the foot."""
+    meas = LevelHeightMeasurement(PRM, N)
+    stance = np.array([True, False, True, True, False, True])
+    acc = gyr = np.zeros((len(stance), 3))
+    st = initial_nominal_state([1.0, 0.0, 0.0, 0.0], np.zeros(3), np.zeros(3))
+    dx = np.zeros(N)
+    for k, p in ((0, (0.0, 0.0, 0.0)), (2, (0.02, 0.0, -0.03)), (3, (0.02, 0.0, -0.031)), (5, (1.4, 0.0, -0.04))):
+        st[POS] = p
+        got = meas.evaluate(st, dx, acc, gyr, stance, k)
+        if k < 5:
+            assert got is None
+    assert got[0] == pytest.approx([0.009], abs=1e-12)  # held to where the foot settled after the roll
+
+
 def test_level_height_uses_the_height_corrected_by_earlier_updates():
     """ĥ = p̂_U + δp_U of this sample (the ZUPT's correction comes first, as for the heading aid)."""
     meas = LevelHeightMeasurement(PRM, N)

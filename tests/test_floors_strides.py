@@ -114,3 +114,25 @@ def test_level_walks_are_flat_and_single_steps_are_not_flights():
     res = storey_offsets(z, LEVEL, RMIN, RMAX)
     assert res.flights == 0
     assert np.allclose(z + res.offset_fp, [0.0, 0.0, 0.0, 0.0, -0.12, -0.12, 0.0, 0.0], atol=1e-12)
+
+
+def test_a_toe_first_landing_is_a_roll_not_a_stride():
+    """Stairs down (risers of 0.1975 m) landing toe-first: each stair stride (−0.36 m, 0.3 m forward) ends on
+    the toe, 3.5 cm above the flat foot, then the heel drops in place (−0.035 m, 2 cm forward). The roll footprints take
+    their flat footprint's correction; the flight is one flight of 2 risers a stride, not 1-stride steps."""
+    fp = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    x, z = 1.0, 0.0
+    for _ in range(5):
+        x, z = x + 0.3, z - 0.36
+        fp.append((x, 0.0, z))
+        x, z = x + 0.02, z - 0.035
+        fp.append((x, 0.0, z))
+    fp += [(x + 1.0, 0.0, z), (x + 2.0, 0.0, z)]
+    fp = np.array(fp)
+    res = storey_offsets(fp, LEVEL, RMIN, RMAX, min_stride_m=0.10)
+    assert res.flights == res.agreeing == 1 and res.risers == 10
+    corrected = fp[:, 2] + res.offset_fp
+    assert np.allclose(corrected[-3:], z)  # the flight is kept (its own riser estimate), the floor flat
+    assert np.allclose(corrected[3::2][:5] - corrected[2::2][:5], -0.035)  # a roll keeps its own height change
+    flat = storey_offsets(fp, LEVEL, RMIN, RMAX, min_stride_m=0.0)  # without the roll rule: 1-stride steps
+    assert flat.flights == 0

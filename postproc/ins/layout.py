@@ -28,9 +28,10 @@ BIAS_GYRO = slice(13, 16)
 HDE_PREV_X, HDE_PREV_Y, HDE_HAVE_PREV, HDE_REF_HEADING = 16, 17, 18, 19
 # level-stride memory (``measurements.level_height``): the reference height (m: the floor the foot stands on),
 # whether there is one (1.0 / 0.0), and whether it follows the foot to the end of the current stance phase
-# (1.0 after a stride that was not level: the new floor's height is where the foot settles)
-LVL_REF_Z, LVL_HAVE_REF, LVL_PENDING = 20, 21, 22
-N_NOMINAL = 23
+# (1.0 after a stride that was not level: the new floor's height is where the foot settles), and the horizontal
+# position at the last stance sample (the start of the next stride)
+LVL_REF_Z, LVL_HAVE_REF, LVL_PENDING, LVL_LAST_X, LVL_LAST_Y = 20, 21, 22, 23, 24
+N_NOMINAL = 25
 
 # error state: first index of each 3-block (numba kernels), and the blocks as slices (NumPy code)
 DP, DV, DTH, DBA, DBG = 0, 3, 6, 9, 12

@@ -39,8 +39,8 @@ import numpy as np
 from numba import njit
 
 from bootnav.postproc.ins.layout import (BIAS_GYRO, DBG, DP, DV, HDE_HAVE_PREV, HDE_PREV_X, HDE_PREV_Y,
-                                         HDE_REF_HEADING, HEIGHT, LVL_HAVE_REF, LVL_PENDING, LVL_REF_Z, POS,
-                                         VEL, YAW)
+                                         HDE_REF_HEADING, HEIGHT, LVL_HAVE_REF, LVL_LAST_X, LVL_LAST_Y, LVL_PENDING,
+                                         LVL_REF_Z, POS, VEL, YAW)
 from bootnav.postproc.ins.params import KernelParams
 from bootnav.postproc.ins.settings import FilterSettings
 
@@ -128,7 +128,10 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     (stairs, a ramp) gets no measurement, and the new reference is the height where the foot settles: it
     follows the foot through the rest of that stance phase (``LVL_PENDING``; the ZUPTs after the onset still
     move the height by millimetres to a centimetre after a stair swing). The first stance phase sets the
-    first reference the same way.
+    first reference the same way. A move shorter than ``level_min_stride_m`` horizontally since the last
+    stance sample is not a stride but the foot rolling onto its heel or toe (toe-first landings on stairs
+    down, kneeling), which changes the sensor's height by centimetres: no measurement, and the reference
+    follows the foot as after a non-level stride.
 
     Why R = σ_level² alone: h_ref is the filter's own earlier estimate, so its error is the same accumulated
     height error δh the current state carries (fully correlated), and z = h_ref − ĥ measures only the height
@@ -140,13 +143,18 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     """
     if not stance[k]:
         return 0, HEIGHT, 0.0
+    px, py = st[POS.start] + dx[DP], st[POS.start + 1] + dx[DP + 1]
     h = st[POS.start + 2] + dx[HEIGHT]
     if k > 0 and stance[k - 1]:  # within a stance phase: the reference follows the foot after a non-level stride
         if st[LVL_PENDING] > 0.5:
             st[LVL_REF_Z] = h
+        st[LVL_LAST_X], st[LVL_LAST_Y] = px, py
         return 0, HEIGHT, 0.0
+    sx, sy = px - st[LVL_LAST_X], py - st[LVL_LAST_Y]
+    st[LVL_LAST_X], st[LVL_LAST_Y] = px, py
     m = 0
-    if st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m:
+    if (st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m
+            and sx * sx + sy * sy >= prm.level_min_stride_m * prm.level_min_stride_m):
         z[0] = st[LVL_REF_Z] - h
         m = 1
         st[LVL_PENDING] = 0.0

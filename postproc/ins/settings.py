@@ -108,6 +108,12 @@ class FilterSettings:
         changes the height by at least one riser, while the vertical drift of a level stride is millimetres to a
         centimetre or two (0.2–0.9 % of the distance walked). Physics, not tuned; a ramp steeper than 0.075 m
         per stride (5 % at 1.4 m strides) is not flattened, a gentler one is.
+    level_min_stride_m : float
+        A move shorter than this (horizontal, m) from the previous stance phase is not a stride but the foot
+        rolling onto its heel or toe (a foot landing toe-first on stairs down, kneeling): the sensor's height
+        changes by centimetres with the foot's pitch, so it is not held, and the reference moves to where the
+        foot settles. 0.10 m: a roll moves a sensor within 0.15 m of the pivot by at most r·θ ≈ 0.08 m
+        horizontally (θ ≤ 35°, a steep toe-off).
     sigma_level_m : float
         Std of the height change of a level stride, m: floor flatness, 4 mm over 1 m and 10 mm over 4 m for
         finished floors [DIN18202], plus the foot not landing on exactly the same sole point. 5 mm.
@@ -145,6 +151,7 @@ class FilterSettings:
     hde_min_stride_m: float = 0.3
     level_height: bool = True
     level_max_dz_m: float = 0.075
+    level_min_stride_m: float = 0.10
     sigma_level_m: float = 0.005
 
     def validate(self) -> None:
@@ -172,7 +179,8 @@ class FilterSettings:
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number >= 0, got {v!r}")
                 continue
-            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "level_max_dz_m"):
+            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "level_max_dz_m",
+                                                                                          "level_min_stride_m"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number > 0, got {v!r}")
