@@ -52,18 +52,29 @@ def test_level_height_z_h_r_at_stance_onsets():
 
 def test_a_heel_or_toe_roll_is_not_held_and_moves_the_reference():
     """A move shorter than level_min_stride_m (here 2 cm forward, 3 cm down: the heel dropping after a
-    toe-first landing) is not a stride: no measurement, and the reference follows the foot."""
+    toe-first landing) is not a stride: no measurement. After a stair stride the reference still follows the
+    foot, so it ends where the rolled foot settled; on a level floor it stays."""
     meas = LevelHeightMeasurement(PRM, N)
-    stance = np.array([True, False, True, True, False, True])
+    stance = np.array([True, False, True, False, True, True, False, True, False, True, False, True])
     acc = gyr = np.zeros((len(stance), 3))
     st = initial_nominal_state([1.0, 0.0, 0.0, 0.0], np.zeros(3), np.zeros(3))
     dx = np.zeros(N)
-    for k, p in ((0, (0.0, 0.0, 0.0)), (2, (0.02, 0.0, -0.03)), (3, (0.02, 0.0, -0.031)), (5, (1.4, 0.0, -0.04))):
+
+    def at(k, p):
         st[POS] = p
-        got = meas.evaluate(st, dx, acc, gyr, stance, k)
-        if k < 5:
-            assert got is None
-    assert got[0] == pytest.approx([0.009], abs=1e-12)  # held to where the foot settled after the roll
+        return meas.evaluate(st, dx, acc, gyr, stance, k)
+
+    assert at(0, (0.0, 0.0, 0.0)) is None
+    z, _, _ = at(2, (1.0, 0.0, 0.01))  # level
+    assert z == pytest.approx([-0.01]) and st[LVL_PENDING] == 0.0
+    assert at(4, (1.3, 0.0, -0.36)) is None and st[LVL_PENDING] == 1.0  # stair stride down, on the toe
+    assert at(5, (1.3, 0.0, -0.361)) is None
+    assert at(7, (1.32, 0.0, -0.395)) is None  # the heel drops: a roll
+    assert st[LVL_REF_Z] == -0.361  # (the roll's onset keeps it; the stance samples after it move it)
+    at(8, (1.4, 0.0, 0.0))  # (swing sample: nothing)
+    z, _, _ = at(9, (2.7, 0.0, -0.40))  # a level stride after the roll: held to where the toe stance ended
+    assert z == pytest.approx([0.039], abs=1e-12)
+    assert at(11, (2.72, 0.0, -0.42)) is None and st[LVL_REF_Z] == -0.361  # a roll on a level floor: ref kept
 
 
 def test_level_height_uses_the_height_corrected_by_earlier_updates():

@@ -130,8 +130,8 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     move the height by millimetres to a centimetre after a stair swing). The first stance phase sets the
     first reference the same way. A move shorter than ``level_min_stride_m`` horizontally since the last
     stance sample is not a stride but the foot rolling onto its heel or toe (toe-first landings on stairs
-    down, kneeling), which changes the sensor's height by centimetres: no measurement, and the reference
-    follows the foot as after a non-level stride.
+    down, kneeling), which changes the sensor's height by centimetres: no measurement, and the reference stays
+    as it was (after a stair stride it still follows the foot, so it ends where the rolled foot settles).
 
     Why R = σ_level² alone: h_ref is the filter's own earlier estimate, so its error is the same accumulated
     height error δh the current state carries (fully correlated), and z = h_ref − ĥ measures only the height
@@ -153,8 +153,9 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     sx, sy = px - st[LVL_LAST_X], py - st[LVL_LAST_Y]
     st[LVL_LAST_X], st[LVL_LAST_Y] = px, py
     m = 0
-    if (st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m
-            and sx * sx + sy * sy >= prm.level_min_stride_m * prm.level_min_stride_m):
+    if st[LVL_HAVE_REF] > 0.5 and sx * sx + sy * sy < prm.level_min_stride_m * prm.level_min_stride_m:
+        pass  # a heel or toe roll: no measurement, the reference as it was (still following after a stair stride)
+    elif st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m:
         z[0] = st[LVL_REF_Z] - h
         m = 1
         st[LVL_PENDING] = 0.0
