@@ -128,10 +128,10 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     (stairs, a ramp) gets no measurement, and the new reference is the height where the foot settles: it
     follows the foot through the rest of that stance phase (``LVL_PENDING``; the ZUPTs after the onset still
     move the height by millimetres to a centimetre after a stair swing). The first stance phase sets the
-    first reference the same way. A move shorter than ``level_min_stride_m`` horizontally since the last
-    stance sample is not a stride but the foot rolling onto its heel or toe (toe-first landings on stairs
-    down, kneeling), which changes the sensor's height by centimetres: no measurement, and the reference stays
-    as it was (after a stair stride it still follows the foot, so it ends where the rolled foot settles).
+    first reference the same way. After a stair stride, a move shorter than ``level_min_stride_m``
+    horizontally is not a stride but the foot rolling onto its heel (stairs down land toe-first), which
+    changes the sensor's height by centimetres: no measurement, and the reference goes on following the foot
+    to where it settles. On a floor, short moves (crawling, turning on the spot) are held like strides.
 
     Why R = σ_level² alone: h_ref is the filter's own earlier estimate, so its error is the same accumulated
     height error δh the current state carries (fully correlated), and z = h_ref − ĥ measures only the height
@@ -153,8 +153,8 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     sx, sy = px - st[LVL_LAST_X], py - st[LVL_LAST_Y]
     st[LVL_LAST_X], st[LVL_LAST_Y] = px, py
     m = 0
-    if st[LVL_HAVE_REF] > 0.5 and sx * sx + sy * sy < prm.level_min_stride_m * prm.level_min_stride_m:
-        pass  # a heel or toe roll: no measurement, the reference as it was (still following after a stair stride)
+    if st[LVL_PENDING] > 0.5 and sx * sx + sy * sy < prm.level_min_stride_m * prm.level_min_stride_m:
+        pass  # a heel or toe roll after a stair stride: no measurement, the reference still follows the foot
     elif st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m:
         z[0] = st[LVL_REF_Z] - h
         m = 1

@@ -109,10 +109,9 @@ class FilterSettings:
         centimetre or two (0.2–0.9 % of the distance walked). Physics, not tuned; a ramp steeper than 0.075 m
         per stride (5 % at 1.4 m strides) is not flattened, a gentler one is.
     level_min_stride_m : float
-        A move shorter than this (horizontal, m) from the previous stance phase is not a stride but the foot
-        rolling onto its heel or toe (a foot landing toe-first on stairs down, kneeling): the sensor's height
-        changes by centimetres with the foot's pitch, so it is not held, and the reference moves to where the
-        foot settles. 0.10 m: a roll moves a sensor within 0.15 m of the pivot by at most r·θ ≈ 0.08 m
+        After a stair stride, a move shorter than this (horizontal, m) is not a stride but the foot rolling
+        onto its heel (stairs down land toe-first): the sensor's height changes by centimetres with the foot's
+        pitch, so it is not held, and the reference moves on to where the foot settles. 0.10 m: a roll moves a sensor within 0.15 m of the pivot by at most r·θ ≈ 0.08 m
         horizontally (θ ≤ 35°, a steep toe-off).
     sigma_level_m : float
         Std of the height change of a level stride, m: floor flatness, 4 mm over 1 m and 10 mm over 4 m for

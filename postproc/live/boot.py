@@ -10,7 +10,11 @@ foot leaves the ground again. From the final rows the view builds what ``process
 * strides: moves of at least ``selftune.min_stride_m`` between footprints (``strides.stride_footprints``);
 * floor: the level of each footprint's height above the first one (``strides.floor_signal`` and
   ``strides.floor_levels``, continued from the last level: both are shift-invariant by one storey);
-* distance: the sum of the horizontal stride lengths.
+* distance: the sum of the horizontal stride lengths;
+* uncertainty: each stride row ends with the footprint's horizontal 1-σ ellipse (``strides.ellipse``:
+  semi-major, semi-minor in m, orientation in rad counter-clockwise from east) from the forward filter's
+  covariance at the last sample of its stance phase, where the fixed-lag smoother ends every segment on the
+  filtered estimate (as ``process``'s ``steps.csv``).
 
 Provisional strides (``provisional``): as soon as a low-latency cue says the foot has stopped, the view
 draws a provisional footprint at the navigator's filtered position propagated to that stance start; the final
@@ -31,7 +35,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bootnav.errors import InputError
-from bootnav.postproc.strides import FootprintAccumulator, floor_levels, floor_signal, stride_footprints
+from bootnav.postproc.strides import FootprintAccumulator, ellipse, floor_levels, floor_signal, stride_footprints
+
+ROW_COLUMNS = ["t_s", "x_m", "y_m", "z_m", "floor", "ellipse_major_m", "ellipse_minor_m", "ellipse_orientation_rad"]
 
 from .link import LinkStatus
 from .provisional import RecentSamples, propagate_position
@@ -111,7 +117,9 @@ class BootView:
         self._nav = None
         self._ahead = np.zeros(0, bool)  # stance decisions of the pushed samples not yet final
         self._pending: list = []  # chunks waiting for the navigator to start (its initial still period)
-        self._rows: list[list[float]] = []  # [t_s, x_m, y_m, z_m, floor] per kept footprint, the start first
+        self._rows: list[list[float]] = []  # ROW_COLUMNS per kept footprint, the start first
+        self._ends_cov: list[tuple[float, float, float]] = []  # (P_EE, P_NN, P_EN) at each stance phase's end
+        self._in_stance = False  # the last final row was in stance (its phase may go on in the next rows)
         self._last_kept: np.ndarray | None = None
         self._z0: float | None = None  # height of the first footprint
         self._fp_last_z = 0.0  # height (relative) and floor signal of the last footprint
@@ -197,7 +205,22 @@ class BootView:
 
         rows = NavRows.concatenate(parts)
         self._ahead = self._ahead[len(rows):]
+        self._phase_end_covariances(rows)
         return rows.t_s, rows.pos_n, rows.stance
+
+    def _phase_end_covariances(self, rows) -> None:
+        """Keep the horizontal covariance at the last row of every stance phase (one entry per phase, in the
+        order the footprint accumulator closes them; a phase still open at the end of ``rows`` is updated by
+        the next rows)."""
+        st = np.asarray(rows.stance, bool)
+        if not len(st):
+            return
+        ends = np.flatnonzero(st & np.append(~st[1:], True))
+        if self._in_stance and st[0] and len(ends) and self._ends_cov:
+            self._ends_cov.pop()  # the open phase goes on: its end moves
+        sig, cen = rows.pos_sigma_n, rows.pos_cov_en
+        self._ends_cov.extend((float(sig[i, 0] ** 2), float(sig[i, 1] ** 2), float(cen[i])) for i in ends.tolist())
+        self._in_stance = bool(st[-1])
 
     def _start(self) -> bool:
         """Start the navigator once the initial rest is complete (as ``process`` aligns on it).
@@ -343,11 +366,15 @@ class BootView:
         else:
             keep = stride_footprints(np.vstack((self._last_kept, fp)), self.min_stride_m)[1:] - 1
         rows = []
+        k0 = self._n_fp - len(fp)  # index of fp[0] among all footprints
         for k in keep.tolist():
             if self._last_kept is not None:
                 self._distance_m += float(np.hypot(*(fp[k, :2] - self._last_kept[:2])))
             self._last_kept = fp[k]
-            rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k])])
+            a = b = o = None  # (no covariance: cannot happen while rows and phases stay in step)
+            if k0 + k < len(self._ends_cov):
+                a, b, o = (float(v) for v in ellipse(*self._ends_cov[k0 + k]))
+            rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k]), a, b, o])
         self._rows.extend(rows)
         return rows
 
@@ -356,14 +383,16 @@ class BootView:
         """What the boot's panel shows (JSON-ready)."""
         since = self._t_motion if self._t_motion is not None else self._t_start
         still = float(self._t_latest - since) if since is not None and np.isfinite(self._t_latest) else 0.0
+        last = self._rows[-1] if self._rows else None
         return {"floor": self._level, "height_m": self._fp_last_z, "distance_m": self._distance_m,
+                "uncertainty_m": [last[5], last[6]] if last and last[5] is not None else None,
                 "strides": max(len(self._rows) - 1, 0), "still_s": max(still, 0.0),
                 "alarm": bool(still >= self.live.no_motion_s), "t_s": self._t_latest if np.isfinite(self._t_latest)
                 else 0.0, "link": self.link.as_dict(wall_s, ended), "note": self.note}
 
     def result(self) -> dict:
         """The final stride rows and figures (``live.json``)."""
-        return {"columns": ["t_s", "x_m", "y_m", "z_m", "floor"], "rows": self._rows,
+        return {"columns": list(ROW_COLUMNS), "rows": self._rows,
                 "distance_m": self._distance_m, "strides": max(len(self._rows) - 1, 0), "final_floor": self._level,
                 "height_m": self._fp_last_z, "note": self.note,
                 "link": {k: v for k, v in self.link.as_dict(0.0, True).items() if k != "age_s"}}
