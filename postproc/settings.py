@@ -132,7 +132,8 @@ class ProcessSettings:
         Count floors from stair strides only (``|Δz| >=`` this per stride), or None to count from the
         footprint height. A stair stride climbs two risers (about 0.3 m) while the vertical drift of a ZUPT
         INS adds millimetres per flat stride, so 0.1 m removes the drift and keeps every flight; the price
-        is that a gentle ramp never counts.
+        is that a gentle ramp never counts. Used only with ``floor_storeys`` off: the storeys hold the heights
+        on floors already.
     floor_storeys : bool
         Keep the height on discrete storeys where the stairs say so (``floors``): flights counted in risers,
         a landing set to the storey estimate only when the riser count and the climbed height agree, and to

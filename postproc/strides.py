@@ -225,7 +225,7 @@ class FloorSettings:
 
     floor_height_m: storey height h (m); the paper's building is unknown, 3 m is a typical storey.
     stair_min_dz_m: None = count floors from the footprint height; a value (m) = from stair strides only
-        (|Δz| >= this), see the module docstring.
+        (|Δz| >= this), see the module docstring; used only with ``storeys`` off (``floor_signal``).
     hysteresis_m: extra height beyond the half-storey boundary before a level change counts (m).
     storeys: keep the height on discrete storeys where the stairs say so (``floors``).
     riser_min_m, riser_max_m: range of a riser's height (m).
@@ -234,7 +234,7 @@ class FloorSettings:
     floor_height_m: float = 3.0
     hysteresis_m: float = 0.5
     stair_min_dz_m: float | None = None
-    storeys: bool = True
+    storeys: bool = False
     riser_min_m: float = 0.15
     riser_max_m: float = 0.20
 
@@ -256,9 +256,11 @@ class FloorSettings:
 
 def floor_signal(z_rel_m: np.ndarray, settings: FloorSettings) -> np.ndarray:
     """Height (m, relative to the first footprint) used for counting floors: the footprint height, or the
-    running sum of stair-stride height changes when ``stair_min_dz_m`` is set."""
+    running sum of stair-stride height changes when ``stair_min_dz_m`` is set and the storeys are off (with
+    ``storeys`` the heights are already held on floors and landings, ``floors``: the gate's job is done, and
+    it would count a kneel (a 0.1 m drop of the sensor) without the stand-up that follows in smaller moves)."""
     z = np.asarray(z_rel_m, float)
-    if settings.stair_min_dz_m is None or len(z) < 2:
+    if settings.stair_min_dz_m is None or settings.storeys or len(z) < 2:
         return z
     dz = np.diff(z)
     return np.concatenate(([0.0], np.cumsum(np.where(np.abs(dz) >= settings.stair_min_dz_m, dz, 0.0))))
