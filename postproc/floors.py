@@ -51,6 +51,7 @@ class StoreyResult:
     """Per-footprint height corrections and what the flights said."""
 
     offset_fp: np.ndarray  # (K,) m, added to the footprint heights (and, interpolated, to every sample)
+    climbed_fp: np.ndarray  # (K,) m, height climbed on agreeing flights up to each footprint (floor numbers)
     flights: int  # flights found
     agreeing: int  # flights whose riser count and climbed height agree (their landings were set)
     snapped: int  # of those, landings put on a level visited before
@@ -80,7 +81,7 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
     k_all = len(fp)
     if fp.ndim == 1:
         fp = np.column_stack((np.arange(k_all) * (min_stride_m + 1.0), np.zeros(k_all), fp))
-    out = StoreyResult(np.zeros(k_all), 0, 0, 0, 0, float("nan"))
+    out = StoreyResult(np.zeros(k_all), np.zeros(k_all), 0, 0, 0, 0, float("nan"))
     if k_all < 2:
         return out
     far = np.hypot(*np.diff(fp[:, :2], axis=0).T) >= min_stride_m
@@ -88,6 +89,8 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
     z = fp[kept, 2]
     k_n = len(z)
     off = np.zeros(k_n)
+    climb = np.zeros(k_n)
+    climbed = 0.0
     if k_n < 2:
         return out
     dz = np.diff(z)
@@ -100,6 +103,7 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
     while k < k_n - 1:
         if not nonlevel[k]:
             off[k + 1] = plateau - z[k + 1]  # a level stride: on the same floor
+            climb[k + 1] = climbed
             k += 1
             continue
         sgn = np.sign(dz[k])
@@ -111,17 +115,19 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
         offset = off[k]
         if j - k < MIN_FLIGHT_STRIDES:
             off[k + 1:j + 1] = offset
+            climb[k + 1:j + 1] = climbed
             plateau = z[j] + offset
             k = j
             continue
         r_hat = sum_h / sum_n if sum_n else 0.5 * (riser_min_m + riser_max_m)
         n_i = np.maximum(1, np.rint(np.abs(dz[k:j]) / r_hat)).astype(int)
-        n_risers, climbed = int(n_i.sum()), float(z[j] - z[k])
+        n_risers, height = int(n_i.sum()), float(z[j] - z[k])
         out.flights += 1
         start, land = plateau, z[j] + offset
         target = land
-        if n_risers * riser_min_m - tol <= abs(climbed) <= n_risers * riser_max_m + tol:
-            sum_h, sum_n = sum_h + abs(climbed), sum_n + n_risers
+        agree = n_risers * riser_min_m - tol <= abs(height) <= n_risers * riser_max_m + tol
+        if agree:
+            sum_h, sum_n = sum_h + abs(height), sum_n + n_risers
             target = start + sgn * n_risers * (sum_h / sum_n)
             near = min(levels, key=lambda lv: abs(lv - target))
             if abs(near - target) < tol:
@@ -134,10 +140,13 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
         new_offset = offset + (target - land)
         frac = np.cumsum(np.abs(dz[k:j])) / max(np.abs(dz[k:j]).sum(), 1e-12)
         off[k + 1:j + 1] = offset + frac * (new_offset - offset)
+        climb[k + 1:j + 1] = climbed + (frac * (target - start) if agree else 0.0)
+        climbed = climb[j]
         plateau = target
         k = j
     out.riser_m = sum_h / sum_n if sum_n else float("nan")
-    out.offset_fp = off[np.searchsorted(kept, np.arange(k_all))]  # a dropped footprint: its cluster's last one
+    back = np.searchsorted(kept, np.arange(k_all))  # a dropped footprint: its cluster's last one
+    out.offset_fp, out.climbed_fp = off[back], climb[back]
     return out
 
 

@@ -42,7 +42,7 @@ floor count. The price: a gentle ramp (|Δz| per stride below the gate) never co
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -159,8 +159,8 @@ def phase_ends(stance: np.ndarray) -> np.ndarray:
 
 def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_stride_m: float = 0.0,
                     flags: np.ndarray | None = None, floors: FloorSettings | None = None,
-                    pos_sigma_n: np.ndarray | None = None,
-                    pos_cov_en: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                    pos_sigma_n: np.ndarray | None = None, pos_cov_en: np.ndarray | None = None,
+                    floor_z: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One row per stride (dict of equal-length arrays, keys ``STEP_COLUMNS``, plus ``quality_flags`` when
     ``flags`` is given).
 
@@ -178,6 +178,9 @@ def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_
     pos_sigma_n, pos_cov_en
         Optional per-sample position 1-σ (N, 3) and east-north covariance P_EN (N,), m and m²: add the
         ellipse columns (``ELLIPSE_COLUMNS``) from their values at the last sample of each stance phase.
+    floor_z
+        Optional (K,) height per stance phase to count floors from instead of the footprint heights (the
+        storeys' climbed height, ``floors.StoreyResult.climbed_fp``).
     """
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
     cov = None
@@ -185,14 +188,15 @@ def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_
         end = phase_ends(np.asarray(stance, bool))
         sig = np.asarray(pos_sigma_n, float)[end]
         cov = np.column_stack((sig[:, 0] ** 2, sig[:, 1] ** 2, np.asarray(pos_cov_en, float)[end]))
-    return footprint_strides(t_mid, fp, min_stride_m, flags, floors, cov)
+    return footprint_strides(t_mid, fp, min_stride_m, flags, floors, cov, floor_z)
 
 
 def footprint_strides(t_mid: np.ndarray, fp: np.ndarray, min_stride_m: float = 0.0,
                       flags: np.ndarray | None = None, floors: FloorSettings | None = None,
-                      cov_h: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                      cov_h: np.ndarray | None = None, floor_z: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """``segment_strides`` from the stance phases' mid times (K,) and footprints (K, 3); ``cov_h`` (K, 3):
-    each footprint's horizontal covariance (P_EE, P_NN, P_EN), m², for the ellipse columns."""
+    each footprint's horizontal covariance (P_EE, P_NN, P_EN), m², for the ellipse columns; ``floor_z`` (K,):
+    the height to count floors from (default: the footprints')."""
     keep = stride_footprints(fp, min_stride_m)
     t_k, fp_k = t_mid[keep], fp[keep]
     d = np.diff(fp_k, axis=0)
@@ -205,8 +209,12 @@ def footprint_strides(t_mid: np.ndarray, fp: np.ndarray, min_stride_m: float = 0
         "dz_m": d[:, 2],
         "yaw_enu_rad": np.arctan2(d[:, 1], d[:, 0]),
     }
-    z_rel = fp_k[:, 2] - fp[0, 2] if len(fp) else fp_k[:, 2]
-    out[FLOOR_COLUMN] = floor_levels(floor_signal(z_rel, floors or FloorSettings()), floors or FloorSettings())[1:]
+    fs = floors or FloorSettings()
+    if floor_z is not None:
+        out[FLOOR_COLUMN] = floor_levels(np.asarray(floor_z, float)[keep] - float(floor_z[0]), fs)[1:]
+    else:
+        z_rel = fp_k[:, 2] - fp[0, 2] if len(fp) else fp_k[:, 2]
+        out[FLOOR_COLUMN] = floor_levels(floor_signal(z_rel, fs), fs)[1:]
     if cov_h is not None:
         c = np.asarray(cov_h, float)[keep[1:]].reshape(-1, 3)
         out.update(zip(ELLIPSE_COLUMNS, ellipse(c[:, 0], c[:, 1], c[:, 2])))
@@ -296,7 +304,7 @@ def count_floors(z_rel_m: np.ndarray, settings: FloorSettings) -> dict:
 
 
 def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors: FloorSettings,
-                 min_stride_m: float = 0.0) -> dict:
+                 min_stride_m: float = 0.0, floor_z: np.ndarray | None = None) -> dict:
     """Distance, closure, height and floors from stance phases (all in metres; see module docstring).
 
     Strides and distance count only moves of at least ``min_stride_m`` (``stride_footprints``); closure and
@@ -304,10 +312,11 @@ def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors:
     starts, stops = runs(stance)
     _, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
     walked = float(t_s[starts[-1]] - t_s[stops[0] - 1]) if starts.size else 0.0
-    return footprint_summary(fp, floors, min_stride_m, walked)
+    return footprint_summary(fp, floors, min_stride_m, walked, floor_z)
 
 
-def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float, walked_s: float) -> dict:
+def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float, walked_s: float,
+                      floor_z: np.ndarray | None = None) -> dict:
     """``path_summary`` from the footprints (K, 3) and the time from the end of the first stance phase to the
     start of the last one (``walked_s``, s): what a chunked run keeps of the path (``FootprintAccumulator``)."""
     keep = stride_footprints(fp, min_stride_m)
@@ -334,5 +343,8 @@ def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float
         mean_stride_length_m=float(np.hypot(d[:, 0], d[:, 1]).mean()),
         duration_walked_s=walked_s,
     )
-    out.update(count_floors(z_rel, floors))
+    if floor_z is None:
+        out.update(count_floors(z_rel, floors))
+    else:  # the storeys' climbed height: already free of drift, counted as it is
+        out.update(count_floors(np.asarray(floor_z, float) - float(floor_z[0]), replace(floors, stair_min_dz_m=None)))
     return out

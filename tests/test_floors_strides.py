@@ -96,6 +96,8 @@ def test_up_and_down_the_same_flights_lands_on_the_start_despite_a_height_error(
     assert np.allclose(top, 18 * 0.17 + 0.06)  # the first flight sets the riser estimate: its landing stays
     assert res.riser_m == pytest.approx((3.12 + 3.10) / 36)  # pooled over both flights
     assert np.all(np.diff(corrected[2:2 + 10]) > 0.3)  # the climb (9 strides of 2 risers) is not flattened
+    # the floor count's height: what the agreeing flights climbed (here the corrected heights themselves)
+    assert np.allclose(res.climbed_fp, corrected - corrected[0], atol=1e-12)
 
 
 def test_a_flight_whose_risers_and_height_disagree_is_left_as_the_filter_says():
@@ -105,6 +107,7 @@ def test_a_flight_whose_risers_and_height_disagree_is_left_as_the_filter_says():
     z = np.array([0.0, 0.0, 0.26, 0.52, 0.52, 0.52])
     res = storey_offsets(z, LEVEL, RMIN, RMAX)
     assert res.flights == 1 and res.agreeing == 0 and not np.any(res.offset_fp)
+    assert not np.any(res.climbed_fp)  # nor is it counted as a climb (running drift, a ramp, a bad stride)
 
 
 def test_level_walks_are_flat_and_single_steps_are_not_flights():
