@@ -60,7 +60,7 @@ class StoreyResult:
 
     def summary(self) -> dict:
         return {"flights": self.flights, "flights_agreeing": self.agreeing, "landings_on_known_level": self.snapped,
-                "risers": self.risers, "riser_estimate_m": self.riser_m,
+                "risers": self.risers, "riser_estimate_m": self.riser_m if np.isfinite(self.riser_m) else None,
                 "max_correction_m": float(np.abs(self.offset_fp).max()) if len(self.offset_fp) else 0.0}
 
 

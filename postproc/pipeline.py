@@ -475,6 +475,10 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
                                  "(is the sensor on a walking foot?)")
             path_stats = footprint_summary(fp, settings.floor_settings(), min_stride, fp_acc.walked_s)
+            path_stats["storeys"] = None
+            if settings.floor_storeys:  # a look-back stage: a flight's landing corrects the samples before it
+                warnings.append("chunked run: the storeys (floors.snap_storeys) need the whole path and were not "
+                                "applied; the filter's level-stride height hold was")
             lap("strides")
             summary = {
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
