@@ -90,8 +90,25 @@ class FilterSettings:
         Longest buffered smoother segment, s: bounds memory (longer swings or stances are smoothed in pieces).
         5 s.
     heading_aid : str
-        "none" or "dominant_directions": the heuristic heading aid of ``measurements.heading_aid``
-        [Borenstein2009]; assumes a building with rectilinear floor plans, so off by default.
+        "none", "dominant_directions" or "auto": the heuristic heading aid of ``measurements.heading_aid``
+        [Borenstein2009] assumes a building with rectilinear floor plans; "auto" switches it on per recording
+        when the strides of the unaided path show such a grid (``postproc.building.directions``; ``bootnav
+        live``: from the strides seen so far).
+    heading_aid_reference_rad : float or None
+        Grid direction of the aid in the path frame, rad; None: the first stride of at least
+        ``hde_min_stride_m`` sets it ("auto" sets it from the strides it decided on).
+    hde_auto_window : int
+        "auto": straight strides per window (each window has its own grid direction, so the unaided path's
+        heading drift within one window must stay below the tolerance: ~1 min of walking). 40.
+    hde_auto_tolerance_rad : float
+        "auto": a straight stride is on the grid within this angle, rad: σ_hde, how straight a corridor walk
+        is. 5° (strides in random directions: 11 % on the grid).
+    hde_auto_min_share : float
+        "auto": share of the straight strides on the grid for the aid to switch on. 0.5.
+    hde_auto_min_cross : float
+        "auto": share of the aligned strides on the axis at right angles to the main one (a corridor at right
+        angles walked; an out-and-back walk has none, as its turns are not straight strides). 0.02: one
+        straight stride in 50 (in a building most straight strides run along the long corridors).
     hde_threshold_rad : float
         The aid acts only on strides within this angle of a dominant direction, rad. 10°.
     sigma_hde_rad : float
@@ -127,6 +144,11 @@ class FilterSettings:
     smoother: str = "rts"
     smoother_max_segment_s: float = 5.0
     heading_aid: str = "none"
+    heading_aid_reference_rad: float | None = None
+    hde_auto_window: int = 40
+    hde_auto_tolerance_rad: float = 5.0 * DEG
+    hde_auto_min_share: float = 0.5
+    hde_auto_min_cross: float = 0.02
     hde_threshold_rad: float = 10.0 * DEG
     sigma_hde_rad: float = 5.0 * DEG
     hde_min_stride_m: float = 0.3
@@ -141,10 +163,17 @@ class FilterSettings:
             raise ValueError(f"FilterSettings.engine must be 'fast' or 'reference', got {self.engine!r}")
         if self.smoother not in ("rts", "none"):
             raise ValueError(f"FilterSettings.smoother must be 'rts' or 'none', got {self.smoother!r}")
-        if self.heading_aid not in ("none", "dominant_directions"):
-            raise ValueError(
-                f"FilterSettings.heading_aid must be 'none' or 'dominant_directions', got {self.heading_aid!r}"
-            )
+        if self.heading_aid not in ("none", "dominant_directions", "auto"):
+            raise ValueError(f"FilterSettings.heading_aid must be 'none', 'dominant_directions' or 'auto', got "
+                             f"{self.heading_aid!r}")
+        ref = self.heading_aid_reference_rad
+        if ref is not None and not (isinstance(ref, (int, float)) and math.isfinite(ref)):
+            raise ValueError(f"FilterSettings.heading_aid_reference_rad must be None or a finite angle, got {ref!r}")
+        if not (isinstance(self.hde_auto_window, int) and self.hde_auto_window >= 3):
+            raise ValueError(f"FilterSettings.hde_auto_window must be an integer >= 3, got {self.hde_auto_window!r}")
+        for name in ("hde_auto_min_share", "hde_auto_min_cross"):
+            if not 0 <= getattr(self, name) <= 1:
+                raise ValueError(f"FilterSettings.{name} must be in [0, 1], got {getattr(self, name)!r}")
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
         for f in fields(self):
