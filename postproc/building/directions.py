@@ -21,7 +21,9 @@ Rule (every number in ``FilterSettings``):
    For headings with no preferred direction the share is near 4 · 2 tol / 360° (11 % at 5°).
 4. The aid is on when, over all windows together, the share is at least ``hde_auto_min_share`` AND the cross
    share at least ``hde_auto_min_cross``, with at least one full window. An out-and-back walk lies on one
-   axis (cross share 0): off. Its reference is the grid direction of the first window that passes.
+   axis (cross share 0): off. Its reference grid direction is that of the earliest ``EARLY_STRIDES`` aligned
+   strides of the first window that passes (the unaided path's heading drifts: the earliest strides are the
+   least rotated).
 
 Per segment: every window's share, cross share and direction are reported (``HeadingDecision.windows``);
 the aid itself applies to the whole recording or not at all (the filter's gate then keeps it off the strides
@@ -39,6 +41,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 QUARTER = 0.5 * math.pi
+EARLY_STRIDES = 10  # the reference grid direction: mean of this many earliest aligned strides (noise / sqrt(10))
 
 
 def wrap(a):
@@ -137,13 +140,17 @@ def decide(fp_xy: np.ndarray, settings) -> HeadingDecision:
     cross = sum(w.n_cross for w in windows) / max(n_a, 1)
     ok_share, ok_cross = share >= settings.hde_auto_min_share, cross >= settings.hde_auto_min_cross
     first = next((w for w in windows if w.share >= settings.hde_auto_min_share), windows[0])
+    # the reference: the earliest aligned strides of that window (the unaided heading drifts with time)
+    idx = straight[(straight >= first.first) & (straight <= first.last)]
+    early = idx[np.abs(grid_error(psi[idx], first.theta_rad)) < settings.hde_auto_tolerance_rad][:EARLY_STRIDES]
+    reference = float(np.angle(np.exp(4j * psi[early]).sum()) / 4.0) if early.size else first.theta_rad
     tol = math.degrees(settings.hde_auto_tolerance_rad)
     why = (f"{share:.0%} of {W * len(windows)} straight strides within {tol:.0f} deg of a 90-deg grid (need "
            f"{settings.hde_auto_min_share:.0%}), {cross:.0%} of them at right angles to the main axis (need "
            f"{settings.hde_auto_min_cross:.0%})")
     on = bool(ok_share and ok_cross)
     reason = ("on: " if on else "off: ") + why
-    return HeadingDecision(on, reason, first.theta_rad if on else float("nan"), share, cross, **base)
+    return HeadingDecision(on, reason, reference if on else float("nan"), share, cross, **base)
 
 
 class CausalDirections:
