@@ -2,7 +2,8 @@
 buildings (``bootnav simulate --scenario building``), processed by ``process`` with ``filter.heading_aid``
 ``none``, ``auto`` and ``dominant_directions``, per sensor profile.
 
-Figures per walk (after a yaw alignment over the first 10 m of the true path, as an entry door would give it;
+``none+revisits`` and ``auto+revisits``: the revisit pose graph (``filter.revisits = "entry+stairs"``,
+``postproc.building.revisits``) applied to that run's result. Figures per walk (after a yaw alignment over the first 10 m of the true path, as an entry door would give it;
 the same rule as ``benchmarks/mission.py``): final and RMS horizontal error, the share of true stance samples
 whose height is within 1.5 m of the truth, and what ``auto`` decided (on/off, share of straight strides on a
 90° grid). Printed as medians and worst values over the seeds (asserts nothing); ``--json`` keeps every row.
@@ -29,6 +30,7 @@ import numpy as np
 ALIGN_M = 10.0
 HEIGHT_TOL_M = 1.5
 AIDS = ("none", "auto", "dominant_directions")
+REVISIT_AFTER = ("none", "auto")
 
 
 def seeds_arg(text: str) -> list[int]:
@@ -68,8 +70,12 @@ def recording(seed: int, profile: str, duration: float, rate: float, cache: Path
 
 def run_one(args) -> list[dict]:
     seed, profile, duration, rate, cache = args
+    from dataclasses import replace
+    from types import SimpleNamespace
+
     import h5py
 
+    from bootnav.postproc.building.revisits import apply_revisits
     from bootnav.postproc.pipeline import process
     from bootnav.postproc.settings import ProcessSettings
 
@@ -85,10 +91,18 @@ def run_one(args) -> list[dict]:
         t1 = time.perf_counter()
         res = process(path, s)
         dec = res.nav.info.get("heading_decision", {})
-        rows.append({"seed": seed, "profile": profile, "aid": aid, "sim_s": t_sim, "process_s": time.perf_counter() - t1,
-                     **metrics(np.asarray(res.pos_n), truth["pos_n_m"], truth["stance"]),
-                     "auto_on": dec.get("on"), "auto_share": dec.get("share"), "auto_cross": dec.get("cross"),
-                     "heading_aid_updates": res.nav.info.get("heading_aid_updates")})
+        row = {"seed": seed, "profile": profile, "aid": aid, "sim_s": t_sim, "process_s": time.perf_counter() - t1,
+               **metrics(np.asarray(res.pos_n), truth["pos_n_m"], truth["stance"]),
+               "auto_on": dec.get("on"), "auto_share": dec.get("share"), "auto_cross": dec.get("cross"),
+               "heading_aid_updates": res.nav.info.get("heading_aid_updates")}
+        rows.append(row)
+        if aid in REVISIT_AFTER:  # the pose graph on this result (what revisits = "entry+stairs" would do)
+            nav = SimpleNamespace(pos_n=np.asarray(res.pos_n), pos_sigma_n=res.nav.pos_sigma_n, info={})
+            nav = apply_revisits(nav, np.asarray(res.t_s), np.asarray(res.stance, bool),
+                                 replace(s.filter, revisits="entry+stairs"))
+            kinds = [e["kind"] for e in nav.info["revisits"]["edges"]]
+            rows.append({**row, "aid": f"{aid}+revisits", **metrics(nav.pos_n, truth["pos_n_m"], truth["stance"]),
+                         "revisit_edges": {k: kinds.count(k) for k in set(kinds)}})
     return rows
 
 
@@ -110,21 +124,22 @@ def main(argv=None) -> int:
             rows += part
             r = part[0]
             print(f"  seed {r['seed']} {r['profile']}: " + ", ".join(
-                f"{x['aid']} {x['final_h_m']:.1f} m" for x in part) + f" (auto {'on' if part[1]['auto_on'] else 'off'}"
-                f", share {part[1]['auto_share'] or float('nan'):.2f})", flush=True)
+                f"{x['aid']} {x['final_h_m']:.1f}/{x['armse_h_m']:.1f} m" for x in part) +
+                f" (final/ARMSE; auto {'on' if part[2]['auto_on'] else 'off'}, share {part[2]['auto_share'] or 0:.2f})",
+                flush=True)
             if args.json:
                 args.json.write_text(json.dumps({"rows": rows}, indent=1))
     print(f"\n{'profile':22s} {'aid':20s} {'n':>3s} {'final med':>9s} {'final max':>9s} {'ARMSE med':>9s} "
           f"{'floor% med':>10s} {'auto on':>7s}")
     for p in args.profiles:
-        for aid in AIDS:
+        for aid in ("none", "none+revisits", "auto", "auto+revisits", "dominant_directions"):
             sel = [r for r in rows if r["profile"] == p and r["aid"] == aid]
             if not sel:
                 continue
             f = np.array([r["final_h_m"] for r in sel])
             a = np.array([r["armse_h_m"] for r in sel])
             z = np.array([r["stance_within_tol_pct"] for r in sel])
-            on = sum(bool(r["auto_on"]) for r in sel) if aid == "auto" else ""
+            on = sum(bool(r["auto_on"]) for r in sel) if aid.startswith("auto") else ""
             print(f"{p:22s} {aid:20s} {len(sel):3d} {np.median(f):9.2f} {f.max():9.2f} {np.median(a):9.2f} "
                   f"{np.median(z):10.1f} {on!s:>7s}")
     return 0

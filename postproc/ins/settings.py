@@ -109,6 +109,22 @@ class FilterSettings:
         "auto": share of the aligned strides on the axis at right angles to the main one (a corridor at right
         angles walked; an out-and-back walk has none, as its turns are not straight strides). 0.02: one
         straight stride in 50 (in a building most straight strides run along the long corridors).
+    revisits : str
+        "none", "entry", "stairs" or "entry+stairs": correct the smoothed path by a pose graph over strides
+        where the walker comes back to a place already visited (``postproc.building.revisits``). Off: see
+        docs/building.md for what it does.
+    revisit_entry_gate : float
+        "entry": the last footprint is tied to the first when they are closer than this share of the distance
+        walked (an unaided foot INS drifts ~1 % of it). 0.03.
+    revisit_stair_gate_m : float
+        "stairs": two parallel flights are the same (or stacked) when both ends are this close, m. 3 m (the
+        drift between two visits; flights of one stairwell in the same direction are stacked exactly).
+    revisit_riser_m : float
+        "stairs": a stair stride climbs or descends at least this, m (half the lowest riser, 0.15 m). 0.075.
+    revisit_sigma_m : float
+        Std of a revisit edge, m (where a foot lands at a door or on a step). 0.3 m.
+    revisit_step_sigma_m : float
+        Least std of one stride's odometry edge, m (the filter's covariance misses unmodelled errors). 0.05 m.
     hde_threshold_rad : float
         The aid acts only on strides within this angle of a dominant direction, rad. 10°.
     sigma_hde_rad : float
@@ -149,6 +165,12 @@ class FilterSettings:
     hde_auto_tolerance_rad: float = 5.0 * DEG
     hde_auto_min_share: float = 0.5
     hde_auto_min_cross: float = 0.02
+    revisits: str = "none"
+    revisit_entry_gate: float = 0.03
+    revisit_stair_gate_m: float = 3.0
+    revisit_riser_m: float = 0.075
+    revisit_sigma_m: float = 0.3
+    revisit_step_sigma_m: float = 0.05
     hde_threshold_rad: float = 10.0 * DEG
     sigma_hde_rad: float = 5.0 * DEG
     hde_min_stride_m: float = 0.3
@@ -171,6 +193,14 @@ class FilterSettings:
             raise ValueError(f"FilterSettings.heading_aid_reference_rad must be None or a finite angle, got {ref!r}")
         if not (isinstance(self.hde_auto_window, int) and self.hde_auto_window >= 3):
             raise ValueError(f"FilterSettings.hde_auto_window must be an integer >= 3, got {self.hde_auto_window!r}")
+        if self.revisits not in ("none", "entry", "stairs", "entry+stairs"):
+            raise ValueError(f"FilterSettings.revisits must be 'none', 'entry', 'stairs' or 'entry+stairs', got "
+                             f"{self.revisits!r}")
+        for name in ("revisit_entry_gate", "revisit_stair_gate_m", "revisit_riser_m", "revisit_sigma_m",
+                     "revisit_step_sigma_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"FilterSettings.{name} must be a finite number > 0, got {v!r}")
         for name in ("hde_auto_min_share", "hde_auto_min_cross"):
             if not 0 <= getattr(self, name) <= 1:
                 raise ValueError(f"FilterSettings.{name} must be in [0, 1], got {getattr(self, name)!r}")
