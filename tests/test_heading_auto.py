@@ -62,8 +62,8 @@ def test_causal_rule_switches_on_once_and_matches_the_batch_rule():
     switched = [c.push(fp[i:i + 7]) for i in range(0, len(fp), 7)]  # any chunking
     assert sum(switched) == 1 and c.on
     assert abs(grid_error(c.reference_rad, 0.0)) < math.radians(3.0)
-    # it decides after the first full window of straight strides, not before
-    assert c.decided_at_stride >= S.hde_auto_window
+    # it decides once it has seen the fewest straight strides it may decide on, not before
+    assert c.decided_at_stride >= S.hde_auto_min_strides + 2  # a straight stride needs both neighbours
     assert decide(fp, S).on
 
 

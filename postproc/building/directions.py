@@ -2,7 +2,7 @@
 
 In most buildings corridors are parallel or at right angles, so the headings of the strides of a walk
 inside them cluster around four directions 90° apart [Borenstein2009; Borenstein2010 (HDE)]; in complex
-buildings only some parts do, so the aid should act where the strides show it [Jimenez2012 (iHDE)]. The
+buildings only some parts do, so the aid should act where the strides show it [Jimenez2011 (iHDE)]. The
 heading aid (``ins.measurements.heading_aid``) pulls every stride that lies within a gate of that grid onto
 it: right in a rectilinear building, wrong in a mocap room, an open hall or a free walk. This module decides
 from the strides of a path computed WITHOUT the aid whether to switch it on.
@@ -13,8 +13,10 @@ Rule (every number in ``FilterSettings``):
    rule: shuffling and turning on the spot give no heading); heading ψ_k = atan2(Δy, Δx).
 2. Straight strides: |ψ_k − ψ_{k−1}| and |ψ_{k+1} − ψ_k| both below ``hde_threshold_rad`` (the aid's gate):
    the stride is inside a straight leg, not in a turn.
-3. Windows of ``hde_auto_window`` consecutive straight strides (the heading drift of the unaided path over a
-   window is small: ~1 min of walking). In each window the grid direction is the 90°-periodic circular mean
+3. Windows of ``hde_auto_window`` to twice as many consecutive straight strides (the heading drift of the
+   unaided path over a window is small: ~1 min of walking; a recording with fewer straight strides is one
+   window, if it has at least ``hde_auto_min_strides``: with 10 strides in random directions, a share of
+   50 % on a fitted grid has a chance of about 1 %). In each window the grid direction is the 90°-periodic circular mean
    θ = arg(Σ exp(4iψ)) / 4; the window's **share** is the fraction of its strides within
    ``hde_auto_tolerance_rad`` of θ + m·90°, its **cross share** the fraction of those aligned strides on the
    axis at right angles to the one that carries most (a corridor at right angles walked at least once).
@@ -29,8 +31,10 @@ Per segment: every window's share, cross share and direction are reported (``Hea
 the aid itself applies to the whole recording or not at all (the filter's gate then keeps it off the strides
 that are not along the grid, such as the 45° and curved parts).
 
-Causal form (``CausalDirections``, ``bootnav live``): the same windows, evaluated on the strides seen so far;
-the aid switches on at the first moment the pooled figures pass, and stays on.
+Causal form (``CausalDirections``, ``bootnav live``): windows of ``hde_auto_window`` straight strides as they
+come; after every straight stride (once the open window holds ``hde_auto_min_strides``) the full windows and
+the open one are pooled; the aid switches on at the first moment they pass, and stays on. Its reference is
+the direction of the earliest aligned strides of the open window.
 """
 
 from __future__ import annotations
@@ -125,18 +129,18 @@ def decide(fp_xy: np.ndarray, settings) -> HeadingDecision:
     ``settings``: a ``FilterSettings`` (``hde_*`` fields)."""
     psi, _ = stride_headings(fp_xy, settings.hde_min_stride_m)
     straight = np.flatnonzero(straight_mask(psi, settings.hde_threshold_rad))
-    W = int(settings.hde_auto_window)
+    W, n_min = int(settings.hde_auto_window), int(settings.hde_auto_min_strides)
     windows = []
-    for i in range(0, len(straight) - W + 1, W):
-        idx = straight[i:i + W]
-        theta, share, n_a, n_c = window_stats(psi[idx], settings.hde_auto_tolerance_rad)
-        windows.append(Window(int(idx[0]), int(idx[-1]), theta, share, n_c / max(n_a, 1), n_a, n_c))
+    if len(straight) >= n_min:
+        for idx in np.array_split(straight, max(1, len(straight) // W)):  # W to 2W - 1 strides each
+            theta, share, n_a, n_c = window_stats(psi[idx], settings.hde_auto_tolerance_rad)
+            windows.append(Window(int(idx[0]), int(idx[-1]), theta, share, n_c / max(n_a, 1), n_a, n_c))
     base = dict(n_strides=len(psi), n_straight=len(straight), windows=windows)
     if not windows:
-        return HeadingDecision(False, f"too few straight strides ({len(straight)} < {W}) to see a building's "
+        return HeadingDecision(False, f"too few straight strides ({len(straight)} < {n_min}) to see a building's "
                                "axes", **base)
     n_a = sum(w.n_aligned for w in windows)
-    share = n_a / (W * len(windows))
+    share = n_a / len(straight)
     cross = sum(w.n_cross for w in windows) / max(n_a, 1)
     ok_share, ok_cross = share >= settings.hde_auto_min_share, cross >= settings.hde_auto_min_cross
     first = next((w for w in windows if w.share >= settings.hde_auto_min_share), windows[0])
@@ -145,7 +149,7 @@ def decide(fp_xy: np.ndarray, settings) -> HeadingDecision:
     early = idx[np.abs(grid_error(psi[idx], first.theta_rad)) < settings.hde_auto_tolerance_rad][:EARLY_STRIDES]
     reference = float(np.angle(np.exp(4j * psi[early]).sum()) / 4.0) if early.size else first.theta_rad
     tol = math.degrees(settings.hde_auto_tolerance_rad)
-    why = (f"{share:.0%} of {W * len(windows)} straight strides within {tol:.0f} deg of a 90-deg grid (need "
+    why = (f"{share:.0%} of {len(straight)} straight strides within {tol:.0f} deg of a 90-deg grid (need "
            f"{settings.hde_auto_min_share:.0%}), {cross:.0%} of them at right angles to the main axis (need "
            f"{settings.hde_auto_min_cross:.0%})")
     on = bool(ok_share and ok_cross)
@@ -169,7 +173,9 @@ class CausalDirections:
         self.decided_at_stride = -1
 
     def push(self, fp_xy: np.ndarray) -> bool:
-        """Add footprints (K, 2); returns True when this call switched the aid on."""
+        """Add footprints (K, 2); returns True when this call switched the aid on (it then stays on)."""
+        if self.on:
+            return False
         s, W = self.s, int(self.s.hde_auto_window)
         for xy in np.asarray(fp_xy, float).reshape(-1, 2):
             if self._last_xy is None:
@@ -184,17 +190,27 @@ class CausalDirections:
             if len(p) >= 3 and abs(wrap(p[-2] - p[-3])) < s.hde_threshold_rad and \
                     abs(wrap(p[-1] - p[-2])) < s.hde_threshold_rad:
                 self._straight_idx.append(len(p) - 2)
-                if len(self._straight_idx) % W == 0:
-                    win = np.asarray(p)[self._straight_idx[-W:]]
-                    theta, _, n_a, n_c = window_stats(win, s.hde_auto_tolerance_rad)
+                n = len(self._straight_idx)
+                cur = n - W * self._n_windows  # strides in the open window
+                if cur < s.hde_auto_min_strides:
+                    continue
+                win = np.asarray(p)[self._straight_idx[W * self._n_windows:]]
+                theta, _, n_a, n_c = window_stats(win, s.hde_auto_tolerance_rad)
+                if self._pass(self._n_aligned + n_a, self._n_cross + n_c, n):
+                    early = win[np.abs(grid_error(win, theta)) < s.hde_auto_tolerance_rad][:EARLY_STRIDES]
+                    self.on, self.decided_at_stride = True, len(p)
+                    self.reference_rad = float(np.angle(np.exp(4j * early).sum()) / 4.0) if early.size else theta
+                    return True
+                if cur == W:  # the window is full: its figures join the pooled ones
                     self._n_aligned += n_a
                     self._n_cross += n_c
                     self._n_windows += 1
-                    if not self.on and self._n_aligned / (W * self._n_windows) >= s.hde_auto_min_share and \
-                            self._n_cross / max(self._n_aligned, 1) >= s.hde_auto_min_cross:
-                        self.on, self.reference_rad, self.decided_at_stride = True, theta, len(p)
-                        return True
         return False
+
+    def _pass(self, n_aligned: int, n_cross: int, n_straight: int) -> bool:
+        s = self.s
+        return (n_aligned / n_straight >= s.hde_auto_min_share
+                and n_cross / max(n_aligned, 1) >= s.hde_auto_min_cross)
 
 
 def auto_heading(nav, t_s: np.ndarray, stance: np.ndarray, settings, rerun):

@@ -100,6 +100,8 @@ class FilterSettings:
     hde_auto_window : int
         "auto": straight strides per window (each window has its own grid direction, so the unaided path's
         heading drift within one window must stay below the tolerance: ~1 min of walking). 40.
+    hde_auto_min_strides : int
+        "auto": fewest straight strides to decide on (a shorter walk keeps the aid off). 10.
     hde_auto_tolerance_rad : float
         "auto": a straight stride is on the grid within this angle, rad: σ_hde, how straight a corridor walk
         is. 5° (strides in random directions: 11 % on the grid).
@@ -162,6 +164,7 @@ class FilterSettings:
     heading_aid: str = "none"
     heading_aid_reference_rad: float | None = None
     hde_auto_window: int = 40
+    hde_auto_min_strides: int = 10
     hde_auto_tolerance_rad: float = 5.0 * DEG
     hde_auto_min_share: float = 0.5
     hde_auto_min_cross: float = 0.02
@@ -191,8 +194,10 @@ class FilterSettings:
         ref = self.heading_aid_reference_rad
         if ref is not None and not (isinstance(ref, (int, float)) and math.isfinite(ref)):
             raise ValueError(f"FilterSettings.heading_aid_reference_rad must be None or a finite angle, got {ref!r}")
-        if not (isinstance(self.hde_auto_window, int) and self.hde_auto_window >= 3):
-            raise ValueError(f"FilterSettings.hde_auto_window must be an integer >= 3, got {self.hde_auto_window!r}")
+        for name in ("hde_auto_window", "hde_auto_min_strides"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 3):
+                raise ValueError(f"FilterSettings.{name} must be an integer >= 3, got {v!r}")
         if self.revisits not in ("none", "entry", "stairs", "entry+stairs"):
             raise ValueError(f"FilterSettings.revisits must be 'none', 'entry', 'stairs' or 'entry+stairs', got "
                              f"{self.revisits!r}")
