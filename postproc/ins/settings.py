@@ -213,7 +213,7 @@ class FilterSettings:
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
         for f in fields(self):
             if f.name in ("zupt_lever_arm_m", "zaru_rate_factor", "acc_scale_noise", "gyro_scale_noise", "zupt_onset_delay_s",
-                          "zupt_onset_max_fraction") or f.name.startswith("sat_"):
+                          "zupt_onset_max_fraction", "hde_auto_min_cross") or f.name.startswith("sat_"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number >= 0, got {v!r}")
