@@ -22,8 +22,7 @@ Rule (every number in ``FilterSettings``):
    axis at right angles to the one that carries most (a corridor at right angles walked at least once).
    For headings with no preferred direction the share is near 4 · 2 tol / 360° (11 % at 5°).
 4. The aid is on when, over all windows together, the share is at least ``hde_auto_min_share`` AND the cross
-   share at least ``hde_auto_min_cross``, with at least ``hde_auto_min_strides`` straight strides. An out-and-back walk lies on one
-   axis (cross share 0): off. Its reference grid direction is that of the earliest ``EARLY_STRIDES`` aligned
+   share at least ``hde_auto_min_cross``. An out-and-back walk lies on one axis (cross share 0): off. Its reference grid direction is that of the earliest ``EARLY_STRIDES`` aligned
    strides of the first window that passes (the unaided path's heading drifts: the earliest strides are the
    least rotated).
 
