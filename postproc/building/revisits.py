@@ -17,8 +17,9 @@ path stays continuous).
 Truth-free revisit detection (``revisits``):
 
 * ``entry``: the walk ends where it started (a search leaves through the entry): the last footprint is tied
-  to the first when their distance is below ``revisit_entry_gate`` × the distance walked (the drift of an
-  unaided foot INS is about 1 % of the distance; 3 % leaves room) — never on a walk that ends far away;
+  to the first when their distance is below ``revisit_entry_gate`` × the distance walked (1 %: the drift of a
+  foot INS; a larger gap comes from scale or heading errors, which a position graph can only absorb by bending
+  the path) — never on a walk that ends far away;
 * ``stairs``: two stair flights (runs of at least 3 strides each climbing or descending ≥ ``revisit_riser_m``)
   with parallel directions (lower to upper end within 30°) whose lower ends and upper ends are both within
   ``revisit_stair_gate_m`` horizontally are the same flight or one stacked above it: both ends are tied.

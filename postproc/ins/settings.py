@@ -117,7 +117,8 @@ class FilterSettings:
         docs/building.md for what it does.
     revisit_entry_gate : float
         "entry": the last footprint is tied to the first when they are closer than this share of the distance
-        walked (an unaided foot INS drifts ~1 % of it). 0.03.
+        walked: 0.01, the drift of a foot INS (~1 % of the distance). A larger gap comes from scale or heading
+        errors, which a position graph cannot undo (it bends the path: docs/tuning-log.md).
     revisit_stair_gate_m : float
         "stairs": two parallel flights are the same (or stacked) when both ends are this close, m. 3 m (the
         drift between two visits; flights of one stairwell in the same direction are stacked exactly).
@@ -169,7 +170,7 @@ class FilterSettings:
     hde_auto_min_share: float = 0.5
     hde_auto_min_cross: float = 0.02
     revisits: str = "none"
-    revisit_entry_gate: float = 0.03
+    revisit_entry_gate: float = 0.01
     revisit_stair_gate_m: float = 3.0
     revisit_riser_m: float = 0.075
     revisit_sigma_m: float = 0.3
