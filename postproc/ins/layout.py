@@ -40,13 +40,15 @@ HEIGHT = DP + 2
 ERR_P, ERR_V, ERR_TH, ERR_BA, ERR_BG = (slice(i, i + 3) for i in (DP, DV, DTH, DBA, DBG))
 
 
-def initial_nominal_state(q0_nb, acc_bias0_b, gyro_bias0_b) -> np.ndarray:
+def initial_nominal_state(q0_nb, acc_bias0_b, gyro_bias0_b, hde_reference_rad: float | None = None) -> np.ndarray:
     """Nominal state at sample 0: origin, at rest, the given attitude and biases, no heading-aid memory.
 
     Parameters
     ----------
     q0_nb : (4,) initial attitude, wxyz, unit norm.
     acc_bias0_b, gyro_bias0_b : (3,) initial sensor biases (body frame; m/s², rad/s).
+    hde_reference_rad : the heading aid's grid direction when decided beforehand (rad); None: the first
+        long enough stride sets it.
 
     Returns
     -------
@@ -56,5 +58,5 @@ def initial_nominal_state(q0_nb, acc_bias0_b, gyro_bias0_b) -> np.ndarray:
     st[QUAT] = q0_nb
     st[BIAS_ACC] = acc_bias0_b
     st[BIAS_GYRO] = gyro_bias0_b
-    st[HDE_REF_HEADING] = np.nan
+    st[HDE_REF_HEADING] = np.nan if hde_reference_rad is None else float(hde_reference_rad)
     return st

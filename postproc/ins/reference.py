@@ -94,7 +94,8 @@ class ReferenceNavigator:
         self._H_zupt = np.zeros((3, n))
         self._H_zupt[:, ERR_V] = np.eye(3)
         self._R_zupt = np.eye(3) * prm.var_zupt
-        self.st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
+        self.st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b,
+                                        settings.heading_aid_reference_rad)
         self._out = {k: np.empty((0, 4 if k == "q_nb" else 3)) for k in _ROWS[1:-1]}
         self._out["t_s"] = np.empty(0)
         self._out["pos_cov_en"] = np.empty(0)

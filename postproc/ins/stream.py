@@ -76,8 +76,8 @@ from bootnav.core.runs import runs
 from bootnav.core.timebase import GAP_FACTOR
 from bootnav.errors import InputError
 from bootnav.postproc.ins import fast
-from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, POS, QUAT, VEL,
-                                         initial_nominal_state)
+from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_HAVE_PREV,
+                                         HDE_REF_HEADING, POS, QUAT, VEL, initial_nominal_state)
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, active_flags
 from bootnav.postproc.ins.prepare import FilterSetup, prepare_filter, saturation_variance
 from bootnav.postproc.ins.settings import FilterSettings
@@ -203,7 +203,8 @@ class StreamNavigator:
                          np.ascontiguousarray(zg.T, dtype=np.float64))
         else:
             self._ric = (np.eye(3), np.zeros(3), np.zeros((6, 3)))
-        self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
+        self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b,
+                                         settings.heading_aid_reference_rad)
         self._P = np.array(setup.P0, dtype=np.float64, order="C", copy=True)
         nb = _RING_CAPS * prm.max_segment if prm.smooth else 1
         self._buf_post = np.empty((nb, n, n))
@@ -420,6 +421,14 @@ class StreamNavigator:
         rows = self._advance(final=True)
         self._finished = True
         return rows
+
+    def enable_heading_aid(self, reference_rad: float) -> None:
+        """Switch the dominant-direction heading aid on from the next filtered sample, on the grid at
+        ``reference_rad`` (path frame): ``heading_aid = "auto"`` decided causally (``bootnav live``,
+        ``building.directions.CausalDirections``)."""
+        self._active[HEADING_AID] = True
+        self._st[HDE_REF_HEADING] = float(reference_rad)
+        self._st[HDE_HAVE_PREV] = 0.0
 
     def apply_measurement(self, z, H, R) -> None:
         """Kalman update of the error state at the last filtered sample with z = H δx + ν, ν ~ N(0, R).

@@ -30,6 +30,7 @@ configured detector and no timing offset.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -132,6 +133,12 @@ class BootView:
         self._stopped = False  # the filter refused the samples: no more path for this boot
         self._prov: list[list[float]] = []  # provisional rows [t_s, x_m, y_m, z_m, floor] after the final ones
         self._covered_t = -np.inf  # provisional rows up to this time are superseded by final rows
+        # heading_aid "auto": the rule of building.directions on the strides seen so far (causal)
+        self._dirs = None
+        if settings.filter.heading_aid == "auto":
+            from bootnav.postproc.building.directions import CausalDirections
+
+            self._dirs = CausalDirections(settings.filter)
 
     # ------------------------------------------------------------------ samples in
     def push(self, chunk, wall_s: float) -> list[list[float]]:
@@ -355,6 +362,10 @@ class BootView:
             return []
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
+        if self._dirs is not None and not self._dirs.on and self._dirs.push(fp[:, :2]) and self._nav is not None:
+            self._nav.enable_heading_aid(self._dirs.reference_rad)
+            self.note = (f"heading aid on from stride {self._dirs.decided_at_stride}: the strides follow a building's "
+                         f"axes ({math.degrees(self._dirs.reference_rad):.0f} deg)")
         z_rel = fp[:, 2] - self._z0
         seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
         signal = seg[1:] - seg[0] + self._signal_last
@@ -395,4 +406,6 @@ class BootView:
         return {"columns": list(ROW_COLUMNS), "rows": self._rows,
                 "distance_m": self._distance_m, "strides": max(len(self._rows) - 1, 0), "final_floor": self._level,
                 "height_m": self._fp_last_z, "note": self.note,
+                "heading_aid_from_stride": None if self._dirs is None or not self._dirs.on else
+                self._dirs.decided_at_stride,
                 "link": {k: v for k, v in self.link.as_dict(0.0, True).items() if k != "age_s"}}
