@@ -51,7 +51,8 @@ class StoreyResult:
     """Per-footprint height corrections and what the flights said."""
 
     offset_fp: np.ndarray  # (K,) m, added to the footprint heights (and, interpolated, to every sample)
-    climbed_fp: np.ndarray  # (K,) m, height climbed on agreeing flights up to each footprint (floor numbers)
+    climbed_fp: np.ndarray  # (K,) m, height climbed on agreeing flights up to each footprint (reported; the floor
+    # numbers count the corrected footprint heights, which measured better: docs/tuning-log.md)
     flights: int  # flights found
     agreeing: int  # flights whose riser count and climbed height agree (their landings were set)
     snapped: int  # of those, landings put on a level visited before

@@ -185,15 +185,13 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
 
     min_stride = settings.selftune.min_stride_m
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None),
-                            storeys.climbed_fp if storeys is not None else None)
+                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
     findings = stride_findings(steps, settings.checks, navi.choice)
     warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride,
-                              storeys.climbed_fp if storeys is not None else None)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
     path_stats["storeys"] = storeys.summary() if storeys is not None else None
     lap("strides")
     metrics = None

@@ -186,9 +186,9 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
                                   floors.riser_max_m, settings.filter.level_min_stride_m)
     min_stride = settings.selftune.min_stride_m
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY), floors,
-                            nav.pos_sigma_n, nav.pos_cov_en, storeys.climbed_fp)
+                            nav.pos_sigma_n, nav.pos_cov_en)
     warnings += [f.message for f in stride_findings(steps, settings.checks, navi.choice)]
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, storeys.climbed_fp)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
     path_stats["storeys"] = storeys.summary()
 
     r = process(rec_path, settings)
