@@ -1,0 +1,324 @@
+"""``calibrate``: from one or more hand-held sessions to a ``SensorCalibration`` with 1σ and residuals.
+
+Steps (each in its own module): static poses (``static``) → accelerometer C, b [, k] from the poses
+(``accel_fit``) → up directions at the pose anchors → gyro bias per motion (interpolated between the poses
+around it) and gyro C from the motions and full turns (``gyro_fit``) → gyro bias [and k] stored from the poses
+by linear least squares (``fit_bias_temperature``) → checks that every parameter is determined (one-line
+``InputError`` naming what to add) and whether it reaches the goals (warnings).
+
+Several sessions share C and the bias model b + k (T − T_ref); T_ref is the mean pose temperature. k is fitted
+only when the poses span ``temp_span_min_degc``. Per power-on the biases also jump by the sensor's turn-on
+repeatability, which two sessions cannot tell from temperature: the filter re-estimates the gyro bias at the
+start of every recording anyway, so the stored gyro bias is a starting value, the scale and misalignment are
+what the calibration is for.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bootnav.core.sensorcal import SensorCalibration, TriadCalibration, normalize_device_id, utc_now
+from bootnav.errors import InputError
+
+from .accel_fit import AXES, AccelFit, fit_accelerometer
+from .gyro_fit import GyroFit, Motions, axis_coverage, fit_gyroscope
+from .settings import SensorCalSettings
+from .static import StaticPoses, detect_static_poses
+
+MIN_POSES = 9  # unknowns of the accelerometer model without temperature (12 with it)
+# what to do to see a rotation about each sensor axis (axes as printed on the board)
+ROTATE_HINT = {
+    "x": "turn the boot about the sensor's x axis while it is horizontal (x along the foot: roll it onto its "
+         "left and right side) at least twice",
+    "y": "turn the boot about the sensor's y axis while it is horizontal (y across the foot: tip it onto its "
+         "toe and its heel) at least twice",
+    "z": "turn the boot about the sensor's z axis while it is horizontal (z up the leg: lay the boot on its "
+         "side and turn it from sole-down towards toe-down) at least twice",
+}
+
+
+@dataclass
+class Session:
+    """One loaded session: raw SI arrays and where they came from."""
+
+    name: str
+    t_s: np.ndarray
+    acc: np.ndarray
+    gyro: np.ndarray
+    temp_degc: np.ndarray | None
+    saturated: np.ndarray | None
+    device_id: str | None
+    info: dict = field(default_factory=dict)
+    truth: dict | None = None
+
+
+@dataclass
+class CalibrationResult:
+    """What ``calibrate`` returns: the calibration, the poses and motions it used, residuals, warnings."""
+
+    calibration: SensorCalibration
+    accel: AccelFit
+    gyro: GyroFit
+    gyro_bias_sigma: np.ndarray
+    poses: list  # StaticPoses per session
+    motions: Motions
+    warnings: list
+    settings: SensorCalSettings
+    undetermined: list  # (parameter, sigma, limit, hint) of parameters above the 'undetermined' limits
+    below_goal: list  # (parameter, sigma, goal) of parameters above the goals
+
+    def fit_record(self) -> dict:
+        """Residuals per pose / motion and the settings (goes into the calibration file's ``fit`` record)."""
+        return {"settings": self.settings.to_dict(),
+                "accelerometer_pose_residuals_mps2": self.accel.residuals.tolist(),
+                "gyroscope_motion_residuals_rad": self.gyro.residual_rad.tolist(),
+                "turn_heading_residuals_rad": [v for v in self.gyro.turn_residual_rad.tolist() if v == v],
+                "motions": list(self.motions.label)}
+
+
+def session_from_recording(rec, name: str | None = None) -> Session:
+    """A ``Session`` from a loaded ``bootnav.logger.recording.Recording``."""
+    dev = None
+    try:
+        dev = normalize_device_id(rec.meta.get("device_id"))
+    except (ValueError, TypeError):
+        dev = None
+    path = Path(rec.path) if rec.path else None
+    t = np.asarray(rec.t_s, dtype=np.float64)
+    temp = None if rec.temp_degc is None else np.asarray(rec.temp_degc, dtype=np.float64)
+    info = {"file": path.name if path else (name or "session"), "duration_s": float(t[-1] - t[0]) if t.size else 0.0}
+    if temp is not None and np.isfinite(temp).any():
+        info["temp_range_degc"] = [float(np.nanmin(temp)), float(np.nanmax(temp))]
+    if path is not None and path.is_file():
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        info["sha256"] = h.hexdigest()
+    return Session(name=name or (path.name if path else "session"), t_s=t,
+                   acc=np.asarray(rec.acc_mps2, dtype=np.float64), gyro=np.asarray(rec.gyro_radps, dtype=np.float64),
+                   temp_degc=temp, saturated=getattr(rec, "saturated", None), device_id=dev, info=info,
+                   truth=getattr(rec, "truth", None))
+
+
+def load_session(path: str | Path) -> Session:
+    from bootnav.logger.recording import load
+
+    rec = load(path)
+    if rec.n < 10:
+        raise InputError(f"{path}: only {rec.n} samples; a calibration session is 1–3 minutes of poses")
+    return session_from_recording(rec)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def build_motions(sessions, poses, acc_cal: TriadCalibration, temp_ref: float, s: SensorCalSettings) -> Motions:
+    """Motions between consecutive poses of each session (``gyro_fit.Motions``)."""
+    ys, dts, starts, stops, uf, ut, labels = [], [], [], [], [], [], []
+    af, at, tf, tt = [], [], [], []
+    off = 0
+    for ses, ps in zip(sessions, poses):
+        if len(ps) < 2:
+            continue
+        t = ses.t_s
+        dtemp = np.zeros(len(ps))
+        if ses.temp_degc is not None:
+            dtemp = np.nan_to_num(ps.temp_mean - temp_ref)
+        up_tail = _unit(acc_cal.apply(ps.acc_tail, dtemp))
+        up_head = _unit(acc_cal.apply(ps.acc_head, dtemp))
+        for i in range(len(ps) - 1):
+            a, b = int(ps.tail_mid[i]), int(ps.head_mid[i + 1])
+            if b <= a or t[b] - t[a] > s.max_rotation_s:
+                continue
+            seg_t = t[a:b + 1]
+            if np.max(np.diff(seg_t)) > s.max_gap_s:
+                continue
+            if ses.saturated is not None and np.any(np.asarray(ses.saturated[a:b + 1]) != 0):
+                continue
+            g = ses.gyro[a:b + 1]
+            if not np.all(np.isfinite(g)):
+                continue
+            t0, t1 = ps.t_mid_s[i], ps.t_mid_s[i + 1]
+            frac = np.clip((seg_t - t0) / max(t1 - t0, 1e-9), 0.0, 1.0)[:, None]
+            bias = ps.gyro_mean[i] + frac * (ps.gyro_mean[i + 1] - ps.gyro_mean[i])
+            ys.append(g - bias)
+            d = np.empty(seg_t.shape)
+            d[:-1] = np.diff(seg_t)
+            d[-1] = 0.0
+            dts.append(d)
+            starts.append(off)
+            stops.append(off + b - a)
+            off += b - a + 1
+            uf.append(up_tail[i])
+            ut.append(up_head[i + 1])
+            af.append(ps.acc_tail[i])
+            at.append(ps.acc_head[i + 1])
+            tf.append(dtemp[i])
+            tt.append(dtemp[i + 1])
+            labels.append(f"{ses.name} pose {i + 1}->{i + 2} ({t[a] - t[0]:.1f}-{t[b] - t[0]:.1f} s)")
+    if not ys:
+        return Motions(np.zeros((1, 3)), np.zeros(1), np.zeros(0, np.int64), np.zeros(0, np.int64),
+                       np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64), [])
+    mo = Motions(y=np.vstack(ys), dt=np.concatenate(dts), start=np.asarray(starts, np.int64),
+                 stop=np.asarray(stops, np.int64), u_from=np.asarray(uf), u_to=np.asarray(ut),
+                 turn_n=np.zeros(len(starts), np.int64), label=labels, acc_from=np.asarray(af),
+                 acc_to=np.asarray(at), dtemp_from=np.asarray(tf, dtype=np.float64),
+                 dtemp_to=np.asarray(tt, dtype=np.float64))
+    # full turns: same up direction before and after, more than turn_min about it
+    cs = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (mo.y[:-1] + mo.y[1:]) * mo.dt[:-1, None], axis=0)])
+    yaw = np.einsum("ij,ij->i", cs[mo.stop] - cs[mo.start], mo.u_from)
+    same = np.einsum("ij,ij->i", mo.u_from, mo.u_to) > math.cos(s.turn_max_tilt_rad)
+    turn = same & (np.abs(yaw) >= s.turn_min_rad)
+    mo.turn_n[turn] = np.rint(yaw[turn] / (2 * math.pi)).astype(np.int64)
+    for k in np.flatnonzero(turn):
+        mo.label[k] += f" full turn x{int(mo.turn_n[k])}"
+    return mo
+
+
+def fit_bias_temperature(values: np.ndarray, temp_dev: np.ndarray | None, weights=None):
+    """b [+ k ΔT] per axis by linear least squares over poses: returns (b, k, sigma_b, sigma_k)."""
+    v = np.asarray(values, dtype=np.float64)
+    n = v.shape[0]
+    a = np.ones((n, 1)) if temp_dev is None else np.column_stack([np.ones(n), temp_dev])
+    coef, *_ = np.linalg.lstsq(a, v, rcond=None)
+    r = v - a @ coef
+    dof = max(n - a.shape[1], 1)
+    s2 = (r**2).sum(axis=0) / dof  # per axis
+    inv = np.linalg.pinv(a.T @ a)
+    sd = np.sqrt(np.outer(np.diag(inv), s2))  # (params, 3)
+    b, sb = coef[0], sd[0]
+    k = coef[1] if temp_dev is not None else np.zeros(3)
+    sk = sd[1] if temp_dev is not None else np.zeros(3)
+    return b, k, sb, sk
+
+
+def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None,
+              device_id: str | None = None, require_determined: bool = True) -> CalibrationResult:
+    """Fit a ``SensorCalibration`` to one or more sessions (module docstring).
+
+    Raises
+    ------
+    InputError
+        One line naming the session(s) and what to add, when a parameter cannot be determined
+        (``require_determined``; the guided live mode passes False and reads ``undetermined`` instead).
+    """
+    s = settings or SensorCalSettings()
+    names = ", ".join(x.name for x in sessions)
+    g = s.gravity()
+    devs = {x.device_id for x in sessions if x.device_id}
+    if len(devs) > 1:
+        raise InputError(f"{names}: sessions come from different devices ({', '.join(sorted(devs))}); "
+                         "calibrate each boot from its own sessions")
+    dev = device_id or (devs.pop() if devs else None)
+    poses = [detect_static_poses(x.t_s, x.acc, x.gyro, x.temp_degc, s, x.saturated) for x in sessions]
+    n_poses = sum(len(p) for p in poses)
+    if n_poses < MIN_POSES:
+        raise InputError(f"{names}: found {n_poses} static poses (>= {s.min_pose_s:g} s still), need at least "
+                         f"{MIN_POSES} (12 or more recommended): hold the boot still for 2-5 s in each of 12 or "
+                         "more different orientations")
+    acc_mean = np.vstack([p.acc_mean for p in poses])
+    gyro_mean = np.vstack([p.gyro_mean for p in poses])
+    temps = np.concatenate([p.temp_mean for p in poses])
+    have_temp = bool(np.all(np.isfinite(temps)))
+    temp_ref = float(np.mean(temps)) if have_temp else 25.0
+    span = float(np.ptp(temps)) if have_temp else 0.0
+    fit_temp = have_temp and span >= s.temp_span_min_degc
+    dT = (temps - temp_ref) if fit_temp else None
+    warnings: list[str] = []
+    if not have_temp:
+        warnings.append("no sensor temperature recorded: bias stored at an assumed 25 °C, no temperature fit")
+    elif not fit_temp:
+        warnings.append(f"poses span {span:.1f} °C (< {s.temp_span_min_degc:g} °C): no bias temperature "
+                        "coefficient fitted; add a session at another temperature (warm or cold boot) for one")
+
+    afit = fit_accelerometer(acc_mean, g, dT)
+    acc_sigma = afit.sigma()
+    acc_tri = TriadCalibration(afit.matrix, afit.bias, afit.temp_coeff, acc_sigma,
+                               float(np.sqrt(np.mean(afit.residuals**2))))
+
+    mo = build_motions(sessions, poses, acc_tri, temp_ref if have_temp else 0.0, s)
+    if mo.start.size == 0:
+        raise InputError(f"{names}: no usable rotation between static poses (each motion from one still pose to "
+                         "the next must be shorter than "
+                         f"{s.max_rotation_s:g} s without gaps): turn the boot between the holds")
+    gfit = fit_gyroscope(mo, s.pose_direction_sigma_rad, s.turn_heading_sigma_rad, accel=afit)
+    gb, gk, gsb, gsk = fit_bias_temperature(gyro_mean, dT)
+    gsig = gfit.sigma()
+    for i, a in enumerate(AXES):
+        gsig[f"bias_{a}"] = float(gsb[i])
+        if fit_temp:
+            gsig[f"temp_coeff_{a}"] = float(gsk[i])
+    gyro_tri = TriadCalibration(gfit.matrix, gb, gk, gsig, float(np.sqrt(np.mean(gfit.residual_rad**2))))
+
+    temp_range = (float(temps.min()), float(temps.max())) if fit_temp else None
+    cal = SensorCalibration(device_id=normalize_device_id(dev) if dev else None, acc=acc_tri, gyro=gyro_tri,
+                            temp_ref_degc=temp_ref, temp_range_degc=temp_range, created_utc=utc_now(),
+                            sessions=[dict(x.info) for x in sessions])
+    undetermined, below_goal = _check(afit, gfit, mo, s)
+    res = CalibrationResult(cal, afit, gfit, gsb, poses, mo, warnings, s, undetermined, below_goal)
+    if require_determined and undetermined:
+        raise InputError(f"{names}: {undetermined_message(undetermined)}")
+    for name, sd, goal in below_goal:
+        warnings.append(f"{name}: 1σ {_fmt_sigma(name, sd)} misses the goal {_fmt_sigma(name, goal)}; "
+                        "more poses and rotations about that axis would tighten it")
+    return res
+
+
+def _is_scale(name: str) -> bool:
+    return name.startswith("C_") and name[2] == name[3]
+
+
+def _fmt_sigma(name: str, v: float) -> str:
+    if "C_" in name and _is_scale(name.split(" ")[-1]):
+        return f"{100 * v:.3g} %"
+    if "C_" in name:
+        return f"{math.degrees(v):.3g}°"
+    return f"{v:.3g}"
+
+
+def _check(afit: AccelFit, gfit: GyroFit, mo: Motions, s: SensorCalSettings):
+    """Parameters not determined (above the 'undetermined' limits) and those missing the goals."""
+    undetermined, below = [], []
+    cover = axis_coverage(mo)
+    for triad, fit in (("accelerometer", afit), ("gyroscope", gfit)):
+        for name, sd in fit.sigma().items():
+            if not name.startswith("C_"):
+                if triad == "accelerometer" and name.startswith("bias_") and not sd <= s.undetermined_acc_bias_sigma_mps2:
+                    undetermined.append((f"{triad} {name}", sd, s.undetermined_acc_bias_sigma_mps2,
+                                         _accel_hint(name[-1])))
+                continue
+            scale = _is_scale(name)
+            lim = s.undetermined_scale_sigma if scale else s.undetermined_misalignment_sigma_rad
+            goal = s.goal_scale_sigma if scale else s.goal_misalignment_sigma_rad
+            if not sd <= lim:
+                if triad == "accelerometer":
+                    hint = _accel_hint(name[2] if scale else name[2:4])
+                else:
+                    hint = ROTATE_HINT[name[3]]  # column of C = rotation about that raw axis
+                    if cover[AXES.index(name[3])] < math.pi:
+                        hint = f"no rotation about the sensor's {name[3]} axis between static poses: {hint}"
+                undetermined.append((f"{triad} {name}", sd, lim, hint))
+            elif sd > goal:
+                below.append((f"{triad} {name}", sd, goal))
+    return undetermined, below
+
+
+def _accel_hint(axes: str) -> str:
+    ax = " and ".join(f"{a}" for a in axes)
+    return (f"too few static poses with the sensor's {ax} axis pointing up, down and sideways: hold the boot "
+            "still on its sole, upside down, on both sides, on its toe and its heel")
+
+
+def undetermined_message(undetermined) -> str:
+    """One line: the first undetermined parameter's hint, and how many others are undetermined."""
+    name, sd, lim, hint = undetermined[0]
+    others = len(undetermined) - 1
+    more = f" ({others} more parameter{'s' if others > 1 else ''} undetermined)" if others else ""
+    return f"cannot determine {name} (1σ {_fmt_sigma(name, sd)} > {_fmt_sigma(name, lim)}): {hint}{more}"
