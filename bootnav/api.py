@@ -193,7 +193,7 @@ class PathResult:
         return write_outputs(self.raw, out_dir, into_recording, force)
 
 
-def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
+def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None, calibration=None,
             progress: Callable[[str, float], None] | None = None, **overrides) -> PathResult:
     """Reconstruct the walked 3-D path of a foot-mounted IMU (the ``bootnav process`` pipeline; writes nothing).
 
@@ -206,6 +206,10 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
         Specific force (m/s², gravity included) and angular rate (rad/s), body frame, for the arrays form.
     settings
         ``ProcessSettings``, a dict of it, or a JSON file; defaults when None.
+    calibration
+        The sensor calibration: a calibration file (``bootnav calibrate``), a
+        ``bootnav.core.sensorcal.SensorCalibration``, or False for none; None (default) = the settings' choice
+        (the stored calibration of the recording's device id, if any). ``summary["calibration"]`` says which ran.
     progress
         ``progress(stage, fraction)`` at stage boundaries.
     **overrides
@@ -225,7 +229,33 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
 
     if acc_mps2 is not None or gyro_radps is not None:
         source = _recording_of_arrays(source, acc_mps2, gyro_radps)
-    return _path_result(run(source, _settings(ProcessSettings, settings, overrides), progress))
+    s, given = _calibration_choice(_settings(ProcessSettings, settings, overrides), calibration)
+    return _path_result(run(source, s, progress, calibration=given))
+
+
+def _calibration_choice(settings, calibration):
+    """(settings, calibration object or None) for ``pipeline.process``: a path goes into the settings (saved with
+    the results), False disables, an object is passed through (settings say "given")."""
+    from bootnav.errors import InputError
+
+    if calibration is None:
+        return settings, None
+    settings = type(settings).from_dict(settings.to_dict())  # never change the caller's settings object
+    cal = settings.calibration
+    cal.accel_calibration_file = None
+    if calibration is False:
+        cal.sensor_calibration = "none"
+        return settings, None
+    if isinstance(calibration, (str, Path)):
+        cal.sensor_calibration = str(calibration)
+        return settings, None
+    from bootnav.core.sensorcal import SensorCalibration
+
+    if not isinstance(calibration, SensorCalibration):
+        raise InputError(f"calibration must be a file path, a SensorCalibration or False; got "
+                         f"{type(calibration).__name__}")
+    cal.sensor_calibration = "given"
+    return settings, calibration
 
 
 def _path_result(r) -> PathResult:

@@ -1,6 +1,7 @@
 """The layout of ``summary.json``: what one ``process`` run did and found, in plain JSON types.
 
 Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
+``calibration`` (which sensor calibration ran: file, device id, date, residuals; or "none" and why),
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``
 (``strides.path_summary``), ``metrics`` (reference metrics or null), ``saturation_intervals``, ``warnings``,
 ``timings_s``, ``settings`` (everything needed to reproduce the run), and the headline numbers repeated at the
@@ -65,6 +66,8 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
             "crop_s": list(result.settings.crop_s) if result.settings.crop_s else None,
             "device": result.recording.meta.get("device"),
         },
+        "calibration": to_jsonable(getattr(result.sensor_calibration, "provenance", None)
+                                   or {"status": "none", "reason": "not resolved"}),
         "alignment": {
             "gravity_mps2": float(result.gravity_mps2),
             "roll_deg": float(np.degrees(getattr(init, "roll_rad", 0.0))),

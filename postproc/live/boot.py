@@ -19,6 +19,10 @@ stride replaces it when its rows are final (``provisional`` module docstring).
 Time since the last motion is read from the stance decisions, which come a detector window after the
 samples (long before the rows are final): the foot counts as moving while it is not in stance.
 
+The sensor calibration is ``process``'s (``calibration.resolve_calibration`` with the recording's device id,
+``apply_calibration`` with its temperature): every chunk is calibrated as it arrives, before the detector,
+the cue and the navigator see it.
+
 What ``process`` does on the whole record and a stream cannot (``ins.stream``): the stance fallback
 (``selftune.select_stance``) and the per-recording vertical timing calibration; the live view uses the
 configured detector and no timing offset.
@@ -124,6 +128,10 @@ class BootView:
         self._stopped = False  # the filter refused the samples: no more path for this boot
         self._prov: list[list[float]] = []  # provisional rows [t_s, x_m, y_m, z_m, floor] after the final ones
         self._covered_t = -np.inf  # provisional rows up to this time are superseded by final rows
+        self.calibration = None  # calibration.AppliedCalibration, resolved at the first chunk
+        # the navigator gets calibrated samples: its own settings must not calibrate them again
+        self._nav_settings = replace(settings, calibration=replace(settings.calibration, sensor_calibration="none",
+                                                                   accel_calibration_file=None))
 
     # ------------------------------------------------------------------ samples in
     def push(self, chunk, wall_s: float) -> list[list[float]]:
@@ -133,7 +141,28 @@ class BootView:
             return []
         if self._t_start is None:
             self._t_start = float(chunk.t_s[0])
+        try:
+            chunk = self._calibrated(chunk)
+        except InputError as exc:
+            self._stopped = True
+            self.note = f"path stopped: {exc}"
+            return []
         return self._guarded(chunk)
+
+    def _calibrated(self, chunk):
+        """The chunk with the sensor calibration applied (resolved once, from the first chunk's device id)."""
+        from bootnav.postproc.calibration import apply_calibration, resolve_calibration
+
+        if self.calibration is None:
+            self.calibration = resolve_calibration(self.settings.calibration, getattr(chunk, "device_id", None))
+        if self.calibration.calibration is None:
+            return chunk
+        n_warn = len(self.calibration.warnings)
+        acc, gyro = apply_calibration(self.calibration, chunk.acc_mps2, chunk.gyro_radps,
+                                      getattr(chunk, "temp_degc", None))
+        if len(self.calibration.warnings) > n_warn:
+            self.note = self.calibration.warnings[-1]
+        return replace(chunk, acc_mps2=acc, gyro_radps=gyro)
 
     def finish(self) -> list[list[float]]:
         """The end of the record: flush the filter and close the last stance phase."""
@@ -207,7 +236,7 @@ class BootView:
         record. With no still period within ``still_search_s`` the oldest samples are dropped, so the view
         starts after the next rest.
         """
-        from bootnav.postproc.calibration import find_still_period, load_accel_calibration
+        from bootnav.postproc.calibration import find_still_period
         from bootnav.postproc.detectors.stream import StreamStance
         from bootnav.postproc.ins.stream import StreamNavigator
 
@@ -246,7 +275,7 @@ class BootView:
             self.note = "no still period to align on: no path"
             return False
         rate_hz = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else float("nan")
-        self._nav = StreamNavigator.from_still(self.settings, rate_hz, t, acc, gyro)
+        self._nav = StreamNavigator.from_still(self._nav_settings, rate_hz, t, acc, gyro)
         self._stance = StreamStance(self.settings.detector, rate_hz, gravity=self._nav.gravity)
         self._sat = np.zeros(0, np.uint8)
         cue = replace(self.settings.detector, method="shoe", min_stance_s=self.live.cue_min_stance_s)
@@ -254,20 +283,13 @@ class BootView:
         self._cue_prev = False  # the cue's decision at the sample before its newest chunk
         self._recent = RecentSamples()
         self._bias = (self._nav.setup.acc_bias0_b, self._nav.setup.gyro_bias0_b)
-        cal = self.settings.calibration
-        self._acc_cal = load_accel_calibration(cal.accel_calibration_file) if cal.accel_calibration_file else None
         self.note = None
         self._pending = got + ([None] if final else [])
         return True
 
     def _cue_push(self, c) -> None:
         """Feed the low-latency cue; a stance start it decides becomes a provisional row."""
-        acc = c.acc_mps2
-        if self._acc_cal is not None and len(acc):
-            from bootnav.postproc.calibration import apply_accel_calibration
-
-            acc = apply_accel_calibration(acc, self._acc_cal)
-        self._recent.push(c.t_s, acc, c.gyro_radps)
+        self._recent.push(c.t_s, c.acc_mps2, c.gyro_radps)
         for d in self._cue.push(c.t_s, c.acc_mps2, c.gyro_radps, c.saturated):
             s = np.asarray(d.stance, bool)
             self._recent.mark(d.start, s)

@@ -42,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "shoe-literal with a threshold). The view shows a stride a detector look-ahead after its "
                              "stance phase: 1.4 s for adaptive, 0.07 s for shoe; with either, a provisional (hollow) "
                              "marker about 0.2 s after the foot stopped")
+    from bootnav.postproc.cli_process import add_calibration_arguments
+
+    add_calibration_arguments(parser)
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to serve on (default 127.0.0.1; any other needs --token)")
     parser.add_argument("--http-port", type=int, default=8017, metavar="N",
@@ -96,6 +99,9 @@ def run(args) -> int:
             settings.detector = dataclasses.replace(settings.detector, method=args.detector)
         except ValueError as exc:
             raise BootnavError(f"--detector {args.detector}: {exc}") from None
+    from bootnav.postproc.cli_process import apply_calibration_arguments
+
+    apply_calibration_arguments(args, settings.calibration)
     settings.validate()
     StreamStance(settings.detector, 200.0)  # a detector that needs the whole record fails here, not mid-walk
     live = LiveSettings(no_motion_s=args.no_motion_s)
@@ -198,7 +204,9 @@ def _write_summary(out_dir, feeds, settings, live):
     from bootnav.core.jsonio import to_jsonable
 
     data = {"settings": settings.to_dict(), "live_settings": to_jsonable(live),
-            "boots": {f.label: f.view.result() for f in feeds}}
+            "boots": {f.label: {**f.view.result(), "calibration": (f.view.calibration.provenance if f.view.calibration
+                                                                     else {"status": "none", "reason": "no samples"})}
+                      for f in feeds}}
     target = out_dir / "live.json"
     tmp = out_dir / f".live.json.{os.getpid()}.tmp"
     tmp.write_text(json.dumps(to_jsonable(data, max_array_size=None), indent=1, allow_nan=False) + "\n")
