@@ -512,11 +512,16 @@ def pdr(source, acc_mps2=None, gyro_radps=None, /, *, mag_b=None, settings=None,
         t, acc, gyro = _arrays(source, acc_mps2, gyro_radps, need_gyro=False)
         extra["mag_b"] = mag_b
     elif isinstance(source, Recording):
-        t, acc, gyro = source.t_s, source.acc_mps2, source.gyro_radps
-    else:
-        from bootnav.postproc.pdr.io import load_input
+        from bootnav.postproc.pdr.io import PdrInput, calibrated
 
-        inp = load_input(source)
+        inp, _ = calibrated(PdrInput(source.t_s, source.acc_mps2, source.gyro_radps, None, "recording", "recording",
+                                     device_id=source.meta.get("device_id"), temp_degc=source.temp_degc),
+                            s.sensor_calibration)
+        t, acc, gyro = inp.t_s, inp.acc_b, inp.gyro_b
+    else:
+        from bootnav.postproc.pdr.io import calibrated, load_input
+
+        inp, _ = calibrated(load_input(source), s.sensor_calibration)
         t, acc, gyro = inp.t_s, inp.acc_b, inp.gyro_b
         extra = {"mag_b": inp.mag_b, "compass_deg": inp.compass_deg, "gps": inp.gps}
     r = run_pdr(t, acc, gyro, s, **extra)

@@ -254,6 +254,25 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
                         warnings=warnings, roll_rad=roll, pitch_rad=pitch)
 
 
+def stance_reference(init: InitialState, gravity: float) -> tuple[np.ndarray, float]:
+    """What the stance detector compares the samples with: (gyro bias, rad/s; gravity, m/s²) as THIS sensor
+    read them at the initial rest, i.e. ``init.gyro_bias_b`` and ``|init.acc_mean_b|``.
+
+    A zero-velocity detector tests "the rate is zero and the specific force is gravity" [Skog2010]. Given the
+    raw rate of an uncalibrated MEMS gyro, a turn-on bias of 0.1-0.4 rad/s (MPU6050: ±20 °/s) is read as
+    motion: the adaptive detector's noise floor rose by three decades, its floor rule then took slow foot
+    motion (shuffling, stair descent) for stance, and a simulated 30-minute mission lost 2.5 % of its distance
+    (docs/tuning-log.md, 2026-12-02). Likewise a scale or bias error makes ``|f|`` at rest differ from the true
+    gravity by 0.1-1 m/s² (50-80 mg turn-on offsets), which the accelerometer term reads as motion. Both are
+    what the initial alignment measured at rest; without a still period: (init's zero bias, ``gravity``).
+    """
+    bias = np.asarray(init.gyro_bias_b, dtype=np.float64)
+    if init.still is None:
+        return bias, float(gravity)
+    g_rest = float(np.linalg.norm(init.acc_mean_b))
+    return bias, (g_rest if np.isfinite(g_rest) and g_rest > 0 else float(gravity))
+
+
 def load_accel_calibration(path: str | Path) -> AccelCalibration:
     """Read the accelerometer part of a calibration file (either format, ``SensorCalibration.load``);
     one-line InputError naming the file otherwise."""

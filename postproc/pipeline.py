@@ -308,7 +308,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from bootnav.logger.recording import attach_dimension_scales, write_group
 
     from . import selftune
-    from .calibration import apply_calibration, initial_alignment, resolve_calibration
+    from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
     from .detectors.stream import StreamStance
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _draw_here,
@@ -376,10 +376,11 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         del t0_, a0_, g0_
         lap("load")
         rate = 1.0 / dt0
+        bias_det, gravity_det = stance_reference(init, gravity)  # as ``navigate`` gives the detector
 
         floor = None
         if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
-            probe = StreamStance(settings.detector, rate, gravity)
+            probe = StreamStance(settings.detector, rate, gravity_det, gyro_bias_b=bias_det)
             for i0, i1 in blocks:
                 probe.push(*read(i0, i1))
             probe.finish()
@@ -388,7 +389,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
         def stance_stream():
             """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking)."""
-            det = StreamStance(settings.detector, rate, gravity, noise_floor_log10=floor)
+            det = StreamStance(settings.detector, rate, gravity_det, noise_floor_log10=floor, gyro_bias_b=bias_det)
             for i0, i1 in blocks:
                 yield from det.push(*read(i0, i1))
             yield from det.finish()

@@ -50,13 +50,15 @@ API-STABLE
 
 Usage (a stream user; ``source`` yields chunks of every sample from the first, the initial rest included)::
 
+    from bootnav.postproc.calibration import stance_reference
     from bootnav.postproc.detectors.stream import StreamStance
     from bootnav.postproc.ins.stream import StreamNavigator
     from bootnav.postproc.settings import ProcessSettings
 
     settings = ProcessSettings()
     nav = StreamNavigator.from_still(settings, rate_hz, t_still, acc_still, gyro_still)  # the first seconds
-    stance = StreamStance(settings.detector, rate_hz, gravity=nav.gravity)
+    bias, g_rest = stance_reference(nav.init_state, nav.gravity)  # the rest as the sensor read it
+    stance = StreamStance(settings.detector, rate_hz, gravity=g_rest, gyro_bias_b=bias)
     feed = lambda chunks: [nav.push(c.t_s, c.acc_b, c.gyro_b, c.stance, c.saturated) for c in chunks]
     for t, acc, gyr, sat in source:
         for rows in feed(stance.push(t, acc, gyr, sat)):

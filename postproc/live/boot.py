@@ -236,7 +236,7 @@ class BootView:
         record. With no still period within ``still_search_s`` the oldest samples are dropped, so the view
         starts after the next rest.
         """
-        from bootnav.postproc.calibration import find_still_period
+        from bootnav.postproc.calibration import find_still_period, stance_reference
         from bootnav.postproc.detectors.stream import StreamStance
         from bootnav.postproc.ins.stream import StreamNavigator
 
@@ -276,10 +276,11 @@ class BootView:
             return False
         rate_hz = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else float("nan")
         self._nav = StreamNavigator.from_still(self._nav_settings, rate_hz, t, acc, gyro)
-        self._stance = StreamStance(self.settings.detector, rate_hz, gravity=self._nav.gravity)
+        bias_det, gravity_det = stance_reference(self._nav.init_state, self._nav.gravity)  # as ``process``
+        self._stance = StreamStance(self.settings.detector, rate_hz, gravity=gravity_det, gyro_bias_b=bias_det)
         self._sat = np.zeros(0, np.uint8)
         cue = replace(self.settings.detector, method="shoe", min_stance_s=self.live.cue_min_stance_s)
-        self._cue = StreamStance(cue, rate_hz, gravity=self._nav.gravity)
+        self._cue = StreamStance(cue, rate_hz, gravity=gravity_det, gyro_bias_b=bias_det)
         self._cue_prev = False  # the cue's decision at the sample before its newest chunk
         self._recent = RecentSamples()
         self._bias = (self._nav.setup.acc_bias0_b, self._nav.setup.gyro_bias0_b)
