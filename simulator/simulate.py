@@ -72,6 +72,12 @@ class SimResult:
         return {name: int(np.count_nonzero(self.saturated & (1 << bit))) for name, bit in SATURATION_BITS.items()}
 
 
+def _kinematics(traj, t: np.ndarray, mount: Mount):
+    """Exact signals of a foot ``Trajectory``, or of a motion that synthesises itself (calibration session)."""
+    own = getattr(traj, "synthesize", None)
+    return own(t, mount) if own is not None else synthesize(traj, t, mount)
+
+
 def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
              rate_hz: float = 200.0, duration_s: float | None = None, mount: str | Mount = "right_boot",
              progress=None) -> SimResult:
@@ -106,7 +112,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         j1 = min(n_out, j0 + BLOCK_OUT)
         i_end = (j1 - 1) * m + 1 if j1 == n_out else j1 * m
         t_int = np.arange(j0 * m, i_end) / f_int
-        kin = synthesize(traj, t_int, mnt)
+        kin = _kinematics(traj, t_int, mnt)
         sl = slice(None, None, m)
         for key, arr in zip(names, (kin.pos_n, kin.vel_n, kin.q_nb, kin.f_b, kin.omega_b, kin.foot_pos_n)):
             truth[key][j0:j1] = arr[sl]
@@ -150,7 +156,11 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
                                detail="at full scale"))
     events.sort(key=lambda e: e["sample_index"])
 
+    if hasattr(builder, "per_sample_truth"):  # a motion with its own truth (calibration session)
+        truth.update(builder.per_sample_truth(np.arange(n_out) * m / f_int))
     truth = {k: v[idx] for k, v in truth.items()}
+    if hasattr(builder, "tables"):
+        truth.update(builder.tables(mnt))
     truth["t_s"] = t_true[idx]
     truth["sample_index"] = idx  # index in the nominal (drop-free) sample stream
     steps = builder.step_table()
@@ -176,6 +186,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         "step_kind_codes": json.dumps(GAIT_CODES),
         "gait_parameters": json.dumps(builder.gait_list()),
         **describe_mount(mnt),
+        **(builder.describe() if hasattr(builder, "describe") else {}),
     }
     return SimResult(sc.name, int(seed), prof, mnt, float(rate_hz), m, kept_t, acc[idx], gyro[idx], saturated,
                      t_device, seq, temp, make_events(events), truth, steps, attrs, traj)

@@ -14,6 +14,7 @@ from bootnav.errors import InputError
 from bootnav.logger.crc import crc16_ccitt_false_rows
 from bootnav.logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code
 from bootnav.logger.recording import counts_channel, si_channel, write_group, write_recording
+from bootnav.simulator.calibration import TRUTH_UNITS as CALIBRATION_TRUTH_UNITS
 from bootnav.simulator.simulate import LongSimulation, SimResult
 
 SIM_DEVICE_ID = 0x00051A00  # "SIM" device id in headers
@@ -26,6 +27,7 @@ TRUTH_UNITS = {
     "step_length_m": "m", "step_dz_m": "m", "step_heading_rad": "rad", "step_turn_rad": "rad",
     "step_chord_heading_rad": "rad", "step_gait": "1 (index into attrs gait_parameters)",
     "step_kind": "1 (attrs step_kind_codes)", "step_foot_pos_n_m": "m",
+    **CALIBRATION_TRUTH_UNITS,
 }
 TRUTH_DESCRIPTION = (
     "Exact truth, row i belongs to /imu row i. pos_n_m/vel_n_mps/q_nb: sensor (body) origin and attitude, ENU, "

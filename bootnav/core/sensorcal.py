@@ -30,7 +30,8 @@ File format (JSON, strict)::
      "gyroscope": {"matrix": [[..]], "bias_radps": [..], "bias_temp_coeff_radps_per_degc": [..],
                    "sigma": {...}, "residual_rms_rad": ..},
      "temperature": {"ref_degc": .., "range_degc": [lo, hi] | null},
-     "sessions": [{"file": .., "sha256": .., "duration_s": .., "temp_range_degc": [lo, hi]}, ...]}
+     "sessions": [{"file": .., "sha256": .., "duration_s": .., "temp_range_degc": [lo, hi]}, ...],
+     "fit": {...}}                       (optional: fit settings, residuals per pose and motion)
 
 A triad that was not calibrated is ``null``. ``sigma`` holds the 1σ uncertainty of each fitted parameter
 (names as the fit reports them, SI units).
@@ -173,6 +174,7 @@ class SensorCalibration:
     created_utc: str = ""
     sessions: list = field(default_factory=list)
     source: str | None = None
+    fit: dict | None = None  # how it was fitted: settings, residuals per pose / motion (optional "fit" record)
 
     def __post_init__(self):
         if self.temp_range_degc is not None:
@@ -223,6 +225,8 @@ class SensorCalibration:
         doc["temperature"] = {"ref_degc": self.temp_ref_degc,
                               "range_degc": list(self.temp_range_degc) if self.temp_range_degc else None}
         doc["sessions"] = [dict(s) for s in self.sessions]
+        if self.fit is not None:
+            doc["fit"] = self.fit
         return to_jsonable(doc, max_array_size=None)
 
     def to_json(self) -> str:
@@ -285,8 +289,10 @@ class SensorCalibration:
         created = doc.get("created_utc") or ""
         if not isinstance(created, str):
             raise InputError(f"{where}: 'created_utc' must be an ISO time string")
+        fit = doc.get("fit")
         return cls(device_id=device_id, acc=tris["accelerometer"], gyro=tris["gyroscope"], temp_ref_degc=ref,
-                   temp_range_degc=rng, created_utc=created, sessions=sessions, source=source)
+                   temp_range_degc=rng, created_utc=created, sessions=sessions, source=source,
+                   fit=fit if isinstance(fit, dict) else None)
 
     def save(self, path: str | Path, force: bool = False) -> Path:
         """Write the JSON file crash-safely; an existing file is kept unless ``force``."""

@@ -116,7 +116,7 @@ def _pinv_normal(jac: np.ndarray) -> np.ndarray:
     # an unobservable direction: inf on the diagonal of every parameter it touches
     bad = sv <= tol
     if bad.any():
-        touched = (np.abs(vt[bad]) > 1e-6).any(axis=0)
+        touched = (np.abs(vt[bad]) > 0.05).any(axis=0)  # parameters that take part in it
         cov[touched, :] = np.where(np.isfinite(cov[touched, :]), cov[touched, :], np.inf)
         cov[np.ix_(touched, touched)] = np.inf
     return np.where(np.isnan(cov), np.inf, cov)

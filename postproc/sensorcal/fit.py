@@ -26,7 +26,7 @@ from bootnav.core.sensorcal import SensorCalibration, TriadCalibration, normaliz
 from bootnav.errors import InputError
 
 from .accel_fit import AXES, AccelFit, fit_accelerometer
-from .gyro_fit import GyroFit, Motions, axis_coverage, fit_gyroscope
+from .gyro_fit import GyroData, GyroFit, axis_coverage, detect_turns, fit_gyroscope, initial_theta
 from .settings import SensorCalSettings
 from .static import StaticPoses, detect_static_poses
 
@@ -66,7 +66,8 @@ class CalibrationResult:
     gyro: GyroFit
     gyro_bias_sigma: np.ndarray
     poses: list  # StaticPoses per session
-    motions: Motions
+    motions: GyroData
+    coverage_rad: np.ndarray  # (3,) rotation about each axis that gravity could see
     warnings: list
     settings: SensorCalSettings
     undetermined: list  # (parameter, sigma, limit, hint) of parameters above the 'undetermined' limits
@@ -77,6 +78,9 @@ class CalibrationResult:
         return {"settings": self.settings.to_dict(),
                 "accelerometer_pose_residuals_mps2": self.accel.residuals.tolist(),
                 "gyroscope_motion_residuals_rad": self.gyro.residual_rad.tolist(),
+                "gyroscope_pose_residuals_rad": self.gyro.pose_residual_rad.tolist(),
+                "gyroscope_session_bias_radps": self.gyro.bias.tolist(),
+                "gyroscope_session_bias_drift_radps_per_s": self.gyro.bias_drift.tolist(),
                 "turn_heading_residuals_rad": [v for v in self.gyro.turn_residual_rad.tolist() if v == v],
                 "motions": list(self.motions.label)}
 
@@ -119,67 +123,56 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def build_motions(sessions, poses, acc_cal: TriadCalibration, temp_ref: float, s: SensorCalSettings) -> Motions:
-    """Motions between consecutive poses of each session (``gyro_fit.Motions``)."""
-    ys, dts, starts, stops, uf, ut, labels = [], [], [], [], [], [], []
-    af, at, tf, tt = [], [], [], []
+def build_gyro_data(sessions, poses, temp_ref: float, s: SensorCalSettings) -> GyroData:
+    """Concatenate the sessions and list the usable motions between consecutive poses (``gyro_fit.GyroData``).
+
+    A motion is dropped when it lasts longer than ``max_rotation_s``, has a time gap over ``max_gap_s``, a
+    saturated or non-finite sample.
+    """
+    ys, accs, dtemps, trel, dts, sess = [], [], [], [], [], []
+    p_start, p_mid, p_stop, m_from, m_to, labels = [], [], [], [], [], []
     off = 0
-    for ses, ps in zip(sessions, poses):
-        if len(ps) < 2:
-            continue
+    n_pose = 0
+    for si, (ses, ps) in enumerate(zip(sessions, poses)):
         t = ses.t_s
-        dtemp = np.zeros(len(ps))
-        if ses.temp_degc is not None:
-            dtemp = np.nan_to_num(ps.temp_mean - temp_ref)
-        up_tail = _unit(acc_cal.apply(ps.acc_tail, dtemp))
-        up_head = _unit(acc_cal.apply(ps.acc_head, dtemp))
+        n = t.shape[0]
+        ys.append(np.nan_to_num(ses.gyro))
+        accs.append(np.nan_to_num(ses.acc))
+        temp = np.zeros(n) if ses.temp_degc is None else np.nan_to_num(ses.temp_degc - temp_ref)
+        dtemps.append(temp)
+        trel.append(t - 0.5 * (t[0] + t[-1]))
+        d = np.zeros(n)
+        d[:-1] = np.diff(t)
+        dts.append(d)
+        sess.append(np.full(n, si, np.int64))
+        mid = (ps.start + ps.stop) // 2
+        p_start.append(ps.start + off)
+        p_mid.append(mid + off)
+        p_stop.append(ps.stop + off)
+        bad = np.zeros(n, dtype=bool) if ses.saturated is None else np.asarray(ses.saturated) != 0
+        bad |= ~np.isfinite(ses.gyro).all(axis=1) | ~np.isfinite(ses.acc).all(axis=1)
+        cbad = np.concatenate([[0], np.cumsum(bad)])
+        gap = np.concatenate([[0], np.cumsum(d[:-1] > s.max_gap_s), [0]])
         for i in range(len(ps) - 1):
-            a, b = int(ps.tail_mid[i]), int(ps.head_mid[i + 1])
-            if b <= a or t[b] - t[a] > s.max_rotation_s:
+            a, b = int(mid[i]), int(mid[i + 1])
+            if t[b] - t[a] > s.max_rotation_s + 0.5 * (t[ps.stop[i] - 1] - t[ps.start[i]]
+                                                     + t[ps.stop[i + 1] - 1] - t[ps.start[i + 1]]):
                 continue
-            seg_t = t[a:b + 1]
-            if np.max(np.diff(seg_t)) > s.max_gap_s:
+            if cbad[b + 1] - cbad[a] or gap[b] - gap[a]:
                 continue
-            if ses.saturated is not None and np.any(np.asarray(ses.saturated[a:b + 1]) != 0):
-                continue
-            g = ses.gyro[a:b + 1]
-            if not np.all(np.isfinite(g)):
-                continue
-            t0, t1 = ps.t_mid_s[i], ps.t_mid_s[i + 1]
-            frac = np.clip((seg_t - t0) / max(t1 - t0, 1e-9), 0.0, 1.0)[:, None]
-            bias = ps.gyro_mean[i] + frac * (ps.gyro_mean[i + 1] - ps.gyro_mean[i])
-            ys.append(g - bias)
-            d = np.empty(seg_t.shape)
-            d[:-1] = np.diff(seg_t)
-            d[-1] = 0.0
-            dts.append(d)
-            starts.append(off)
-            stops.append(off + b - a)
-            off += b - a + 1
-            uf.append(up_tail[i])
-            ut.append(up_head[i + 1])
-            af.append(ps.acc_tail[i])
-            at.append(ps.acc_head[i + 1])
-            tf.append(dtemp[i])
-            tt.append(dtemp[i + 1])
-            labels.append(f"{ses.name} pose {i + 1}->{i + 2} ({t[a] - t[0]:.1f}-{t[b] - t[0]:.1f} s)")
-    if not ys:
-        return Motions(np.zeros((1, 3)), np.zeros(1), np.zeros(0, np.int64), np.zeros(0, np.int64),
-                       np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64), [])
-    mo = Motions(y=np.vstack(ys), dt=np.concatenate(dts), start=np.asarray(starts, np.int64),
-                 stop=np.asarray(stops, np.int64), u_from=np.asarray(uf), u_to=np.asarray(ut),
-                 turn_n=np.zeros(len(starts), np.int64), label=labels, acc_from=np.asarray(af),
-                 acc_to=np.asarray(at), dtemp_from=np.asarray(tf, dtype=np.float64),
-                 dtemp_to=np.asarray(tt, dtype=np.float64))
-    # full turns: same up direction before and after, more than turn_min about it
-    cs = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (mo.y[:-1] + mo.y[1:]) * mo.dt[:-1, None], axis=0)])
-    yaw = np.einsum("ij,ij->i", cs[mo.stop] - cs[mo.start], mo.u_from)
-    same = np.einsum("ij,ij->i", mo.u_from, mo.u_to) > math.cos(s.turn_max_tilt_rad)
-    turn = same & (np.abs(yaw) >= s.turn_min_rad)
-    mo.turn_n[turn] = np.rint(yaw[turn] / (2 * math.pi)).astype(np.int64)
-    for k in np.flatnonzero(turn):
-        mo.label[k] += f" full turn x{int(mo.turn_n[k])}"
-    return mo
+            m_from.append(n_pose + i)
+            m_to.append(n_pose + i + 1)
+            labels.append(f"{ses.name} pose {i + 1}->{i + 2} ({t[ps.stop[i] - 1] - t[0]:.1f}-"
+                          f"{t[ps.start[i + 1]] - t[0]:.1f} s)")
+        off += n
+        n_pose += len(ps)
+    cat = (lambda v, shape: np.concatenate(v) if v else np.zeros(shape))
+    return GyroData(y=np.ascontiguousarray(cat(ys, (0, 3))), acc=np.ascontiguousarray(cat(accs, (0, 3))),
+                    dtemp=cat(dtemps, 0), t_rel=cat(trel, 0), dt=cat(dts, 0), sess=cat(sess, 0).astype(np.int64),
+                    n_sessions=len(sessions), pose_start=cat(p_start, 0).astype(np.int64),
+                    pose_mid=cat(p_mid, 0).astype(np.int64), pose_stop=cat(p_stop, 0).astype(np.int64),
+                    mo_from=np.asarray(m_from, np.int64), mo_to=np.asarray(m_to, np.int64),
+                    turn_n=np.zeros(len(m_from), np.int64), label=labels)
 
 
 def fit_bias_temperature(values: np.ndarray, temp_dev: np.ndarray | None, weights=None):
@@ -243,14 +236,19 @@ def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None
     acc_tri = TriadCalibration(afit.matrix, afit.bias, afit.temp_coeff, acc_sigma,
                                float(np.sqrt(np.mean(afit.residuals**2))))
 
-    mo = build_motions(sessions, poses, acc_tri, temp_ref if have_temp else 0.0, s)
-    if mo.start.size == 0:
+    gd = build_gyro_data(sessions, poses, temp_ref if have_temp else 0.0, s)
+    if gd.mo_from.size == 0:
         raise InputError(f"{names}: no usable rotation between static poses (each motion from one still pose to "
-                         "the next must be shorter than "
-                         f"{s.max_rotation_s:g} s without gaps): turn the boot between the holds")
-    gfit = fit_gyroscope(mo, s.pose_direction_sigma_rad, s.turn_heading_sigma_rad, accel=afit)
+                         f"the next must be shorter than {s.max_rotation_s:g} s, without gaps or saturation): "
+                         "turn the boot between the holds")
+    theta0 = initial_theta(gd, gyro_mean)
+    gd.turn_n = detect_turns(gd, theta0, afit.theta, s.turn_min_rad, s.turn_max_tilt_rad)
+    for k in np.flatnonzero(gd.turn_n):
+        gd.label[k] += f" full turn x{int(gd.turn_n[k])}"
+    cover = axis_coverage(gd, theta0, afit.theta)
+    gfit = fit_gyroscope(gd, theta0, afit, s.pose_direction_sigma_rad, s.turn_heading_sigma_rad)
     gb, gk, gsb, gsk = fit_bias_temperature(gyro_mean, dT)
-    gsig = gfit.sigma()
+    gsig = {k: v for k, v in gfit.sigma().items() if k.startswith("C_")}
     for i, a in enumerate(AXES):
         gsig[f"bias_{a}"] = float(gsb[i])
         if fit_temp:
@@ -261,8 +259,8 @@ def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None
     cal = SensorCalibration(device_id=normalize_device_id(dev) if dev else None, acc=acc_tri, gyro=gyro_tri,
                             temp_ref_degc=temp_ref, temp_range_degc=temp_range, created_utc=utc_now(),
                             sessions=[dict(x.info) for x in sessions])
-    undetermined, below_goal = _check(afit, gfit, mo, s)
-    res = CalibrationResult(cal, afit, gfit, gsb, poses, mo, warnings, s, undetermined, below_goal)
+    undetermined, below_goal = _check(afit, gfit, cover, s)
+    res = CalibrationResult(cal, afit, gfit, gsb, poses, gd, cover, warnings, s, undetermined, below_goal)
     if require_determined and undetermined:
         raise InputError(f"{names}: {undetermined_message(undetermined)}")
     for name, sd, goal in below_goal:
@@ -283,12 +281,13 @@ def _fmt_sigma(name: str, v: float) -> str:
     return f"{v:.3g}"
 
 
-def _check(afit: AccelFit, gfit: GyroFit, mo: Motions, s: SensorCalSettings):
+def _check(afit: AccelFit, gfit: GyroFit, cover: np.ndarray, s: SensorCalSettings):
     """Parameters not determined (above the 'undetermined' limits) and those missing the goals."""
     undetermined, below = [], []
-    cover = axis_coverage(mo)
     for triad, fit in (("accelerometer", afit), ("gyroscope", gfit)):
         for name, sd in fit.sigma().items():
+            if "session" in name:
+                continue
             if not name.startswith("C_"):
                 if triad == "accelerometer" and name.startswith("bias_") and not sd <= s.undetermined_acc_bias_sigma_mps2:
                     undetermined.append((f"{triad} {name}", sd, s.undetermined_acc_bias_sigma_mps2,
@@ -322,3 +321,15 @@ def undetermined_message(undetermined) -> str:
     others = len(undetermined) - 1
     more = f" ({others} more parameter{'s' if others > 1 else ''} undetermined)" if others else ""
     return f"cannot determine {name} (1σ {_fmt_sigma(name, sd)} > {_fmt_sigma(name, lim)}): {hint}{more}"
+
+
+def reference_parameters(s_acc, s_gyro) -> tuple[np.ndarray, np.ndarray]:
+    """The (C_acc, C_gyro) a perfect fit returns for sensors y = S x + b, in this fit's frame convention.
+
+    S_acc⁻¹ = Q U (QR, U upper triangular with a positive diagonal): the fit's body frame is Qᵀ of the true
+    one, so C_acc = U and C_gyro = Qᵀ S_gyro⁻¹. For comparing a fit with a simulator's drawn constants.
+    """
+    q, u = np.linalg.qr(np.linalg.inv(np.asarray(s_acc, dtype=np.float64)))
+    d = np.sign(np.diag(u))
+    q, u = q * d, (u.T * d).T
+    return u, q.T @ np.linalg.inv(np.asarray(s_gyro, dtype=np.float64))

@@ -39,8 +39,10 @@ class SensorCalSettings:
     pose_direction_sigma_rad: a-priori 1σ of a pose's gravity direction (tremor and accelerometer noise);
         only the relative weight against ``turn_heading_sigma_rad`` matters (the scale of the covariance
         comes from the residuals).
-    turn_heading_sigma_rad: 1σ with which a person returns a boot to the same heading after a full turn on a
-        flat surface (against a table edge or mark: about 1°).
+    turn_heading_sigma_rad: 1σ with which a person turns a boot by a full turn on a flat surface by eye
+        [ENG]: 10° (with a mark or a table edge to return to, 1–2°). It weighs the 2πn constraint of a turn;
+        at 10° a turn observes the scale about the vertical only to ≈ 3 %, so the scale and cross-axis
+        terms of every axis come from the hand rotations about it while it is horizontal.
     turn_min_rad: a motion between two poses with the same gravity direction that turns at least this far
         about the vertical is a full turn (1.5π: more than a half turn, so n = round(angle / 2π) ≥ 1).
     turn_max_tilt_rad: max angle between the gravity directions before and after a full turn.
@@ -64,7 +66,7 @@ class SensorCalSettings:
     max_rotation_s: float = 30.0
     max_gap_s: float = 0.1
     pose_direction_sigma_rad: float = 1e-3
-    turn_heading_sigma_rad: float = math.radians(1.0)
+    turn_heading_sigma_rad: float = math.radians(10.0)
     turn_min_rad: float = 1.5 * math.pi
     turn_max_tilt_rad: float = math.radians(5.0)
     temp_span_min_degc: float = 5.0

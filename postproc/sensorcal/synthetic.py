@@ -30,8 +30,10 @@ STANDARD_MOTIONS = [
     (0, 0, 2 * math.pi), (0, 0, -2 * math.pi),  # two full turns flat on the table
     (0.9, 0.9, 0.0), (0.0, -0.8, 0.8), (-0.6, 0.0, -0.9), (0.5, 0.7, 0.3),  # oblique poses
 ]
-NO_X_MOTIONS = [(0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0), (0, D, 0),
-                (0, D, 0), (0, 0, 2 * math.pi), (0, 0.5, 0), (0, 0.5, 0), (0, -1.0, 0), (0, D, 0)]
+# every face reached by turns about y and z only (z is horizontal after the first pitch): no rotation about x
+NO_X_MOTIONS = [(0, D, 0), (0, 0, D), (0, 0, D), (0, 0, D), (0, 0, D), (0, D, 0), (0, D, 0), (0, D, 0),
+                (0, 0, 2 * math.pi), (0, 0.6, 0), (0, 0, 0.7), (0, -0.6, 0), (0, 0, -0.7), (0, -D, 0),
+                (0, 0, 0.8), (0, 0, -0.8), (0, D, 0)]
 
 
 @dataclass
@@ -121,3 +123,33 @@ def make_session(truth: SynthTruth, seed: int, motions=None, *, rate_hz: float =
     info = {"file": name, "duration_s": float(t[-1]), "temp_range_degc": [float(temp.min()), float(temp.max())]}
     return Session(name=name, t_s=t, acc=acc, gyro=gyro, temp_degc=temp, saturated=None, device_id=device_id,
                    info=info, truth={"orientation": r_all, "rate_b": w_b})
+
+
+def write_session(ses: Session, path, *, counts: bool = True) -> None:
+    """Write a synthetic session as a recording (int16 counts at ±16 g / ±2000 °/s like the boot, or SI).
+
+    Crash-safe through ``RecordingWriter``'s own temporary-then-rename; refuses an existing file.
+    """
+    from pathlib import Path
+
+    from bootnav.logger import mpu6050
+    from bootnav.logger.recording import counts_channel, si_channel, write_recording
+
+    path = Path(path)
+    if path.exists():
+        raise FileExistsError(path)
+    rate = 1.0 / float(np.median(np.diff(ses.t_s)))
+    meta = {"device": "MPU6050 (synthetic calibration session)", "device_id": ses.device_id or "",
+            "rate_nominal_hz": rate, "accel_range_g": 16, "gyro_range_dps": 2000, "mount": "hand-held"}
+    temp_c = (ses.temp_degc - mpu6050.TEMP_OFFSET_DEGC) * mpu6050.TEMP_LSB_PER_DEGC
+    if counts:
+        sa, sg = mpu6050.accel_scale_mps2(3), mpu6050.gyro_scale_radps(3)
+        acc = np.clip(np.rint(ses.acc / sa), -32768, 32767).astype(np.int16)
+        gyro = np.clip(np.rint(ses.gyro / sg), -32768, 32767).astype(np.int16)
+        write_recording(path, ses.t_s, acc, gyro, acc_channel=counts_channel("acc", sa),
+                        gyro_channel=counts_channel("gyro", sg), meta=meta,
+                        temp=np.rint(temp_c).astype(np.int16),
+                        temp_channel=counts_channel("temp", 1.0 / mpu6050.TEMP_LSB_PER_DEGC))
+    else:
+        write_recording(path, ses.t_s, ses.acc, ses.gyro, meta=meta, temp=ses.temp_degc,
+                        temp_channel=si_channel("temp"))
