@@ -67,8 +67,8 @@ class CalibrationPlan:
 
 
 # Nominal session: (kind, boot-frame axis or None, angle deg). "hand": rotation about a boot axis by hand,
-# ending on a held pose; "turn": a full turn on the table about the vertical. 22 held poses, of which 18
-# distinct gravity directions (6 faces, 12 tilts of 45 deg) and every boot axis turned about.
+# ending on a held pose; "turn": a full turn on the table about the vertical. 23 held poses, of which 14
+# distinct gravity directions (6 faces, 8 tilts of 45 deg) and every boot axis turned about.
 NOMINAL_MOVES: tuple[tuple[str, int | None, float], ...] = (
     *(("hand", 0, 45.0),) * 8,  # roll over about x in 45 deg steps: flat, tilt, side, ..., upside down, ..., flat
     ("turn", None, 360.0),
@@ -320,8 +320,11 @@ def make_session(rng: np.random.Generator, duration=None, plan: CalibrationPlan 
     for i in range(n):
         hold_t[i] = t, t + holds[i]
         t += holds[i] + (durations[i] if i < n - 1 else 0.0)
-    tremor_amp = lambda f, r: (p.tremor_acc_mps2[0] + r * (p.tremor_acc_mps2[1] - p.tremor_acc_mps2[0])) / (  # noqa: E731
-        2 * math.pi * f) ** 2
+    a_lo, a_hi = p.tremor_acc_mps2
+
+    def tremor_amp(f, r):  # displacement amplitude of an acceleration amplitude drawn in [a_lo, a_hi]
+        return (a_lo + r * (a_hi - a_lo)) / (2 * math.pi * f) ** 2
+
     sines_pos = _sines(rng, 3, p.drift_pos_m, p.drift_hz, tremor_amp, p.tremor_hz)
     sines_ang = _sines(rng, 3, math.radians(p.drift_angle_deg), p.drift_hz,
                        lambda f, r: tremor_amp(f, r) / p.tremor_lever_m, p.tremor_hz)

@@ -27,7 +27,7 @@ def session():
 
 @pytest.fixture(scope="module")
 def result():
-    return simulate("calibration", seed=4, rate_hz=100.0)
+    return simulate("calibration", seed=4, rate_hz=100.0, device=77)  # the interface calibrate relies on
 
 
 def _dcm(q):
@@ -126,3 +126,4 @@ def test_simulated_recording_has_the_calibration_truth(result):
     acc = result.acc_mps2[held]
     assert np.all(np.abs(np.linalg.norm(acc, axis=1) - STANDARD_GRAVITY) < 0.1 * STANDARD_GRAVITY)
     assert not np.array_equal(result.acc_mps2, tr["f_b_mps2"])
+    assert result.attrs["device_id"] == 77 and tr["acc_sensitivity_matrix"].shape == (3, 3)
