@@ -31,8 +31,9 @@ overrides process settings (dotted keys, JSON values), ``--label`` names the run
         selftune.timing_calibration=false --label no-timing
 
 Simulated recordings and calibration files are cached under ``--cache`` (keyed by scenario, duration,
-device, seed and the full sensor profile), so a re-run only processes. Seeds: device k is ``mission-%03d``,
-its walk seed is 1000 + k, its calibration session's seed 5000 + k (never the same draw as the walk).
+device, seed and the full sensor profile), so a re-run only processes. Seeds: device k is 0x0B000000 + k,
+its walk seed is 1000 + k, its calibration session's seed 5000 + k (never the same draw as the walk). The
+noise-only floor is the same walk without a unit (the simulator has no unit without errors).
 """
 
 from __future__ import annotations
@@ -40,7 +41,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import hashlib
-import inspect
 import json
 import math
 import os
@@ -65,11 +65,12 @@ ABLATIONS: dict[str, dict] = {
     "no-scale": {"accel_scale_sigma": 0.0, "gyro_scale_sigma": 0.0},
     "no-cross-axis": {"accel_cross_axis_sigma": 0.0, "gyro_cross_axis_sigma": 0.0},
     "no-turn-on-bias": {"accel_turn_on_bias_sigma_mg": (0.0, 0.0, 0.0), "gyro_turn_on_bias_sigma_dps": 0.0},
-    "no-temperature": "temperature",  # every temperature-coefficient field, found by name (_temperature_fields)
+    "no-temperature": "temperature",  # the unit's bias and sensitivity temperature coefficients (DeviceModel)
     "no-clock": {"clock_error_ppm_sigma": 0.0},
     "no-bias-rw": {"accel_bias_rw_mps2_rts": 0.0, "gyro_bias_rw_dps_rts": 0.0},
 }
 MAIN_VARIANTS = ("uncal", "cal", "oracle", "floor")
+DEVICE_BASE = 0x0B000000  # device k of the benchmark is DEVICE_BASE + k
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -108,27 +109,37 @@ def mission_metrics(pos_est: np.ndarray, pos_true: np.ndarray, stance_true: np.n
             "align_yaw_deg": math.degrees(yaw), "align_index": k}
 
 
-def recovery(cal: dict, truth_constants: dict) -> dict:
-    """Parameter recovery of a calibration file against the drawn constants of the session it came from.
+def recovery(cal, truth: dict) -> dict:
+    """Parameter recovery of a calibration against the drawn constants of the session it came from.
 
-    E = C M - I per triad (C the calibration's matrix, M the unit's true scale / cross-axis matrix): diag(E)
-    is the remaining scale error, the off-diagonal the remaining misalignment (small angles, rad -> deg). The
-    bias error is b_hat - b_true (the calibration session's turn-on bias, the one ``calibrate`` can see).
+    ``calibrate`` expresses both triads in the accelerometer's frame (its C is upper triangular), so C_a M_a
+    is not I but R P_a: a rotation R (the accelerometer's axes against the simulator's body axes: a fixed
+    re-definition of the body frame, not an error) times a symmetric P_a (polar decomposition). The remaining
+    errors are E_a = P_a - I and E_g = R^T C_g M_g - I (the gyro must land in the same frame): diag(E) is the
+    scale error, the off-diagonal the misalignment (small angles, rad -> deg). Bias error: b_hat - b_true at
+    the reference temperature (the session's turn-on bias, the one ``calibrate`` can see).
     """
+    from scipy.linalg import polar
+
     out = {}
-    for triad, mkey, bkey, unit in (("acc", "accel_misalignment", "accel_turn_on_bias_mps2", 1.0),
-                                    ("gyro", "gyro_misalignment", "gyro_turn_on_bias_radps", 180.0 / math.pi)):
-        if triad not in cal or mkey not in truth_constants:
-            continue
-        C = np.asarray(cal[triad]["matrix"], float)
-        M = np.asarray(truth_constants[mkey], float)
-        E = C @ M - np.eye(3)
+    if cal.acc is None or "acc_sensitivity_matrix" not in truth:
+        return out
+    CM_a = np.asarray(cal.acc.matrix) @ np.asarray(truth["acc_sensitivity_matrix"], float)
+    R, P = polar(CM_a)  # CM_a = R P
+    errs = {"acc": P - np.eye(3)}
+    if cal.gyro is not None and "gyro_sensitivity_matrix" in truth:
+        errs["gyro"] = R.T @ np.asarray(cal.gyro.matrix) @ np.asarray(truth["gyro_sensitivity_matrix"], float) - np.eye(3)
+    for triad, E in errs.items():
         off = E[~np.eye(3, dtype=bool)]
         out[f"{triad}_scale_err_pct_max"] = float(100.0 * np.abs(np.diag(E)).max())
         out[f"{triad}_misalign_err_deg_max"] = float(np.degrees(np.abs(off).max()))
-        if bkey in truth_constants:
-            b_err = np.asarray(cal[triad]["bias"], float) - np.asarray(truth_constants[bkey], float)
-            out[f"{triad}_bias_err_max"] = float(np.abs(b_err).max() * unit)  # m/s^2, deg/s
+    out["frame_rotation_deg"] = float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
+    for triad, key, unit in (("acc", "acc_bias_turn_on_b_mps2", 1.0), ("gyro", "gyro_bias_turn_on_b_radps", 180 / math.pi)):
+        tri = getattr(cal, triad)
+        if tri is not None and key in truth:
+            # the bias in the accelerometer frame: C b_hat vs C M M^-1 b_true, compared in the sensor's own axes
+            out[f"{triad}_bias_err_max"] = float(np.abs(np.asarray(tri.bias) - np.asarray(truth[key], float)).max()
+                                                 * unit)  # m/s^2, deg/s
     return out
 
 
@@ -136,21 +147,14 @@ def recovery(cal: dict, truth_constants: dict) -> dict:
 # simulation (cached)
 
 
-def _simulate_kwargs() -> set[str]:
-    from bootnav.simulator.simulate import simulate
+def device_model(variant: str):
+    """The simulator's DeviceModel of a variant: temperature coefficients off for ``no-temperature``."""
+    from bootnav.simulator.device import DeviceModel
 
-    return set(inspect.signature(simulate).parameters)
-
-
-def _temperature_fields(profile) -> dict:
-    """Fields of a SensorProfile that set a temperature coefficient (names with 'temp' and a coefficient)."""
-    out = {}
-    for f in dataclasses.fields(profile):
-        name = f.name
-        if "temp" in name and any(w in name for w in ("coeff", "tc", "per_degc", "per_k", "sigma", "drift")):
-            v = getattr(profile, name)
-            out[name] = tuple(0.0 for _ in v) if isinstance(v, tuple) else 0.0
-    return out
+    if ABLATIONS.get(variant) != "temperature":
+        return None
+    return DeviceModel(gyro_bias_tempco_sigma_dps_per_degc=0.0, accel_bias_tempco_sigma_mg_per_degc=(0.0, 0.0, 0.0),
+                       gyro_scale_tempco_sigma_per_degc=0.0, accel_scale_tempco_sigma_per_degc=0.0)
 
 
 def sensor_profile(variant: str):
@@ -164,8 +168,9 @@ def sensor_profile(variant: str):
     if variant in MAIN_VARIANTS:
         return base
     spec = ABLATIONS[variant]
-    fields = _temperature_fields(base) if spec == "temperature" else spec
-    known = {k: v for k, v in fields.items() if hasattr(base, k)}
+    if spec == "temperature":
+        return base
+    known = {k: v for k, v in spec.items() if hasattr(base, k)}
     if not known:
         return None
     return dataclasses.replace(base, name=f"{UNCAL_PROFILE}-{variant}", **known)
@@ -175,18 +180,26 @@ def _key(*parts) -> str:
     return hashlib.sha1(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()[:12]
 
 
-def simulated(cache: Path, scenario: str, duration_s: float | None, device: str | None, seed: int, profile) -> Path:
-    """The cached recording of a walk (simulated and written when missing; writes are tmp + rename)."""
+def simulated(cache: Path, scenario: str, duration_s: float | None, device: int | None, seed: int, profile,
+              model=None) -> Path:
+    """The cached recording of a walk (simulated and written when missing; writes are tmp + rename). The
+    noise-only floor has no device (the simulator refuses a unit without errors): the same walk, no unit."""
     from bootnav.simulator.simulate import simulate
     from bootnav.simulator.writers import write_h5
 
     prof = dataclasses.asdict(profile)
-    path = cache / f"{scenario}_{device or 'nodev'}_s{seed}_{_key(scenario, duration_s, device, seed, prof)}.h5"
+    if not _has_errors(profile):
+        device, model = None, None
+    mdict = None if model is None else dataclasses.asdict(model)
+    tag = "nodev" if device is None else f"0x{device:08X}"
+    path = cache / f"{scenario}_{tag}_s{seed}_{_key(scenario, duration_s, device, seed, prof, mdict)}.h5"
     if path.exists():
         return path
     kw = {"duration_s": duration_s}
-    if device is not None and "device" in _simulate_kwargs():
+    if device is not None:
         kw["device"] = device
+        if model is not None:
+            kw["device_model"] = model
     res = simulate(scenario, seed=seed, profile=profile, **kw)
     tmp = path.with_name(path.name + f".{os.getpid()}.tmp")
     write_h5(res, tmp)
@@ -194,21 +207,29 @@ def simulated(cache: Path, scenario: str, duration_s: float | None, device: str 
     return path
 
 
-def calibration_file(cache: Path, device: str, seed: int) -> Path:
-    """``bootnav simulate --scenario calibration --device D --seed S`` + ``bootnav calibrate`` (cached)."""
-    session = cache / f"calsession_{device}_s{seed}.h5"
-    out = cache / f"cal_{device}_s{seed}.json"
-    if out.exists():
-        return out
+def _has_errors(profile) -> bool:
+    return bool(profile.accel_scale_sigma or profile.gyro_scale_sigma or profile.gyro_turn_on_bias_sigma_dps
+                or any(profile.accel_turn_on_bias_sigma_mg) or profile.clock_error_ppm_sigma
+                or profile.accel_cross_axis_sigma or profile.gyro_cross_axis_sigma)
+
+
+def calibration_file(cache: Path, device: int, seed: int) -> tuple[Path, Path]:
+    """``bootnav simulate --scenario calibration --device D --seed S`` + ``bootnav calibrate --no-store``
+    (cached): (calibration file, session recording)."""
+    dev = f"0x{device:08X}"
+    session = cache / f"calsession_{dev}_s{seed}.h5"
+    out = cache / f"cal_{dev}_s{seed}.json"
+    if out.exists() and session.exists():
+        return out, session
     if not session.exists():
         tmp = session.with_name(session.name + f".{os.getpid()}.tmp.h5")
-        _run(BOOTNAV + ["simulate", "--scenario", "calibration", "--device", device, "--seed", str(seed),
+        _run(BOOTNAV + ["simulate", "--scenario", "calibration", "--device", dev, "--seed", str(seed),
                         "--out", str(tmp), "--quiet"])
         os.replace(tmp, session)
     tmp = out.with_name(out.name + f".{os.getpid()}.tmp.json")
-    _run(BOOTNAV + ["calibrate", str(session), "--out", str(tmp)])
+    _run(BOOTNAV + ["calibrate", str(session), "--out", str(tmp), "--no-store", "--quiet"])
     os.replace(tmp, out)
-    return out
+    return out, session
 
 
 def _run(cmd: list[str]) -> None:
@@ -217,46 +238,44 @@ def _run(cmd: list[str]) -> None:
         raise RuntimeError(f"{' '.join(cmd[2:])} failed ({p.returncode}): {(p.stderr or p.stdout).strip()[-600:]}")
 
 
+DEVICE_TRUTH = ("acc_sensitivity_matrix", "gyro_sensitivity_matrix", "acc_bias_turn_on_b_mps2",
+                "gyro_bias_turn_on_b_radps", "acc_bias_tempco_b_mps2_per_degc", "gyro_bias_tempco_b_radps_per_degc",
+                "clock_error", "temp_reference_degc")
+
+
 def truth_of(path: Path) -> tuple[np.ndarray, np.ndarray, dict, dict]:
-    """(pos_n_m, stance, drawn constants, truth attrs) of a simulated recording."""
+    """(pos_n_m, stance, the unit's constants this recording got (``DEVICE_TRUTH``), truth attrs)."""
     import h5py
 
     with h5py.File(path, "r") as f:
         g = f["truth"]
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in g.attrs.items()}
-        consts = json.loads(attrs.get("drawn_constants", "{}") or "{}")
+        consts = {k: g[k][()] for k in DEVICE_TRUTH if k in g}
         if "step_length_m" in g:  # the walked distance: the sum of the true strides
             attrs["_walked_m"] = float(np.sum(g["step_length_m"][()]))
-        return g["pos_n_m"][()], g["stance"][()].astype(bool), consts, attrs
+        pos = g["pos_n_m"][()] if "pos_n_m" in g else None
+        stance = g["stance"][()].astype(bool) if "stance" in g else None
+        return pos, stance, consts, attrs
 
 
-def oracle_calibration(consts: dict, device: str | None):
-    """A calibration from the truth constants: x = M^-1 (y - b0 - k (T - T_ref)); None when the simulator
-    does not record them."""
-    if "accel_misalignment" not in consts:
+def oracle_calibration(consts: dict, device: int | None):
+    """A calibration from the truth constants the recording got: C = M^-1, b = this power-on's turn-on bias,
+    k = the unit's bias temperature coefficients at its reference temperature (the clock error and the
+    sensitivity temperature coefficients are not in the calibration model). None without device truth."""
+    from bootnav.core.sensorcal import SensorCalibration, TriadCalibration
+
+    if "acc_sensitivity_matrix" not in consts:
         return None
-    try:
-        from bootnav.core.sensorcal import SensorCalibration, TriadCalibration
-    except ImportError:  # before the calibration model exists: the raw pair, applied by hand (_oracle_arrays)
-        return {"acc": (np.linalg.inv(consts["accel_misalignment"]), consts["accel_turn_on_bias_mps2"]),
-                "gyro": (np.linalg.inv(consts["gyro_misalignment"]), consts["gyro_turn_on_bias_radps"])}
-    fields = {f.name for f in dataclasses.fields(TriadCalibration)}
 
-    def triad(mkey, bkey, tkey):
-        kw = {"matrix": np.linalg.inv(np.asarray(consts[mkey], float)),
-              "bias": np.asarray(consts.get(bkey.replace("turn_on_bias", "bias_mean"), consts[bkey]), float)}
-        if "bias_temp_coeff" in fields:
-            kw["bias_temp_coeff"] = np.asarray(consts.get(tkey, [0.0, 0.0, 0.0]), float)
-        return TriadCalibration(**{k: v for k, v in kw.items() if k in fields})
+    def triad(m, b, k):
+        return TriadCalibration(np.linalg.inv(np.asarray(consts[m], float)), np.asarray(consts[b], float),
+                                np.asarray(consts.get(k, np.zeros(3)), float))
 
-    kw = {"device_id": device or "", "acc": triad("accel_misalignment", "accel_turn_on_bias_mps2",
-                                                   "accel_bias_temp_coeff_mps2_per_degc"),
-          "gyro": triad("gyro_misalignment", "gyro_turn_on_bias_radps", "gyro_bias_temp_coeff_radps_per_degc"),
-          "source": "oracle (simulator truth constants)"}
-    if "temp_ref_degc" in consts:
-        kw["temp_ref_degc"] = float(consts["temp_ref_degc"])
-    names = {f.name for f in dataclasses.fields(SensorCalibration)}
-    return SensorCalibration(**{k: v for k, v in kw.items() if k in names})
+    return SensorCalibration(
+        device_id=None if device is None else f"0x{device:08X}",
+        acc=triad("acc_sensitivity_matrix", "acc_bias_turn_on_b_mps2", "acc_bias_tempco_b_mps2_per_degc"),
+        gyro=triad("gyro_sensitivity_matrix", "gyro_bias_turn_on_b_radps", "gyro_bias_tempco_b_radps_per_degc"),
+        temp_ref_degc=float(consts.get("temp_reference_degc", 25.0)), source="oracle (simulator truth constants)")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -266,51 +285,35 @@ def oracle_calibration(consts: dict, device: str | None):
 def run_task(task: dict) -> dict:
     """Simulate (cached), calibrate when the variant needs it, process, score: one row."""
     import bootnav
+    from bootnav.core.sensorcal import SensorCalibration
     from bootnav.postproc.settings import ProcessSettings
 
     t0 = time.perf_counter()
     row = {k: task[k] for k in ("scenario", "device", "seed", "variant", "label")}
     cache = Path(task["cache"])
+    dev = int(task["device"], 16)
     profile = sensor_profile(task["variant"])
     try:
-        path = simulated(cache, task["scenario"], task["duration_s"], task["device"], task["seed"], profile)
+        path = simulated(cache, task["scenario"], task["duration_s"], dev, task["seed"], profile,
+                         device_model(task["variant"]))
         pos_true, stance_true, consts, attrs = truth_of(path)
         settings = ProcessSettings.from_dict(task["settings"])
         settings.output.plots = False
-        kw = {}
-        has_cal = "calibration" in inspect.signature(bootnav.process).parameters
-        if has_cal:
-            kw["calibration"] = False  # uncal, floor, ablations: never a store match
+        calibration = False  # uncal, floor, ablations: never a store match
         if task["variant"] == "cal":
-            cal_path = calibration_file(cache, task["device"], task["cal_seed"])
-            kw["calibration"] = str(cal_path)
-            cal_doc = json.loads(cal_path.read_text())
-            s_consts = truth_of(cache / f"calsession_{task['device']}_s{task['cal_seed']}.h5")[2]
-            row.update({f"rec_{k}": v for k, v in recovery(cal_doc, s_consts).items()})
+            cal_path, session = calibration_file(cache, dev, task["cal_seed"])
+            calibration = str(cal_path)
+            row.update({f"rec_{k}": v for k, v in recovery(SensorCalibration.load(cal_path),
+                                                           truth_of(session)[2]).items()})
         elif task["variant"] == "oracle":
-            oc = oracle_calibration(consts, task["device"])
-            if oc is None:
-                raise RuntimeError("the recording has no drawn constants")
-            if isinstance(oc, dict) or not has_cal:
-                r = bootnav.process(*_oracle_arrays(path, oc), settings=settings)
-                return _score(row, r, pos_true, stance_true, attrs, t0)
-            kw["calibration"] = oc
-        r = bootnav.process(str(path), settings=settings, **kw)
+            calibration = oracle_calibration(consts, dev)
+            if calibration is None:
+                raise RuntimeError("the recording has no device truth (a simulator without --device?)")
+        r = bootnav.process(str(path), settings=settings, calibration=calibration)
         return _score(row, r, pos_true, stance_true, attrs, t0)
     except Exception as exc:  # a failed walk is a row too: it counts, it is never skipped silently
         row.update({"error": f"{type(exc).__name__}: {exc}"[:400], "wall_s": time.perf_counter() - t0})
         return row
-
-
-def _oracle_arrays(path: Path, oc: dict):
-    """(t, acc, gyro) of a recording corrected by the raw oracle pair (before the calibration model existed)."""
-    from bootnav.logger.recording import load
-
-    rec = load(path, with_truth=False)
-    (Ca, ba), (Cg, bg) = oc["acc"], oc["gyro"]
-    acc = (rec.acc_mps2 - np.asarray(ba)) @ np.asarray(Ca).T
-    gyro = (rec.gyro_radps - np.asarray(bg)) @ np.asarray(Cg).T
-    return rec.t_s, acc, gyro
 
 
 def _score(row: dict, r, pos_true, stance_true, attrs: dict, t0: float) -> dict:
@@ -425,7 +428,7 @@ def build_tasks(args) -> list[dict]:
                 if sensor_profile(var) is None:
                     print(f"note: {var} skipped: this simulator has no such error term", file=sys.stderr)
                     continue
-                tasks.append({"scenario": scen, "device": f"mission-{k:03d}", "seed": 1000 + k,
+                tasks.append({"scenario": scen, "device": f"0x{DEVICE_BASE + k:08X}", "seed": 1000 + k,
                               "cal_seed": 5000 + k, "variant": var, "label": args.label,
                               "duration_s": args.duration, "cache": str(args.cache), "settings": settings})
     return tasks
