@@ -61,9 +61,9 @@ class Session:
 class CalibrationResult:
     """What ``calibrate`` returns: the calibration, the poses and motions it used, residuals, warnings."""
 
-    calibration: SensorCalibration
+    calibration: SensorCalibration | None  # None (and gyro None) when the accelerometer is undetermined
     accel: AccelFit
-    gyro: GyroFit
+    gyro: GyroFit | None
     gyro_bias_sigma: np.ndarray
     poses: list  # StaticPoses per session
     motions: GyroData
@@ -119,10 +119,6 @@ def load_session(path: str | Path) -> Session:
     return session_from_recording(rec)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
 def build_gyro_data(sessions, poses, temp_ref: float, s: SensorCalSettings) -> GyroData:
     """Concatenate the sessions and list the usable motions between consecutive poses (``gyro_fit.GyroData``).
 
@@ -175,18 +171,48 @@ def build_gyro_data(sessions, poses, temp_ref: float, s: SensorCalSettings) -> G
                     turn_n=np.zeros(len(m_from), np.int64), label=labels)
 
 
-def fit_bias_temperature(values: np.ndarray, temp_dev: np.ndarray | None, weights=None):
-    """b [+ k ΔT] per axis by linear least squares over poses: returns (b, k, sigma_b, sigma_k)."""
+def fit_bias_temperature(values: np.ndarray, temp_dev: np.ndarray | None, session=None,
+                         repeatability: float = 0.0):
+    """b [+ k ΔT] per axis by linear least squares over the poses' mean rates: returns (b, k, σ_b, σ_k).
+
+    Several sessions: each has its own offset δ_s with the prior 0 ± ``repeatability`` (turn-on
+    repeatability, a random effect), so k comes from the temperature changes within a power-on plus what the
+    prior allows between power-ons, and b is the unit's mean. σ_b includes the repeatability (the bias of
+    the next power-on).
+    """
     v = np.asarray(values, dtype=np.float64)
     n = v.shape[0]
-    a = np.ones((n, 1)) if temp_dev is None else np.column_stack([np.ones(n), temp_dev])
-    coef, *_ = np.linalg.lstsq(a, v, rcond=None)
-    r = v - a @ coef
-    dof = max(n - a.shape[1], 1)
-    s2 = (r**2).sum(axis=0) / dof  # per axis
-    inv = np.linalg.pinv(a.T @ a)
-    sd = np.sqrt(np.outer(np.diag(inv), s2))  # (params, 3)
-    b, sb = coef[0], sd[0]
+    ses = np.zeros(n, np.int64) if session is None else np.asarray(session, np.int64)
+    n_ses = int(ses.max()) + 1 if n else 1
+    cols = [np.ones(n)] + ([np.asarray(temp_dev, dtype=np.float64)] if temp_dev is not None else [])
+    base = np.column_stack(cols)
+    nb = base.shape[1]
+    if n_ses > 1 and repeatability > 0:
+        onehot = (ses[:, None] == np.arange(n_ses)[None]).astype(np.float64)
+        # within-session scatter first (offsets free), then the prior on the offsets at that scale
+        free = np.column_stack([onehot] + cols[1:])
+        coef, *_ = np.linalg.lstsq(free, v, rcond=None)
+        r = v - free @ coef
+        s_w = np.sqrt(np.maximum((r**2).sum(axis=0) / max(n - free.shape[1], 1), 1e-30))  # per axis
+        out = []
+        for ax in range(3):
+            lam = s_w[ax] / repeatability
+            a = np.vstack([np.column_stack([base, onehot]),
+                           np.column_stack([np.zeros((n_ses, nb)), lam * np.eye(n_ses)])])
+            rhs = np.concatenate([v[:, ax], np.zeros(n_ses)])
+            c_ax, *_ = np.linalg.lstsq(a, rhs, rcond=None)
+            cov = s_w[ax] ** 2 * np.linalg.pinv(a.T @ a)
+            out.append((c_ax, np.sqrt(np.maximum(np.diag(cov), 0.0))))
+        b = np.array([o[0][0] for o in out])
+        sb = np.sqrt(np.array([o[1][0] for o in out]) ** 2 + repeatability**2)
+        k = np.array([o[0][1] for o in out]) if temp_dev is not None else np.zeros(3)
+        sk = np.array([o[1][1] for o in out]) if temp_dev is not None else np.zeros(3)
+        return b, k, sb, sk
+    coef, *_ = np.linalg.lstsq(base, v, rcond=None)
+    r = v - base @ coef
+    s2 = (r**2).sum(axis=0) / max(n - nb, 1)
+    sd = np.sqrt(np.outer(np.diag(np.linalg.pinv(base.T @ base)), s2))  # (params, 3)
+    b, sb = coef[0], np.sqrt(sd[0] ** 2 + repeatability**2)
     k = coef[1] if temp_dev is not None else np.zeros(3)
     sk = sd[1] if temp_dev is not None else np.zeros(3)
     return b, k, sb, sk
@@ -231,8 +257,16 @@ def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None
         warnings.append(f"poses span {span:.1f} °C (< {s.temp_span_min_degc:g} °C): no bias temperature "
                         "coefficient fitted; add a session at another temperature (warm or cold boot) for one")
 
-    afit = fit_accelerometer(acc_mean, g, dT)
-    acc_sigma = afit.sigma()
+    pose_session = np.concatenate([np.full(len(p), i, np.int64) for i, p in enumerate(poses)])
+    afit = fit_accelerometer(acc_mean, g, dT, session=pose_session, repeatability_mps2=s.acc_bias_repeatability_mps2)
+    acc_undetermined, _ = _check(afit, None, np.full(3, np.inf), s)
+    if acc_undetermined:
+        # the up directions the gyro fit needs come from the accelerometer: nothing to fit the gyro against
+        if require_determined:
+            raise InputError(f"{names}: {undetermined_message(acc_undetermined)}")
+        return CalibrationResult(None, afit, None, None, poses, None, np.zeros(3), warnings, s,
+                                 acc_undetermined + [("gyroscope", float("inf"), 0.0, acc_undetermined[0][3])], [])
+    acc_sigma = {k: v for k, v in afit.sigma().items() if "session" not in k}
     acc_tri = TriadCalibration(afit.matrix, afit.bias, afit.temp_coeff, acc_sigma,
                                float(np.sqrt(np.mean(afit.residuals**2))))
 
@@ -242,12 +276,12 @@ def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None
                          f"the next must be shorter than {s.max_rotation_s:g} s, without gaps or saturation): "
                          "turn the boot between the holds")
     theta0 = initial_theta(gd, gyro_mean)
-    gd.turn_n = detect_turns(gd, theta0, afit.theta, s.turn_min_rad, s.turn_max_tilt_rad)
+    gd.turn_n = detect_turns(gd, theta0, afit, s.turn_min_rad, s.turn_max_tilt_rad)
     for k in np.flatnonzero(gd.turn_n):
         gd.label[k] += f" full turn x{int(gd.turn_n[k])}"
-    cover = axis_coverage(gd, theta0, afit.theta)
+    cover = axis_coverage(gd, theta0, afit)
     gfit = fit_gyroscope(gd, theta0, afit, s.pose_direction_sigma_rad, s.turn_heading_sigma_rad)
-    gb, gk, gsb, gsk = fit_bias_temperature(gyro_mean, dT)
+    gb, gk, gsb, gsk = fit_bias_temperature(gyro_mean, dT, pose_session, s.gyro_bias_repeatability_radps)
     gsig = {k: v for k, v in gfit.sigma().items() if k.startswith("C_")}
     for i, a in enumerate(AXES):
         gsig[f"bias_{a}"] = float(gsb[i])
@@ -285,6 +319,8 @@ def _check(afit: AccelFit, gfit: GyroFit, cover: np.ndarray, s: SensorCalSetting
     """Parameters not determined (above the 'undetermined' limits) and those missing the goals."""
     undetermined, below = [], []
     for triad, fit in (("accelerometer", afit), ("gyroscope", gfit)):
+        if fit is None:
+            continue
         for name, sd in fit.sigma().items():
             if "session" in name:
                 continue

@@ -103,6 +103,20 @@ def pose_sums(omega, dt, f, start, mid, stop):  # pragma: no cover - numba
 
 
 @njit(cache=True)
+def corrected_rates(y, t_rel, sess, c, bias, drift):  # pragma: no cover - numba
+    """ω̂_k = C (y_k − b_s − d_s t_k) for every sample (s = sess[k]): one pass, no temporaries."""
+    out = np.empty_like(y)
+    for k in range(y.shape[0]):
+        s = sess[k]
+        e0 = y[k, 0] - bias[s, 0] - drift[s, 0] * t_rel[k]
+        e1 = y[k, 1] - bias[s, 1] - drift[s, 1] * t_rel[k]
+        e2 = y[k, 2] - bias[s, 2] - drift[s, 2] * t_rel[k]
+        for i in range(3):
+            out[k, i] = c[i, 0] * e0 + c[i, 1] * e1 + c[i, 2] * e2
+    return out
+
+
+@njit(cache=True)
 def rotmats(q):  # pragma: no cover - numba
     out = np.empty((q.shape[0], 3, 3))
     for i in range(q.shape[0]):
@@ -167,7 +181,8 @@ def _unit(v):
 class _Model:
     """Residuals of the module docstring for parameters θ = (C, b_s, d_s) and given accelerometer params."""
 
-    def __init__(self, gd: GyroData, acc_theta: np.ndarray, pose_sigma: float, turn_sigma: float):
+    def __init__(self, gd: GyroData, accel, acc_theta: np.ndarray, pose_sigma: float, turn_sigma: float):
+        self.accel = accel
         self.gd = gd
         self.turns = np.flatnonzero(gd.turn_n != 0)
         self.target = 2.0 * math.pi * gd.turn_n[self.turns]
@@ -176,15 +191,16 @@ class _Model:
         self.set_accel(acc_theta)
 
     def set_accel(self, acc_theta):
-        c, b, k = unpack(acc_theta, acc_theta.shape[0] > 9)
-        self.f = np.ascontiguousarray((self.gd.acc - b - self.gd.dtemp[:, None] * k) @ c.T)
+        a = self.accel
+        c, _, k, _ = unpack(acc_theta, a.fit_temp, a.n_sessions)
+        b_s = a.session_bias(acc_theta)  # (S, 3): each power-on's own bias
+        self.f = np.ascontiguousarray((self.gd.acc - b_s[self.gd.sess] - self.gd.dtemp[:, None] * k) @ c.T)
 
     def omega(self, theta):
         gd = self.gd
-        c = theta[:9].reshape(3, 3)
         bd = theta[9:].reshape(gd.n_sessions, 2, 3)
-        bias = bd[gd.sess, 0] + gd.t_rel[:, None] * bd[gd.sess, 1]
-        return np.ascontiguousarray((gd.y - bias) @ c.T)
+        return corrected_rates(gd.y, gd.t_rel, gd.sess, np.ascontiguousarray(theta[:9].reshape(3, 3)),
+                               np.ascontiguousarray(bd[:, 0]), np.ascontiguousarray(bd[:, 1]))
 
     def parts(self, theta):
         gd = self.gd
@@ -224,12 +240,14 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
     """Nonlinear least squares for C, b_s, d_s (module docstring); ``accel`` an ``accel_fit.AccelFit``."""
     from scipy.optimize import least_squares
 
-    model = _Model(gd, accel.theta, pose_sigma_rad, turn_sigma_rad)
+    model = _Model(gd, accel, accel.theta, pose_sigma_rad, turn_sigma_rad)
     n_mo, n_po = 3 * gd.mo_from.shape[0], 3 * gd.pose_start.shape[0]
     theta = theta0
     for _ in range(3):  # variance components: weigh the pose halves by their own scatter against the motions'
+        # a determined problem converges in < 10 evaluations (it is nearly linear near C = I); the cap
+        # bounds the time spent on an undetermined one (the live mode refits after every pose)
         sol = least_squares(model, theta, method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                            max_nfev=100)
+                            max_nfev=30)
         theta = sol.x
         rm = sol.fun[:n_mo]
         rp = sol.fun[n_mo:n_mo + n_po] / model.w_pose
@@ -245,7 +263,7 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
     s2 = float(r @ r) / max(n_obs - theta0.shape[0], 1)
     inv_n = _pinv_normal(sol.jac)
     cov = s2 * inv_n
-    if np.all(np.isfinite(accel.cov)):
+    if np.all(np.isfinite(accel.cov_data)):
         cov = cov + _accel_propagation(sol, inv_n, model, accel)
     u_pred, u_to, r_pose, yaw = model.parts(sol.x)
     ang = np.arccos(np.clip(np.einsum("ij,ij->i", _unit(u_pred), u_to), -1.0, 1.0))
@@ -261,7 +279,7 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
 def _accel_propagation(sol, inv_n, model: _Model, accel) -> np.ndarray:
     """A Σ_a Aᵀ with A = ∂θ/∂θ_a = −(JᵀJ)⁻¹ Jᵀ ∂r/∂θ_a (implicit function theorem at the optimum;
     ∂r/∂θ_a by central differences), Σ_a the accelerometer fit's covariance."""
-    cov_a = accel.cov
+    cov_a = accel.cov_data
     cols = []
     try:
         for j in range(accel.theta.shape[0]):
@@ -279,13 +297,13 @@ def _accel_propagation(sol, inv_n, model: _Model, accel) -> np.ndarray:
     return a @ cov_a @ a.T
 
 
-def detect_turns(gd: GyroData, theta0: np.ndarray, acc_theta: np.ndarray, turn_min_rad: float,
+def detect_turns(gd: GyroData, theta0: np.ndarray, accel, turn_min_rad: float,
                  turn_max_tilt_rad: float) -> np.ndarray:
     """Full turns (n per motion, 0 for others): same up direction before and after (within
     ``turn_max_tilt_rad``), at least ``turn_min_rad`` turned about it, at the initial parameters."""
     saved = gd.turn_n
     gd.turn_n = np.zeros(gd.mo_from.shape, np.int64)
-    model = _Model(gd, acc_theta, 1.0, 1.0)
+    model = _Model(gd, accel, accel.theta, 1.0, 1.0)
     try:
         w = model.omega(theta0)
         sums = pose_sums(w, gd.dt, model.f, gd.pose_start, gd.pose_mid, gd.pose_stop)
@@ -300,12 +318,12 @@ def detect_turns(gd: GyroData, theta0: np.ndarray, acc_theta: np.ndarray, turn_m
     return np.where(turn, np.rint(yaw / (2 * math.pi)), 0).astype(np.int64)
 
 
-def axis_coverage(gd: GyroData, theta0: np.ndarray, acc_theta: np.ndarray) -> np.ndarray:
+def axis_coverage(gd: GyroData, theta0: np.ndarray, accel) -> np.ndarray:
     """(3,) rad: per body axis, Σ over non-turn motions of |∫ω_a dt| × sin(angle of axis a to the vertical,
     the larger of before and after): how much rotation about that axis gravity could see."""
     if gd.mo_from.size == 0:
         return np.zeros(3)
-    model = _Model(gd, acc_theta, 1.0, 1.0)
+    model = _Model(gd, accel, accel.theta, 1.0, 1.0)
     w = model.omega(theta0)
     u = _unit(np.array([model.f[m] for m in gd.pose_mid]))
     cs = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (w[:-1] + w[1:]) * gd.dt[:-1, None], axis=0)])

@@ -49,6 +49,11 @@ class SensorCalSettings:
     temp_span_min_degc: bias temperature coefficients are fitted only when the static poses span at least
         this many °C (the die warms ≈ 3 °C after power-on; a coefficient from a smaller span, extrapolated
         over the tens of °C a boot in a fire sees, adds more error than it removes).
+    acc_bias_repeatability_mps2, gyro_bias_repeatability_radps: 1σ of the turn-on-to-turn-on change of the
+        biases [ENG]: no figure is published for the MPU6050; a quarter of the datasheet's turn-on tolerance
+        (zero-g ±50 mg, ZRO ±20 °/s, as 3σ) is the project's assumption (docs/simulator.md, "The split r").
+        Sessions of different power-ons share b + k ΔT only up to it: it weighs what two sessions at two
+        temperatures say about k, and is added to the stored bias's 1σ.
     gravity_mps2: local gravity; None -> WGS-84 normal gravity at latitude_deg, height_m
         (``postproc.calibration.normal_gravity``).
     goal_scale_sigma, goal_misalignment_sigma_rad: the goals (1σ, dimensionless and rad).
@@ -70,6 +75,8 @@ class SensorCalSettings:
     turn_min_rad: float = 1.5 * math.pi
     turn_max_tilt_rad: float = math.radians(5.0)
     temp_span_min_degc: float = 5.0
+    acc_bias_repeatability_mps2: float = 0.25 * 50e-3 / 3 * 9.80665
+    gyro_bias_repeatability_radps: float = 0.25 * math.radians(20.0) / 3
     gravity_mps2: float | None = None
     latitude_deg: float = 45.0
     height_m: float = 0.0

@@ -30,6 +30,13 @@ STANDARD_MOTIONS = [
     (0, 0, 2 * math.pi), (0, 0, -2 * math.pi),  # two full turns flat on the table
     (0.9, 0.9, 0.0), (0.0, -0.8, 0.8), (-0.6, 0.0, -0.9), (0.5, 0.7, 0.3),  # oblique poses
 ]
+# a person following the guided live mode's PROCEDURE (x toe-ward, y left, z up; one motion per instruction)
+PROCEDURE_MOTIONS = [(D / 2, 0, 0), (D / 2, 0, 0), (D, 0, 0), (D, 0, 0), (D, 0, 0),  # roll through the sides
+                     (0, -D, 0), (0, D, 0), (0, D, 0), (0, -D / 2, 0), (0, -D / 2, 0),  # heel, toe, 45° toe down
+                     (0, 0, 2 * math.pi),  # a full turn on the table
+                     (D, 0, 0), (0, 0, D), (0, 0, -D / 2), (0, 0, -1.5 * D), (0, 0, D),  # on its side, about z
+                     (-D, 0, 0), (-D / 2, 0, 0), (D / 2, 0, 0)]  # flat, 45° on the right side, flat
+
 # every face reached by turns about y and z only (z is horizontal after the first pitch): no rotation about x
 NO_X_MOTIONS = [(0, D, 0), (0, 0, D), (0, 0, D), (0, 0, D), (0, 0, D), (0, D, 0), (0, D, 0), (0, D, 0),
                 (0, 0, 2 * math.pi), (0, 0.6, 0), (0, 0, 0.7), (0, -0.6, 0), (0, 0, -0.7), (0, -D, 0),
