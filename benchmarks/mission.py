@@ -327,6 +327,8 @@ def _score(row: dict, r, pos_true, stance_true, attrs: dict, t0: float) -> dict:
     if dist is not None:
         row["distance_m"] = float(dist)
         row["distance_err_pct"] = 100.0 * (float(dist) / row["true_distance_m"] - 1.0)
+    flags = (summary.get("navigation") or {}).get("stride_flags") or {}
+    row["missed_stance_strides"] = int(flags.get("missed_stance", 0))
     cal = summary.get("calibration")
     if isinstance(cal, dict):
         row["calibration"] = cal.get("source") or cal.get("status")
@@ -340,7 +342,7 @@ def _score(row: dict, r, pos_true, stance_true, attrs: dict, t0: float) -> dict:
 
 FIGURES = (("final_h_m", "final h m"), ("worst_h_m", "worst h m"), ("armse_h_m", "ARMSE h m"),
            ("final_v_m", "final v m"), ("worst_v_m", "worst v m"), ("stance_within_tol_pct", "in 1.5 m %"),
-           ("distance_err_pct", "dist err %"))
+           ("distance_err_pct", "dist err %"), ("missed_stance_strides", "missed ZUPT"))
 
 
 def summarize(rows: list[dict]) -> list[dict]:
