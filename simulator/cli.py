@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
@@ -113,7 +112,8 @@ def run(args) -> int:
         raise InputError(f"unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
     fmt = args.format or ("sd-txt" if str(args.out).lower().endswith(".txt") else "h5")
     t0 = time.perf_counter()
-    from bootnav.cli import Progress
+    from bootnav.core import atomic
+    from bootnav.core.progress import Progress
 
     shown = Progress(quiet=getattr(args, "quiet", False))
 
@@ -129,14 +129,8 @@ def run(args) -> int:
     path = Path(args.out)
     if fmt == "sd-txt":
         write_sd_txt(res, path)
-    else:  # crash-safe: written beside the target, then renamed over it, so no half-written HDF5 file is left
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
-            write_h5(res, tmp)
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+    else:  # crash-safe (core.atomic): written beside the target, then renamed over it: no half-written HDF5 file
+        atomic.replace_with(path, lambda tmp: write_h5(res, tmp))
     if args.plot:
         from bootnav.simulator.plot import plot_result
 

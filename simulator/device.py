@@ -40,7 +40,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from bootnav.logger.mpu6050 import STANDARD_GRAVITY
-from bootnav.simulator.imu_model import _misalignment
+from bootnav.simulator.imu_model import misalignment_matrix
 
 DEVICE_SALT = 0x0B0075EE  # fixed: one device id is one unit, in every release and for every seed
 DEVICE_ID_MAX = 0xFFFFFFFF  # the recorder's device id is a uint32 (logger/protocol.py)
@@ -173,8 +173,8 @@ def draw_unit(device_id, profile, model: DeviceModel = DeviceModel()) -> DeviceU
     g = STANDARD_GRAVITY
     rs = math.sqrt(1.0 - model.repeat_fraction**2)
 
-    M_a = _misalignment(rng, p.accel_scale_sigma, p.accel_cross_axis_sigma)
-    M_g = _misalignment(rng, p.gyro_scale_sigma, p.gyro_cross_axis_sigma)
+    M_a = misalignment_matrix(rng, p.accel_scale_sigma, p.accel_cross_axis_sigma)
+    M_g = misalignment_matrix(rng, p.gyro_scale_sigma, p.gyro_cross_axis_sigma)
     sig_a = np.asarray(p.accel_turn_on_bias_sigma_mg, dtype=float) * 1e-3 * g
     sig_g = math.radians(p.gyro_turn_on_bias_sigma_dps)
     b_a = rng.normal(0.0, 1.0, 3) * sig_a * rs

@@ -163,7 +163,9 @@ def quantize(x: np.ndarray, lsb: float) -> tuple[np.ndarray, np.ndarray]:
     return c.astype(np.int16), (c == INT16_MAX) | (c == INT16_MIN)
 
 
-def _misalignment(rng: np.random.Generator, scale_sigma: float, cross_sigma: float) -> np.ndarray:
+def misalignment_matrix(rng: np.random.Generator, scale_sigma: float, cross_sigma: float) -> np.ndarray:
+    """A drawn sensitivity matrix M = I + diag(scale errors) + cross-axis terms (σ's dimensionless, from ``rng``):
+    sensor reading = M · true value (the error model and the device model draw it the same way)."""
     M = np.eye(3) + np.diag(rng.normal(0.0, 1.0, 3) * scale_sigma)
     off = rng.normal(0.0, 1.0, (3, 3)) * cross_sigma
     return M + off - np.diag(np.diag(off))
@@ -188,8 +190,8 @@ class ErrorModel:
         self.unit = unit
         g = STANDARD_GRAVITY
         if unit is None:
-            self.M_a = _misalignment(rng, profile.accel_scale_sigma, profile.accel_cross_axis_sigma)
-            self.M_g = _misalignment(rng, profile.gyro_scale_sigma, profile.gyro_cross_axis_sigma)
+            self.M_a = misalignment_matrix(rng, profile.accel_scale_sigma, profile.accel_cross_axis_sigma)
+            self.M_g = misalignment_matrix(rng, profile.gyro_scale_sigma, profile.gyro_cross_axis_sigma)
             self.b0_a = rng.normal(0.0, 1.0, 3) * np.asarray(profile.accel_turn_on_bias_sigma_mg) * 1e-3 * g
             self.b0_g = rng.normal(0.0, 1.0, 3) * math.radians(profile.gyro_turn_on_bias_sigma_dps)
         else:  # the unit's stable constants; this power-on's repeatability from the seed

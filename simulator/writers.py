@@ -49,7 +49,7 @@ TRUTH_DESCRIPTION = (
 )
 
 
-def _step_arrays(res: SimResult) -> dict[str, np.ndarray]:
+def step_arrays(res: SimResult) -> dict[str, np.ndarray]:
     s = res.steps
     out = {"step_t_s": s["t_end_s"], "step_t_start_s": s["t_start_s"], "step_t_toe_off_s": s["t_toe_off_s"],
            "step_t_heel_strike_s": s["t_heel_strike_s"]}
@@ -104,7 +104,7 @@ def write_h5(res: SimResult, path: str | os.PathLike) -> Path:
         acc_ch, gyro_ch = si_channel("acc"), si_channel("gyro")
     write_recording(path, res.t_s, res.acc, res.gyro, acc_channel=acc_ch, gyro_channel=gyro_ch, events=res.events,
                     meta=recording_meta(res), saturated=res.saturated, **kw)
-    arrays = {**res.truth, **_step_arrays(res)}
+    arrays = {**res.truth, **step_arrays(res)}
     attrs = {**res.attrs, "description": TRUTH_DESCRIPTION}
     write_group(path, "truth", arrays, attrs=attrs, units=TRUTH_UNITS)
     return path

@@ -279,7 +279,7 @@ class BootView:
         bias_det, gravity_det = stance_reference(self._nav.init_state, self._nav.gravity)  # as ``process``
         self._stance = StreamStance(self.settings.detector, rate_hz, gravity=gravity_det, gyro_bias_b=bias_det)
         self._sat = np.zeros(0, np.uint8)
-        cue = replace(self.settings.detector, method="shoe", min_stance_s=self.live.cue_min_stance_s)
+        cue = self.settings.detector.with_method("shoe", min_stance_s=self.live.cue_min_stance_s)
         self._cue = StreamStance(cue, rate_hz, gravity=gravity_det, gyro_bias_b=bias_det)
         self._cue_prev = False  # the cue's decision at the sample before its newest chunk
         self._recent = RecentSamples()

@@ -19,7 +19,7 @@ import numpy as np
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 
-from ..detectors._common import moving_mean, row_norm, rows_finite, window_samples
+from bootnav.core.arrays import moving_mean, row_norm, rows_finite, window_samples
 from .settings import SensorCalSettings
 
 
