@@ -7,8 +7,16 @@ files), ``live`` (guided live mode), ``synthetic`` (exact sessions for tests).
 The model and the file format are ``bootnav.core.sensorcal``; docs/calibration.md has the procedure.
 """
 
-from .fit import CalibrationResult, Session, calibrate, load_session, session_from_recording
-from .settings import SensorCalSettings
+import importlib
 
-__all__ = ["CalibrationResult", "Session", "SensorCalSettings", "calibrate", "load_session",
-           "session_from_recording"]
+# lazy: `bootnav --help` imports the command's module (cli) through this package, and must not pay for
+# numpy/scipy/numba (tests/test_long_speed.py)
+_EXPORTS = {"CalibrationResult": "fit", "Session": "fit", "calibrate": "fit", "load_session": "fit",
+            "session_from_recording": "fit", "SensorCalSettings": "settings"}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
