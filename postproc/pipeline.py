@@ -299,13 +299,12 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                     worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
     import json
-    import shutil
 
     import h5py
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import attach_dimension_scales, write_group
+    from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
@@ -436,7 +435,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         writer = None
         try:
             if opts.write_hdf5:
-                shutil.copy2(path, tmp)
+                start_results_file(tmp, path, out)  # links to the recording, not a copy
             writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
             with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
                 csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
@@ -447,7 +446,8 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                         return
                     if not np.all(np.isfinite(r.pos_n)):
                         check_path_finite(name, r.t_s, r.pos_n, r.start)
-                    append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance), TRAJECTORY_FORMATS)
+                    append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
+                                    TRAJECTORY_FORMATS)
                     if writer is not None:
                         writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
@@ -512,7 +512,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
                             {"description": "one row per stride, see postproc/strides.py"}, step_units)
                 attach_dimension_scales(tmp, group)
-                attach_dimension_scales(tmp, f"{group}/steps")
+                attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
                 atomic.commit(tmp, target)
                 files["hdf5"] = f"{target}:{group}"
             lap("write")

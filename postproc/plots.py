@@ -444,8 +444,9 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
         _trace(ax, nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
         if len(fp_n):
             z_fp = fp_n[:, 2] - z0
-            if floors.stair_min_dz_m is not None:
-                ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",
+            stair = floor_signal(z_fp, floors)
+            if floors.stair_min_dz_m is not None and np.any(stair != 0):  # a level walk has no stair to draw
+                ax.plot(t_fp, stair, color="tab:purple", lw=1, ls="--",
                         label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
             ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
                     color="tab:orange", lw=1.5, label="floor level (counted)")
@@ -490,7 +491,14 @@ def reference_in_estimate_frame(ref_pts: np.ndarray, yaw_rad: float | None, star
     return out + np.asarray(start_n, float)
 
 
-FLOOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+#: one colour per floor (path.html, the live view): no green and no red, the colours of the start and end markers
+FLOOR_COLORS = ("#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+START_COLOR, END_COLOR = "#2ca02c", "#d62728"
+
+
+def _floor_color(floor_ids: list[int], k: int) -> str:
+    """The colour of floor ``k`` among the walk's ``floor_ids`` (sorted)."""
+    return FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
 
 
 def _html_floors(t_drawn: np.ndarray, t_fp: np.ndarray, fp_n: np.ndarray, settings) -> np.ndarray:
@@ -541,7 +549,7 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
     lines = []
     for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(xy)]):  # one polyline per run on one floor (joined)
         k = int(level[a])
-        color = FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
+        color = _floor_color(floor_ids, k)
         lines.append(f'<polyline class="path" data-floor="{k}" style="stroke:{color}" '
                      f'points="{points(xy[max(a - 1, 0):b])}"/>')
     st = info["steps"]
@@ -561,8 +569,13 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
     if len(floor_ids) > 1:
         opts = "".join(f'<option value="{k}">floor {k:+d}</option>' for k in floor_ids)
         floor_ui = f'<label>floor <select id="floor"><option value="all">all floors</option>{opts}</select></label>'
-    legend = ("blue line = path" if len(floor_ids) == 1 else "one colour per floor")
-    legend += ", dots = strides, green = start, red = end" + (", dotted = reference" if ref is not None else "")
+    # the key: each floor's colour, then the markers
+    key = "".join(f'<span class="key" data-floor="{k}"><span class="sw" style="background:{_floor_color(floor_ids, k)}">'
+                  f'</span>{"start floor" if k == 0 else f"floor {k:+d}"}</span>' for k in floor_ids)
+    key += (f'<span class="key"><span class="sw dot" style="background:{START_COLOR}"></span>start</span>'
+            f'<span class="key"><span class="sw dot" style="background:{END_COLOR}"></span>end</span>'
+            f'<span class="key"><span class="sw dot" style="background:#1f77b4;opacity:.8"></span>stride</span>')
+    legend = "line = path, coloured by floor" + (", dotted = reference" if ref is not None else "")
     vb = [float(lo[0]), float(-hi[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])]
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{title}</title>
 <meta name="viewport" content="width=device-width, initial-scale=1">
@@ -573,13 +586,15 @@ border-top:1px solid #ccc}} polyline{{fill:none;vector-effect:non-scaling-stroke
 #reference{{stroke:#000;stroke-width:2;stroke-dasharray:2 4}} circle.stride{{fill:#1f77b4;opacity:.8}}
 circle.stride:hover{{fill:#d62728}} #grid line{{stroke:#ddd;vector-effect:non-scaling-stroke;stroke-width:1}}
 #grid text{{fill:#888}} #scale{{position:absolute;left:12px;bottom:12px;background:#fffc;padding:2px 6px;font-size:13px}}
-#bar{{height:6px;border:2px solid #000;border-top:none}} button{{margin-left:1em}}</style></head><body>
+#bar{{height:6px;border:2px solid #000;border-top:none}} button{{margin-left:1em}}
+.key{{margin-right:1em;white-space:nowrap}} .sw{{display:inline-block;width:1.6em;height:.45em;margin-right:.3em;
+vertical-align:middle}} .sw.dot{{width:.8em;height:.8em;border-radius:50%}}</style></head><body>
 <header><h3>{title}</h3><p>Metres, north up (x east, y north); {legend}. Wheel = zoom, drag = pan, hover a stride
-for details. {floor_ui}<button id="fit">fit</button></p></header>
+for details. {floor_ui}<button id="fit">fit</button></p><p id="key">{key}</p></header>
 <div id="wrap"><svg id="v" viewBox="{' '.join(f'{v:.3f}' for v in vb)}" preserveAspectRatio="xMidYMid meet">
 <g id="grid"></g>{ref_svg}{''.join(lines)}{dots}
-<circle id="start" cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:#2ca02c"><title>start</title></circle>
-<circle id="end" cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:#d62728"><title>end</title></circle>
+<circle id="start" cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:{START_COLOR}"><title>start</title></circle>
+<circle id="end" cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:{END_COLOR}"><title>end</title></circle>
 </svg><div id="scale"><div id="bar"></div><span id="scalelabel"></span></div></div>
 <script>
 const s=document.getElementById('v'),home={json.dumps(vb)},NS='http://www.w3.org/2000/svg';let b=home.slice(),d=null;

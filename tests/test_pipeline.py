@@ -16,7 +16,7 @@ from bootnav.logger.recording import load, write_recording
 from bootnav.postproc.outputs import write_outputs
 from bootnav.postproc.pipeline import process
 from bootnav.postproc.settings import ProcessSettings
-from tests.conftest import run_python
+from tests.conftest import REPO, run_python
 
 SHORT = "xio_ngimu_loops/short_walk/imu.csv.gz"
 
@@ -41,14 +41,18 @@ def short_walk_result(short_walk_rec):
 
 
 def test_real_closed_loop_walk_closes(short_walk_result):
-    """x-io short walk: a closed loop of ~25 m (README; the foot ends where it started).
+    """x-io short walk: a closed loop of about 23 m (recordings/README.md; the foot ends where it started).
 
     Bounds from the truth: the true closure is 0, so any closure is error. The paper's best Table 1 error
     is 2.5 % of the distance; x-io's own result on this file is 82 mm. Horizontal closure must stay under
-    2 % of the distance, 3-D closure under 2.5 %. Distance: the README's 25 m is approximate, so +-20 %."""
+    2 % of the distance, 3-D closure under 2.5 %. Distance: what recordings/README.md says a user gets, to
+    the metre it is rounded to."""
     r = short_walk_result
     p = r.summary["path"]
-    assert 20.0 <= p["distance_m"] <= 30.0
+    readme = (REPO / "recordings" / "README.md").read_text()
+    said = float(re.search(r"closed loop of about (\d+) m", readme)[1])
+    assert abs(p["distance_m"] - said) <= 0.5, (p["distance_m"], said)
+    assert "writes its\nresults into the recording" not in readme and "never writes" in readme
     assert p["closure_h_m"] < 0.02 * p["distance_m"]
     assert p["closure_pct"] < 2.5
     assert r.metrics["closure_pct"] == pytest.approx(p["closure_pct"])

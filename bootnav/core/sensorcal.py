@@ -57,7 +57,7 @@ import numpy as np
 
 from bootnav.core.atomic import write_text
 from bootnav.core.jsonio import to_jsonable
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 FORMAT = "bootnav-sensor-calibration"
 VERSION = 1

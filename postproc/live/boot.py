@@ -17,7 +17,16 @@ draws a provisional footprint at the navigator's filtered position propagated to
 stride replaces it when its rows are final (``provisional`` module docstring).
 
 Time since the last motion is read from the stance decisions, which come a detector window after the
-samples (long before the rows are final): the foot counts as moving while it is not in stance.
+samples (long before the rows are final): the foot counts as moving while it is not in stance. A boot that
+stops sending is no safer than one that stands still: while its link is not ``ok`` (stale, disconnected, never
+heard) the wall time without samples adds to the time without motion, so the same alarm fires after
+``no_motion_s``, marked ``signal lost`` (``status``).
+
+A stream that breaks off (a ``disconnect`` event: cable pulled, emulator ended) ends the boot's segment as the
+end of a record does: the filter is flushed and the open stance phase closed, so its last stride is final on
+the page as in ``live.json``. Samples after a reconnect start a new segment, aligned on its own initial rest and
+continued from the last footprint (the heading is re-aligned: the turn made while the link was down is
+unknown; a note says so).
 
 The sensor calibration is ``process``'s (``calibration.resolve_calibration`` with the recording's device id,
 ``apply_calibration`` with its temperature): every chunk is calibrated as it arrives, before the detector,
@@ -128,6 +137,10 @@ class BootView:
         self._stopped = False  # the filter refused the samples: no more path for this boot
         self._prov: list[list[float]] = []  # provisional rows [t_s, x_m, y_m, z_m, floor] after the final ones
         self._covered_t = -np.inf  # provisional rows up to this time are superseded by final rows
+        self._offset_n = np.zeros(3)  # position of this segment's origin (the last footprint of the previous one)
+        self._segment_ended = False  # the stream broke off: the next samples start a new segment
+        self._segment_note: str | None = None
+        self._wall0: float | None = None  # wall time of the first status (a boot never heard is silent since)
         self.calibration = None  # calibration.AppliedCalibration, resolved at the first chunk
         # the navigator gets calibrated samples: its own settings must not calibrate them again
         self._nav_settings = replace(settings, calibration=replace(settings.calibration, sensor_calibration="none",
@@ -137,17 +150,23 @@ class BootView:
     def push(self, chunk, wall_s: float) -> list[list[float]]:
         """Account for a chunk (``sources.Chunk``); return the stride rows it completed."""
         self.link.update(chunk.t_s, chunk.saturated, chunk.events, wall_s)
-        if len(chunk.t_s) == 0 or self._stopped:
-            return []
-        if self._t_start is None:
-            self._t_start = float(chunk.t_s[0])
-        try:
-            chunk = self._calibrated(chunk)
-        except InputError as exc:
-            self._stopped = True
-            self.note = f"path stopped: {exc}"
-            return []
-        return self._guarded(chunk)
+        rows: list[list[float]] = []
+        if len(chunk.t_s) and not self._stopped:
+            if self._t_start is None:
+                self._t_start = float(chunk.t_s[0])
+            if self._segment_ended:
+                self._new_segment()
+            try:
+                chunk = self._calibrated(chunk)
+            except InputError as exc:
+                self._stopped = True
+                self.note = f"path stopped: {exc}"
+                return rows
+            rows = self._guarded(chunk)
+        broke_off = len(chunk.events) and bool((chunk.events["kind"] == b"disconnect").any())
+        if broke_off:
+            rows += self.finish()  # the stream broke off: its last stride is final now, not at the next sample
+        return rows
 
     def _calibrated(self, chunk):
         """The chunk with the sensor calibration applied (resolved once, from the first chunk's device id)."""
@@ -165,11 +184,31 @@ class BootView:
         return replace(chunk, acc_mps2=acc, gyro_radps=gyro)
 
     def finish(self) -> list[list[float]]:
-        """The end of the record: flush the filter and close the last stance phase."""
+        """The end of the record (or of the stream, at a disconnect): flush the filter and close the last
+        stance phase; a second call returns nothing."""
+        if self._segment_ended:
+            return []
+        self._segment_ended = True
         rows = [] if self._stopped else self._guarded(None)
         self._fp.finish()
         self._prov = []
         return rows + self._add_footprints(*self._new_footprints())
+
+    def _new_segment(self) -> None:
+        """Samples after a broken-off stream: a new navigator (aligned on the next rest) whose origin is the last
+        footprint, so the path continues from where the boot was last seen (module docstring)."""
+        self._nav = None
+        self._pending = []
+        self._ahead = np.zeros(0, bool)
+        self._fp = FootprintAccumulator()
+        self._n_fp = 0
+        self._prov = []
+        self._covered_t = -np.inf
+        self._segment_ended = False
+        if self._last_kept is not None:
+            self._offset_n = np.asarray(self._last_kept, float).copy()  # heights stay relative to the first start
+            self._segment_note = "signal back after a loss: path continued from the last footprint, heading re-aligned"
+            self.note = self._segment_note
 
     @property
     def cue_lookahead_s(self) -> float | None:
@@ -284,7 +323,7 @@ class BootView:
         self._cue_prev = False  # the cue's decision at the sample before its newest chunk
         self._recent = RecentSamples()
         self._bias = (self._nav.setup.acc_bias0_b, self._nav.setup.gyro_bias0_b)
-        self.note = None
+        self.note = self._segment_note  # None, or what a new segment after a lost signal must say
         self._pending = got + ([None] if final else [])
         return True
 
@@ -316,6 +355,7 @@ class BootView:
             pos = propagate_position(nav.position_n, nav.velocity_n, nav.q_nb, ba, bg, float(nav.last_t_s), t, acc,
                                      gyro, still, nav.gravity)
             t_k = float(t[-1])
+        pos = np.asarray(pos, float) + self._offset_n
         if not (np.isfinite(t_k) and t_k > self._covered_t):
             return
         ref = np.asarray(self._prov[-1][1:4], float) if self._prov else self._last_kept
@@ -353,6 +393,7 @@ class BootView:
         """Floors of every footprint; rows for those that end a stride (``strides.stride_footprints``)."""
         if len(fp) == 0:
             return []
+        fp = fp + self._offset_n
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
         z_rel = fp[:, 2] - self._z0
@@ -379,10 +420,18 @@ class BootView:
         """What the boot's panel shows (JSON-ready)."""
         since = self._t_motion if self._t_motion is not None else self._t_start
         still = float(self._t_latest - since) if since is not None and np.isfinite(self._t_latest) else 0.0
+        if self._wall0 is None:
+            self._wall0 = wall_s
+        link = self.link.as_dict(wall_s, ended)
+        # a silent boot: the wall time without samples adds to the time without (known) motion (module docstring)
+        lost = not ended and link["state"] in ("waiting", "stale", "disconnected")
+        silent = (link["age_s"] if link["age_s"] is not None else wall_s - self._wall0) if lost else 0.0
+        still = max(still, 0.0) + silent
+        alarm = bool(still >= self.live.no_motion_s)
         return {"floor": self._level, "height_m": self._fp_last_z, "distance_m": self._distance_m,
-                "strides": max(len(self._rows) - 1, 0), "still_s": max(still, 0.0),
-                "alarm": bool(still >= self.live.no_motion_s), "t_s": self._t_latest if np.isfinite(self._t_latest)
-                else 0.0, "link": self.link.as_dict(wall_s, ended), "note": self.note}
+                "strides": max(len(self._rows) - 1, 0), "still_s": still, "alarm": alarm,
+                "alarm_reason": ("signal lost" if lost else "no motion") if alarm else None,
+                "t_s": self._t_latest if np.isfinite(self._t_latest) else 0.0, "link": link, "note": self.note}
 
     def result(self) -> dict:
         """The final stride rows and figures (``live.json``)."""

@@ -134,7 +134,7 @@ def fit_accelerometer(acc_mean, gravity: float, temp_dev=None, weights=None, ses
     r = sol.fun
     dof = max(r.shape[0] - n_par, 1)
     s2 = float(r @ r) / dof
-    cov = s2 * _pinv_normal(sol.jac)
+    cov = s2 * pinv_normal(sol.jac)
     names = param_names(fit_temp, n_ses)
     cov_data = cov.copy()
     if n_ses == 1:  # the next power-on's bias differs by the repeatability
@@ -146,7 +146,7 @@ def fit_accelerometer(acc_mean, gravity: float, temp_dev=None, weights=None, ses
                     session_offset=d.copy(), cov_data=cov_data)
 
 
-def _pinv_normal(jac: np.ndarray) -> np.ndarray:
+def pinv_normal(jac: np.ndarray) -> np.ndarray:
     """(JᵀJ)⁻¹ through the SVD; a direction with no information gets an infinite variance (not a tiny one)."""
     _, sv, vt = np.linalg.svd(jac, full_matrices=False)
     tol = sv.max(initial=0.0) * max(jac.shape) * np.finfo(float).eps * 1e3

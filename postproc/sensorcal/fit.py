@@ -298,7 +298,7 @@ def calibrate(sessions: list[Session], settings: SensorCalSettings | None = None
     if require_determined and undetermined:
         raise InputError(f"{names}: {undetermined_message(undetermined)}")
     for name, sd, goal in below_goal:
-        warnings.append(f"{name}: 1σ {_fmt_sigma(name, sd)} misses the goal {_fmt_sigma(name, goal)}; "
+        warnings.append(f"{name}: 1σ {format_sigma(name, sd)} misses the goal {format_sigma(name, goal)}; "
                         "more poses and rotations about that axis would tighten it")
     return res
 
@@ -307,7 +307,7 @@ def _is_scale(name: str) -> bool:
     return name.startswith("C_") and name[2] == name[3]
 
 
-def _fmt_sigma(name: str, v: float) -> str:
+def format_sigma(name: str, v: float) -> str:
     if "C_" in name and _is_scale(name.split(" ")[-1]):
         return f"{100 * v:.3g} %"
     if "C_" in name:
@@ -356,7 +356,7 @@ def undetermined_message(undetermined) -> str:
     name, sd, lim, hint = undetermined[0]
     others = len(undetermined) - 1
     more = f" ({others} more parameter{'s' if others > 1 else ''} undetermined)" if others else ""
-    return f"cannot determine {name} (1σ {_fmt_sigma(name, sd)} > {_fmt_sigma(name, lim)}): {hint}{more}"
+    return f"cannot determine {name} (1σ {format_sigma(name, sd)} > {format_sigma(name, lim)}): {hint}{more}"
 
 
 def reference_parameters(s_acc, s_gyro) -> tuple[np.ndarray, np.ndarray]:

@@ -53,7 +53,7 @@ import numpy as np
 from numba import njit
 
 from ..ins.kernels import quat_times_exp, rotmat_into
-from .accel_fit import AXES, _pinv_normal, unpack
+from .accel_fit import AXES, pinv_normal, unpack
 
 
 @njit(cache=True)
@@ -261,7 +261,7 @@ def fit_gyroscope(gd: GyroData, theta0: np.ndarray, accel, pose_sigma_rad: float
     r = sol.fun
     n_obs = 2 * gd.mo_from.shape[0] + 2 * gd.pose_start.shape[0] + model.turns.size  # unit-vector diffs: 2 dof
     s2 = float(r @ r) / max(n_obs - theta0.shape[0], 1)
-    inv_n = _pinv_normal(sol.jac)
+    inv_n = pinv_normal(sol.jac)
     cov = s2 * inv_n
     if np.all(np.isfinite(accel.cov_data)):
         cov = cov + _accel_propagation(sol, inv_n, model, accel)

@@ -203,15 +203,15 @@ class Guide:
 
     def show_fit(self, res) -> None:
         """After a refit: what is undetermined or short of the goals; done when nothing is."""
-        from .fit import _fmt_sigma
+        from .fit import format_sigma
 
         if res.undetermined:
-            names = ", ".join(f"{n} ({_fmt_sigma(n, sd)})" for n, sd, _, _ in res.undetermined[:4])
+            names = ", ".join(f"{n} ({format_sigma(n, sd)})" for n, sd, _, _ in res.undetermined[:4])
             more = f" and {len(res.undetermined) - 4} more" if len(res.undetermined) > 4 else ""
             self.say(f"  undetermined: {names}{more}")
             self.hint = res.undetermined[0][3]
         elif res.below_goal:
-            names = ", ".join(f"{n} ({_fmt_sigma(n, sd)})" for n, sd, _ in res.below_goal[:4])
+            names = ", ".join(f"{n} ({format_sigma(n, sd)})" for n, sd, _ in res.below_goal[:4])
             more = f" and {len(res.below_goal) - 4} more" if len(res.below_goal) > 4 else ""
             self.say(f"  short of the goals: {names}{more}")
             worst = res.below_goal[0][0]

@@ -2,7 +2,8 @@
 // beyond this host). The path is drawn from above (east right, north up, equal scales), one colour per floor,
 // one marker and label per boot at its newest footprint; the slider shows the recorded part up to a time.
 // Provisional strides (the foot has just stopped; the final stride replaces them about 1.5 s later) are
-// hollow markers on a thin dashed line after the newest final footprint.
+// hollow markers on a thin dashed line after the newest final footprint. A boot's optional display offset
+// (hello "offset_m", the demo's second walk) shifts its drawing only, never its figures.
 "use strict";
 (function () {
   const token = new URLSearchParams(location.search).get("token");
@@ -44,25 +45,28 @@
     let x0 = -1, x1 = 1, y0 = -1, y1 = 1;
     const shown = {};
     for (const id in state.boots) {
+      const o = state.boots[id].offset;
       shown[id] = visibleRows(state.boots[id].rows);
-      for (const r of shown[id].concat(visibleRows(state.boots[id].provisional))) { x0 = Math.min(x0, r[1]); x1 = Math.max(x1, r[1]); y0 = Math.min(y0, r[2]); y1 = Math.max(y1, r[2]); }
+      for (const r of shown[id].concat(visibleRows(state.boots[id].provisional))) { x0 = Math.min(x0, r[1] + o[0]); x1 = Math.max(x1, r[1] + o[0]); y0 = Math.min(y0, r[2] + o[1]); y1 = Math.max(y1, r[2] + o[1]); }
     }
     const pad = 30, k = Math.min((w - 2 * pad) / (x1 - x0), (h - 2 * pad) / (y1 - y0));
     const cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
-    const sx = (x) => w / 2 + (x - cx) * k, sy = (y) => h / 2 - (y - cy) * k;
+    const gx0 = (x) => w / 2 + (x - cx) * k, gy0 = (y) => h / 2 - (y - cy) * k;
+    let sx = gx0, sy = gy0;
     const grid = $("grid"), paths = $("paths"), heads = $("heads");
     grid.replaceChildren(); paths.replaceChildren(); heads.replaceChildren();
     const step = niceStep(Math.max((w / k), (h / k)));
     for (let gx = Math.ceil((cx - w / 2 / k) / step) * step; gx <= cx + w / 2 / k; gx += step) {
-      el("line", { x1: sx(gx), x2: sx(gx), y1: 0, y2: h }, grid);
-      el("text", { x: sx(gx) + 2, y: h - 4 }, grid).textContent = `${+gx.toFixed(3)} m`;
+      el("line", { x1: gx0(gx), x2: gx0(gx), y1: 0, y2: h }, grid);
+      el("text", { x: gx0(gx) + 2, y: h - 4 }, grid).textContent = `${+gx.toFixed(3)} m`;
     }
     for (let gy = Math.ceil((cy - h / 2 / k) / step) * step; gy <= cy + h / 2 / k; gy += step) {
-      el("line", { x1: 0, x2: w, y1: sy(gy), y2: sy(gy) }, grid);
-      el("text", { x: 2, y: sy(gy) - 2 }, grid).textContent = `${+gy.toFixed(3)} m`;
+      el("line", { x1: 0, x2: w, y1: gy0(gy), y2: gy0(gy) }, grid);
+      el("text", { x: 2, y: gy0(gy) - 2 }, grid).textContent = `${+gy.toFixed(3)} m`;
     }
     for (const id in shown) {
       const rows = shown[id], boot = state.boots[id];
+      sx = (x) => gx0(x + boot.offset[0]); sy = (y) => gy0(y + boot.offset[1]);
       for (let i = 1; i < rows.length;) {  // one polyline per run of strides ending on the same floor
         const f = rows[i][4];
         let j = i;
@@ -139,7 +143,8 @@
     $("mode").textContent = msg.mode === "replay" ? `replay ×${msg.speed}` : "live";
     for (const b of msg.boots) {
       const dash = ["", "10 4", "3 4", "10 4 3 4"][Object.keys(state.boots).length % 4];  // tells boots apart
-      state.boots[b.id] = { label: b.label, color: b.color, dash: dash, rows: [], provisional: [], status: null };
+      state.boots[b.id] = { label: b.label, color: b.color, dash: dash, rows: [], provisional: [], status: null,
+        offset: b.offset_m || [0, 0] };
       panel(b.id, b);
     }
     legend(); schedule();
@@ -170,14 +175,29 @@
       $(`strides-${id}`).textContent = s.strides;
       $(`still-${id}`).textContent = `${s.still_s.toFixed(0)} s`;
       $(`alarm-${id}`).classList.toggle("on", s.alarm);
+      $(`alarm-${id}`).textContent = s.alarm_reason === "signal lost" ? "SIGNAL LOST" : "NO MOTION";
       $(`note-${id}`).textContent = s.note || "";
       const L = s.link, link = $(`link-${id}`);
       const nominal = L.nominal_hz ? ` of ${(+L.nominal_hz).toFixed(0)}` : "";
-      link.textContent = `${L.state} · ${L.rate_hz.toFixed(0)}${nominal} Hz · drops ${L.dropped} · CRC ${L.crc_errors}` +
-        ` · sat ${L.saturated}`;
+      // one unbreakable part per figure: the line wraps between figures, never inside one
+      const parts = [L.state, `${L.rate_hz.toFixed(0)}${nominal} Hz`, `drops ${L.dropped}`, `CRC ${L.crc_errors}`,
+        `sat ${L.saturated}`];
+      link.replaceChildren(...parts.map((p) => { const e = document.createElement("span"); e.textContent = p; return e; }));
       link.classList.toggle("stale", L.state !== "ok" && L.state !== "ended");
     }
+    header();
     timebar();  // the path itself changes only with new strides
+  }
+
+  // the header says what matters: each boot's link (the page's own connection only when it is lost)
+  function header() {
+    const c = $("conn");
+    if (!state.connected) { c.textContent = "page: reconnecting to bootnav…"; c.className = "bad"; return; }
+    const ids = Object.keys(state.boots).filter((id) => state.boots[id].status);
+    if (!ids.length) { c.textContent = "waiting for the boots…"; c.className = "bad"; return; }
+    const st = ids.map((id) => [state.boots[id].label, state.boots[id].status.link.state]);
+    c.textContent = st.map(([label, s]) => `${label}: ${s}`).join(" · ");
+    c.className = st.every(([, s]) => s === "ok" || s === "ended") ? "ok" : "bad";
   }
 
   function timebar() {
@@ -192,8 +212,8 @@
     es.addEventListener("strides", (e) => onStrides(JSON.parse(e.data)));
     es.addEventListener("provisional", (e) => onProvisional(JSON.parse(e.data)));
     es.addEventListener("status", (e) => onStatus(JSON.parse(e.data)));
-    es.onopen = () => { state.connected = true; $("conn").textContent = "connected"; $("conn").className = "ok"; };
-    es.onerror = () => { state.connected = false; $("conn").textContent = "reconnecting…"; $("conn").className = "bad"; };
+    es.onopen = () => { state.connected = true; header(); };
+    es.onerror = () => { state.connected = false; header(); };
   }
 
   $("slider").addEventListener("input", () => {
