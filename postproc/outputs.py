@@ -7,7 +7,10 @@
 * ``steps.csv``: ``t_s,x_m,y_m,z_m,stride_length_m,dz_m,yaw_enu_rad,heading_deg_cw_from_north``, one row
   per stride (``bootnav.postproc.strides``): mid time of the stance phase ending the stride, its footprint,
   horizontal length, height change, and direction twice (``heading_columns``, ``bootnav.CONVENTIONS``):
-  ``atan2(Δy, Δx)`` counter-clockwise from x (east), and clockwise from y (north) in degrees.
+  ``atan2(Δy, Δx)`` counter-clockwise from x (east), and clockwise from y (north) in degrees; then
+  ``quality_flags``, ``floor`` (integer floor level, 0 = the start's) and the footprint's horizontal 1-σ error
+  ellipse ``ellipse_major_m,ellipse_minor_m,ellipse_orientation_rad`` (semi-axes in m; major axis in rad
+  counter-clockwise from east, in (−π/2, π/2]; ``strides.ellipse``; ``docs/floors.md``).
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
 * ``1_raw_imu.png`` … ``7_height.png`` and ``path.html``: charts 1-7 and the interactive path (``plots``).
@@ -61,7 +64,7 @@ from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.jsonio import to_jsonable
 from bootnav.errors import InputError
 
-from .strides import STEP_COLUMNS, footprints
+from .strides import ELLIPSE_COLUMNS, FLOOR_COLUMN, STEP_COLUMNS, footprints
 
 #: trajectory.csv: time, position, velocity, stance, attitude ``q_nb`` (wxyz, body to nav) and the heading of the
 #: sensor's x axis (its horizontal projection) in both conventions of ``bootnav.CONVENTIONS["heading"]``.
@@ -297,12 +300,18 @@ def heading_columns(yaw_enu_rad) -> dict[str, np.ndarray]:
 
 def write_steps_csv(path: Path, steps: dict) -> Path:
     """steps.csv: ``STEP_COLUMNS``, both heading columns and, when present, ``quality_flags`` (bitmask of
-    ``selftune.FLAG_NAMES``; 0 = plausible)."""
+    ``selftune.FLAG_NAMES``; 0 = plausible), ``floor`` and the 1-σ ellipse columns (``strides.ELLIPSE_COLUMNS``)."""
     columns = {**{c: np.asarray(steps[c]) for c in STEP_COLUMNS}, **heading_columns(steps["yaw_enu_rad"])}
     fmts = ["%.6f", "%.4f", "%.4f", "%.4f", "%.4f", "%.4f", "%.5f", "%.3f"]
     if "quality_flags" in steps:
         columns["quality_flags"] = np.asarray(steps["quality_flags"])
         fmts.append("%d")
+    if FLOOR_COLUMN in steps:
+        columns[FLOOR_COLUMN] = np.asarray(steps[FLOOR_COLUMN])
+        fmts.append("%d")
+    if all(c in steps for c in ELLIPSE_COLUMNS):
+        columns.update((c, np.asarray(steps[c])) for c in ELLIPSE_COLUMNS)
+        fmts += ["%.4f", "%.4f", "%.5f"]
     write_csv(path, tuple(columns), list(columns.values()), fmts)
     return path
 
@@ -572,7 +581,8 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
         }
         write_group(tmp, group, {}, attrs, replace=False)
         step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                      "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1"}
+                      "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1", "floor": "1",
+                      "ellipse_major_m": "m", "ellipse_minor_m": "m", "ellipse_orientation_rad": "rad"}
         steps = {**{k: np.asarray(v) for k, v in result.steps.items()}, **heading_columns(result.steps["yaw_enu_rad"])}
         write_group(tmp, f"{group}/steps", steps,
                     {"description": "one row per stride, see postproc/strides.py"}, step_units)

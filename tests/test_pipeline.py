@@ -150,6 +150,7 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
     bit for bit what ``process`` returns, so the orchestration hides nothing. The crop makes the recording
     index offset matter (saturation intervals and messages use recording indices)."""
     from bootnav.postproc.calibration import initial_alignment
+    from bootnav.postproc.floors import snap_storeys
     from bootnav.postproc.checks import (check_path_finite, check_samples, clipping_bits, refuse_fatal,
                                          saturation_intervals, saturation_warnings, stance_findings,
                                          stride_findings)
@@ -184,14 +185,19 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
     check_path_finite(src.name, t_s, nav.pos_n, offset)
     warnings += navi.warnings
     warnings += [str(w) for w in (nav.info or {}).get("warnings", [])]
+    floors = settings.floor_settings()
+    pos_n, storeys = snap_storeys(t_s, nav.pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                  floors.riser_max_m, settings.filter.level_min_stride_m)
     min_stride = settings.selftune.min_stride_m
-    steps = segment_strides(t_s, nav.pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY))
+    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY), floors,
+                            nav.pos_sigma_n, nav.pos_cov_en)
     warnings += [f.message for f in stride_findings(steps, settings.checks, navi.choice)]
-    path_stats = path_summary(t_s, nav.pos_n, stance, settings.floor_settings(), min_stride)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
+    path_stats["storeys"] = storeys.summary()
 
     r = process(rec_path, settings)
     for got, want in ((r.t_s, t_s), (r.acc_b, acc_b), (r.gyro_b, gyro_b), (r.stance, stance),
-                      (r.saturated, sat_bits.astype(bool)), (r.pos_n, nav.pos_n), (r.vel_n, nav.vel_n),
+                      (r.saturated, sat_bits.astype(bool)), (r.pos_n, pos_n), (r.vel_n, nav.vel_n),
                       (r.q_nb, nav.q_nb), *((r.steps[k], steps[k]) for k in steps)):
         np.testing.assert_array_equal(got, want)
     assert r.index == samples.index and r.saturation_intervals == sat_iv and r.warnings == warnings

@@ -51,7 +51,8 @@ def test_every_output_file_with_documented_columns(cli_run):
     assert np.all(np.diff(traj[:, 0]) >= 0) and set(np.unique(traj[:, 7])) == {0.0, 1.0}
     header, steps = read_csv(out / "steps.csv")
     assert header == ["t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad",
-                      "heading_deg_cw_from_north", "quality_flags"]
+                      "heading_deg_cw_from_north", "quality_flags", "floor", "ellipse_major_m", "ellipse_minor_m",
+                      "ellipse_orientation_rad"]
     assert len(steps) >= 12
     # quality flags: a bitmask of the implausibility flags (summary "navigation.stride_flag_bits"); kept strides
     # are never "tiny" (bit 16)

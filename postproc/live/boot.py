@@ -10,7 +10,11 @@ foot leaves the ground again. From the final rows the view builds what ``process
 * strides: moves of at least ``selftune.min_stride_m`` between footprints (``strides.stride_footprints``);
 * floor: the level of each footprint's height above the first one (``strides.floor_signal`` and
   ``strides.floor_levels``, continued from the last level: both are shift-invariant by one storey);
-* distance: the sum of the horizontal stride lengths.
+* distance: the sum of the horizontal stride lengths;
+* uncertainty: each stride row ends with the footprint's horizontal 1-σ ellipse (``strides.ellipse``:
+  semi-major, semi-minor in m, orientation in rad counter-clockwise from east) from the forward filter's
+  covariance at the last sample of its stance phase, where the fixed-lag smoother ends every segment on the
+  filtered estimate (as ``process``'s ``steps.csv``).
 
 Provisional strides (``provisional``): as soon as a low-latency cue says the foot has stopped, the view
 draws a provisional footprint at the navigator's filtered position propagated to that stance start; the final
@@ -39,12 +43,15 @@ configured detector and no timing offset.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from bootnav.errors import InputError
-from bootnav.postproc.strides import FootprintAccumulator, floor_levels, floor_signal, stride_footprints
+from bootnav.postproc.strides import FootprintAccumulator, ellipse, floor_levels, floor_signal, stride_footprints
+
+ROW_COLUMNS = ["t_s", "x_m", "y_m", "z_m", "floor", "ellipse_major_m", "ellipse_minor_m", "ellipse_orientation_rad"]
 
 from .link import LinkStatus
 from .provisional import RecentSamples, propagate_position
@@ -124,7 +131,9 @@ class BootView:
         self._nav = None
         self._ahead = np.zeros(0, bool)  # stance decisions of the pushed samples not yet final
         self._pending: list = []  # chunks waiting for the navigator to start (its initial still period)
-        self._rows: list[list[float]] = []  # [t_s, x_m, y_m, z_m, floor] per kept footprint, the start first
+        self._rows: list[list[float]] = []  # ROW_COLUMNS per kept footprint, the start first
+        self._ends_cov: list[tuple[float, float, float]] = []  # (P_EE, P_NN, P_EN) at each stance phase's end
+        self._in_stance = False  # the last final row was in stance (its phase may go on in the next rows)
         self._last_kept: np.ndarray | None = None
         self._z0: float | None = None  # height of the first footprint
         self._fp_last_z = 0.0  # height (relative) and floor signal of the last footprint
@@ -145,6 +154,12 @@ class BootView:
         # the navigator gets calibrated samples: its own settings must not calibrate them again
         self._nav_settings = replace(settings, calibration=replace(settings.calibration, sensor_calibration="none",
                                                                    accel_calibration_file=None))
+        # heading_aid "auto": the rule of building.directions on the strides seen so far (causal)
+        self._dirs = None
+        if settings.filter.heading_aid == "auto":
+            from bootnav.postproc.building.directions import CausalDirections
+
+            self._dirs = CausalDirections(settings.filter)
 
     # ------------------------------------------------------------------ samples in
     def push(self, chunk, wall_s: float) -> list[list[float]]:
@@ -265,7 +280,22 @@ class BootView:
 
         rows = NavRows.concatenate(parts)
         self._ahead = self._ahead[len(rows):]
+        self._phase_end_covariances(rows)
         return rows.t_s, rows.pos_n, rows.stance
+
+    def _phase_end_covariances(self, rows) -> None:
+        """Keep the horizontal covariance at the last row of every stance phase (one entry per phase, in the
+        order the footprint accumulator closes them; a phase still open at the end of ``rows`` is updated by
+        the next rows)."""
+        st = np.asarray(rows.stance, bool)
+        if not len(st):
+            return
+        ends = np.flatnonzero(st & np.append(~st[1:], True))
+        if self._in_stance and st[0] and len(ends) and self._ends_cov:
+            self._ends_cov.pop()  # the open phase goes on: its end moves
+        sig, cen = rows.pos_sigma_n, rows.pos_cov_en
+        self._ends_cov.extend((float(sig[i, 0] ** 2), float(sig[i, 1] ** 2), float(cen[i])) for i in ends.tolist())
+        self._in_stance = bool(st[-1])
 
     def _start(self) -> bool:
         """Start the navigator once the initial rest is complete (as ``process`` aligns on it).
@@ -396,6 +426,10 @@ class BootView:
         fp = fp + self._offset_n
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
+        if self._dirs is not None and not self._dirs.on and self._dirs.push(fp[:, :2]) and self._nav is not None:
+            self._nav.enable_heading_aid(self._dirs.reference_rad)
+            self.note = (f"heading aid on from stride {self._dirs.decided_at_stride}: the strides follow a building's "
+                         f"axes ({math.degrees(self._dirs.reference_rad):.0f} deg)")
         z_rel = fp[:, 2] - self._z0
         seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
         signal = seg[1:] - seg[0] + self._signal_last
@@ -407,11 +441,15 @@ class BootView:
         else:
             keep = stride_footprints(np.vstack((self._last_kept, fp)), self.min_stride_m)[1:] - 1
         rows = []
+        k0 = self._n_fp - len(fp)  # index of fp[0] among all footprints
         for k in keep.tolist():
             if self._last_kept is not None:
                 self._distance_m += float(np.hypot(*(fp[k, :2] - self._last_kept[:2])))
             self._last_kept = fp[k]
-            rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k])])
+            a = b = o = None  # (no covariance: cannot happen while rows and phases stay in step)
+            if k0 + k < len(self._ends_cov):
+                a, b, o = (float(v) for v in ellipse(*self._ends_cov[k0 + k]))
+            rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k]), a, b, o])
         self._rows.extend(rows)
         return rows
 
@@ -428,14 +466,18 @@ class BootView:
         silent = (link["age_s"] if link["age_s"] is not None else wall_s - self._wall0) if lost else 0.0
         still = max(still, 0.0) + silent
         alarm = bool(still >= self.live.no_motion_s)
+        last = self._rows[-1] if self._rows else None
         return {"floor": self._level, "height_m": self._fp_last_z, "distance_m": self._distance_m,
+                "uncertainty_m": [last[5], last[6]] if last and last[5] is not None else None,
                 "strides": max(len(self._rows) - 1, 0), "still_s": still, "alarm": alarm,
                 "alarm_reason": ("signal lost" if lost else "no motion") if alarm else None,
                 "t_s": self._t_latest if np.isfinite(self._t_latest) else 0.0, "link": link, "note": self.note}
 
     def result(self) -> dict:
         """The final stride rows and figures (``live.json``)."""
-        return {"columns": ["t_s", "x_m", "y_m", "z_m", "floor"], "rows": self._rows,
+        return {"columns": list(ROW_COLUMNS), "rows": self._rows,
                 "distance_m": self._distance_m, "strides": max(len(self._rows) - 1, 0), "final_floor": self._level,
                 "height_m": self._fp_last_z, "note": self.note,
+                "heading_aid_from_stride": None if self._dirs is None or not self._dirs.on else
+                self._dirs.decided_at_stride,
                 "link": {k: v for k, v in self.link.as_dict(0.0, True).items() if k != "age_s"}}

@@ -88,6 +88,11 @@
       }
       if (rows.length) {
         const r = rows[rows.length - 1];
+        if (r.length > 7 && r[5] !== null) {  // the last stride's 1-σ ellipse (east right, north up: rotate by −θ)
+          el("ellipse", { class: "unc", "data-boot": id, cx: sx(r[1]), cy: sy(r[2]), rx: Math.max(r[5] * k, 1),
+            ry: Math.max(r[6] * k, 1), stroke: boot.color,
+            transform: `rotate(${(-r[7] * 180 / Math.PI).toFixed(2)} ${sx(r[1]).toFixed(1)} ${sy(r[2]).toFixed(1)})` }, heads);
+        }
         el("circle", { class: "head", "data-boot": id, cx: sx(r[1]), cy: sy(r[2]), r: 7, fill: boot.color }, heads);
         const t = el("text", { class: "headlabel", x: sx(r[1]) + 9, y: sy(r[2]) - 9, fill: boot.color }, heads);
         t.textContent = boot.label;
@@ -106,6 +111,7 @@
     d.innerHTML = `<h2 style="color:${boot.color}"></h2>
       <div class="row"><span>floor</span><span class="big floor" id="floor-${id}">0</span></div>
       <div class="row"><span>height</span><span id="height-${id}">0.00 m</span></div>
+      <div class="row"><span>uncertainty (1σ)</span><span id="unc-${id}">–</span></div>
       <div class="row"><span>distance</span><span id="dist-${id}">0.0 m</span></div>
       <div class="row"><span>strides</span><span id="strides-${id}">0</span></div>
       <div class="row"><span>no motion for</span><span id="still-${id}">0 s</span></div>
@@ -171,6 +177,7 @@
       state.tmax = Math.max(state.tmax, s.t_s || 0);
       $(`floor-${id}`).textContent = s.floor;
       $(`height-${id}`).textContent = `${s.height_m.toFixed(2)} m`;
+      $(`unc-${id}`).textContent = s.uncertainty_m ? `${s.uncertainty_m[0].toFixed(1)} × ${s.uncertainty_m[1].toFixed(1)} m` : "–";
       $(`dist-${id}`).textContent = `${s.distance_m.toFixed(1)} m`;
       $(`strides-${id}`).textContent = s.strides;
       $(`still-${id}`).textContent = `${s.still_s.toFixed(0)} s`;
