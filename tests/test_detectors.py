@@ -157,9 +157,10 @@ def test_settings_saved_before_the_registry_still_load_and_build_the_same_detect
              "adaptive_isolated_min_stance_s": 0.035, "adaptive_isolation_s": 0.4, "adaptive_min_swing_s": 0.1,
              "adaptive_max_rate_radps": 4.0}  # DetectorSettings().to_dict() of 2026-11
     s = ProcessSettings.from_dict({"detector": saved}).detector
-    assert s == DetectorSettings()
+    # the 2026-11 file reproduces the detector of then (its isolated-stance floor was 35 ms, now 0)
+    assert s == DetectorSettings(params={"isolated_min_stance_s": 0.035})
     # adaptive_<p> fills parameter p; the unprefixed fields fill the rest
-    assert s.build(9.8) == AdaptiveDetector(gravity_mps2=9.8)
+    assert s.build(9.8) == AdaptiveDetector(gravity_mps2=9.8, isolated_min_stance_s=0.035)
     flat = {"adaptive_alpha": 0.25, "adaptive_min_swing_s": 0.2, "sigma_gyro_radps": 0.002, "min_swing_s": 0.7}
     tuned = ProcessSettings.from_dict({"detector": flat}).detector  # a partial file of 2026-11
     assert tuned.build(9.8) == AdaptiveDetector(gravity_mps2=9.8, alpha=0.25, min_swing_s=0.2, sigma_gyro_radps=0.002)
@@ -529,6 +530,72 @@ def test_isolated_short_stance_is_kept_but_fragments_are_dropped():
     too_short[100:104] = True  # 20 ms: below the isolated minimum
     assert not postprocess.remove_short_fragments(too_short, t, 0.05, 0.005, isolated_min_s=0.035,
                                                   isolation_s=0.4).any()
+
+
+def _running_walk(rate_hz, flat_s, pause_s=0.0, period_s=0.7, n_strides=12, rest_s=2.0, seed=0):
+    """Synthetic running foot: ``rest_s`` standing still (as a recording starts), then each stride a foot-flat of ``flat_s`` (ω = 0, f = g up), then a swing that
+    rotates the foot (pitch rate 4.5-10 rad/s) and accelerates it (±30 m/s²); with ``pause_s``, every
+    swing stops dead for that long at its middle (ω = 0, f = g). Returns t, acc, gyro, flat mask, pause mask."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / rate_hz
+    n_period = int(round(period_s * rate_hz))
+    n_rest = int(round(rest_s * rate_hz))
+    t = np.arange(n_rest + n_period * n_strides) * dt
+    tau = np.maximum(t - n_rest * dt, 0.0) % period_s
+    flat = (tau < flat_s) | (t < n_rest * dt)
+    swing_s = period_s - flat_s
+    u = np.clip((tau - flat_s) / swing_s, 0.0, 1.0)  # swing phase 0..1
+    pause = np.abs(u - 0.5) * swing_s < pause_s / 2
+    moving = ~flat & ~pause
+    gyro = np.zeros((t.size, 3))
+    acc = np.zeros((t.size, 3))
+    acc[:, 2] = 9.81
+    # a running foot lands and pushes off abruptly: the swing starts and ends at ≈ 4.5 rad/s
+    gyro[:, 1] = np.where(moving, 10.0 * np.sin(np.pi * (0.15 + 0.7 * u)), 0.0)
+    acc[:, 0] = np.where(moving, 30.0 * np.sin(2 * np.pi * u), 0.0)
+    acc += rng.normal(0.0, 0.05, acc.shape)  # MEMS-grade white noise (m/s², rad/s per sample)
+    gyro += rng.normal(0.0, 0.01, gyro.shape)
+    return t, acc, gyro, flat, pause
+
+
+@pytest.mark.parametrize("rate_hz", [200.0, 100.0])
+def test_running_foot_flat_is_stance_and_a_short_pause_in_swing_is_not(rate_hz):
+    """A 60 ms foot-flat of a 0.7 s running stride (9 % of the stride; real running: 6-18 %) is stance at
+    200 Hz and 100 Hz, although the 50 ms statistic window leaves only 10-15 ms of it under the threshold;
+    a 20 ms dead stop in mid-swing, shorter than the window, is not. Tolerance: a detected stance sample
+    lies inside a true rest ± half a window (the window is what can smear it)."""
+    from bootnav.core.runs import runs
+
+    t, acc, gyro, flat, pause = _running_walk(rate_hz, 0.06, pause_s=0.02)
+    stance = detect_stance(t, acc, gyro, DetectorSettings(), gravity=9.81).stance
+    half = int(np.ceil(0.025 * rate_hz))
+    starts, stops = runs(flat)
+    found = [stance[a:b].any() for a, b in zip(starts, stops)]
+    # all but the first stride after the rest (no previous stride to scale by: judged against span_s)
+    assert found[0] and all(found[2:])
+    near_flat = np.convolve(flat, np.ones(2 * half + 1), mode="same") > 0
+    assert not (stance & ~near_flat).any()  # nothing in the swing, the 20 ms pause included
+    old = detect_stance(t, acc, gyro, DetectorSettings(params={"isolated_min_stance_s": 0.035,
+                                                                "isolated_min_flat_fraction": 0.0}),
+                        gravity=9.81).stance
+    assert sum(old[a:b].any() for a, b in list(zip(starts, stops))[2:]) < len(found) / 2  # the rule before missed them
+
+
+def test_isolated_run_is_judged_as_a_share_of_the_stride():
+    """The same isolated 15 ms run of the statistic (a 65 ms foot-flat with a 50 ms window) is a foot-flat in a
+    0.7 s stride (9 % ≥ 5 %) and a blip in a 1.5 s one (4 % < 5 %)."""
+    from bootnav.postproc.detectors import postprocess
+
+    dt = 0.005
+    for period_s, kept in ((0.7, True), (1.5, False)):
+        n = int(round(period_s / dt))
+        t = np.arange(5 * n) * dt
+        mask = np.zeros(t.size, bool)
+        for k in range(5):
+            mask[k * n:k * n + 3] = True  # 15 ms runs, one a stride
+        out = postprocess.remove_short_fragments(mask, t, 0.05, dt, isolated_min_s=0.0, isolation_s=0.4,
+                                                 window_s=0.05, min_flat_fraction=0.05, max_period_s=1.5)
+        assert out[2 * n:2 * n + 3].all() == kept
 
 
 @pytest.mark.parametrize("n", [3, 4, 5])

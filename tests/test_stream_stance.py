@@ -89,7 +89,7 @@ def test_stream_equals_whole_array(records, data, method, extra):
 def test_decisions_come_one_radius_after_the_sample(records):
     """Latency and memory: a decision comes ``radius`` samples after its sample (the context the detector
     needs: 1.4 s for the adaptive detector's 1.5 s valley/peak span, 0.05 s for SHOE at 400 Hz), and the
-    buffer never holds more than two radii + one chunk."""
+    buffer never holds more than one radius + the look-back history (a radius and span_s) + one chunk."""
     t, acc, gyr, sat = records["xio-real"]
     rate = 1.0 / median_dt(t)
     for method, most_s in (("adaptive", 1.5), ("shoe", 0.06)):
@@ -99,7 +99,7 @@ def test_decisions_come_one_radius_after_the_sample(records):
         for i in range(0, 4000, 50):
             decided += sum(len(c) for c in ss.push(t[i:i + 50], acc[i:i + 50], gyr[i:i + 50]))
             assert decided == max(0, i + 50 - ss.radius)
-            assert len(ss._t) <= 2 * ss.radius + 50
+            assert len(ss._t) <= ss.radius + ss._history + 50  # + the look-back of the isolated-run rule
 
 
 def test_running_noise_floor_is_close(records):

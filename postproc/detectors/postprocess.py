@@ -50,13 +50,25 @@ def remove_short_runs(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: float
 
 
 def remove_short_fragments(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: float, *,
-                           isolated_min_s: float, isolation_s: float) -> np.ndarray:
+                           isolated_min_s: float, isolation_s: float, window_s: float = 0.0,
+                           min_flat_fraction: float = 0.0, max_period_s: float = np.inf) -> np.ndarray:
     """Like ``remove_short_runs``, but a short run that is the only stance within ``isolation_s`` on both
-    sides is kept when it lasts at least ``isolated_min_s``.
+    sides is kept when it lasts at least ``isolated_min_s`` and the foot-flat it stands for lasts at least
+    ``min_flat_fraction`` of the local stride period.
 
     Why: a short quiet run next to a longer stance is a fragment (heel or toe roll) or a quiet instant in
-    mid-swing; an isolated one, between two full swings, is the brief foot-flat of a running stride
-    (≈ 50-70 ms), and dropping it leaves the whole stride unaided.
+    mid-swing; an isolated one, between two full swings, is the brief foot-flat of a running stride, and
+    dropping it leaves the whole stride unaided. Its length is judged as a share of the stride, not in
+    absolute time: a foot-flat is a fraction of the gait cycle (≈ 6-18 % when running, pyshoe_vicon's VICON
+    labels; more when walking), so a short quiet run is a foot-flat in a fast stride and a blip in a slow one.
+
+    The foot-flat a run stands for: a statistic over a centred window of ``window_s`` is quiet only where the
+    whole window is, so a run of the statistic from t_a to t_b means rest from t_a − W/2 to t_b + W/2, a
+    foot-flat of (t_b − t_a) + ``window_s`` (one sample under the threshold already certifies one window of
+    rest). The local stride period is the interval from the previous stance start to this one when it is
+    ≤ ``max_period_s``, else ``max_period_s`` (the longest stride assumed; a longer interval spans a missed
+    stance). Only the past is used, so a stream decides it without waiting longer (it keeps
+    ``max_period_s`` more history).
     """
     out = np.asarray(mask, dtype=bool).copy()
     if min_s <= 0 or not out.any():
@@ -66,6 +78,11 @@ def remove_short_fragments(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: 
     gap_before = np.r_[np.inf, t_s[starts[1:]] - t_s[stops[:-1] - 1]]
     gap_after = np.r_[t_s[starts[1:]] - t_s[stops[:-1] - 1], np.inf]
     isolated = (gap_before >= isolation_s) & (gap_after >= isolation_s) & (dur >= isolated_min_s)
+    if min_flat_fraction > 0:
+        since_previous = np.r_[np.inf, np.diff(t_s[starts])]
+        period = np.where(since_previous <= max_period_s, since_previous, max_period_s)
+        flat = dur - dt + window_s
+        isolated &= flat >= min_flat_fraction * period
     short = (dur < min_s) & ~isolated
     for a, b in zip(starts[short], stops[short]):
         out[a:b] = False

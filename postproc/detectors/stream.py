@@ -115,13 +115,17 @@ class StreamStance:
             span = window_samples(det.span_s, dt, 3)
             reach = n_w // 2 + span // 2 + 2
             durations = det.min_swing_s + det.min_stance_s + det.isolation_s
+            # the isolated-run rule looks back for the previous stance start up to span_s before the run
+            history_s = det.span_s + det.min_stance_s
             self._hist = np.zeros(_HIST_N, dtype=np.int64) if noise_floor_log10 is None else None
         else:
             n_w = det.window(dt)
             reach = n_w // 2 + 2
             durations = det.min_swing_s + 2 * det.min_stance_s  # the paper's rule drops short runs twice
+            history_s = 0.0
         guard = max(n_w, window_samples(det.saturation_guard_s, dt, 0))
         self.radius = reach + guard + int(math.ceil(durations / dt)) + 4  # samples
+        self._history = self.radius + int(math.ceil(history_s / dt))  # samples kept before the undecided ones
         self._t = np.zeros(0)
         self._acc = np.zeros((0, 3))
         self._gyro = np.zeros((0, 3))
@@ -199,7 +203,7 @@ class StreamStance:
         a, b = self._decided - self._b0, end - self._b0
         chunk = StanceChunk(self._decided, t[a:b], acc[a:b], gyro[a:b], stance[a:b], self._bits[a:b])
         self._decided = end
-        keep = max(0, end - self.radius - self._b0)
+        keep = max(0, end - self._history - self._b0)
         self._t, self._acc, self._gyro, self._bad = t[keep:], acc[keep:], gyro[keep:], bad[keep:]
         self._bits = self._bits[keep:]
         self._b0 += keep
