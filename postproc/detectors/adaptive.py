@@ -26,8 +26,8 @@ refuses stance in a window as energetic as a foot turning at ω_max: a safety ne
 without any rest (a sensor shaken in the hand) from getting invented stances. Then the shared
 post-processing (``base.StanceDetector.detect``): swing gaps < ``min_swing_s`` are filled, excluded
 (saturated) samples grown by the window are never stance, and stance runs < ``min_stance_s`` are dropped
-unless they are alone between two swings of ≥ ``isolation_s`` and the foot-flat they stand for (run +
-window) lasts ≥ ``isolated_min_flat_fraction`` of the local stride period
+unless they are alone between two swings of ≥ ``isolation_s`` and last ≥ ``isolated_min_stance_s`` or
+stand for a foot-flat (run + window) of ≥ ``isolated_min_flat_fraction`` of the local stride period
 (``postprocess.remove_short_fragments``): the brief foot-flat of a running stride.
 
 The defaults were chosen on all developer recordings at once (pre-LODO);
@@ -66,15 +66,15 @@ class AdaptiveDetector(StanceDetector):
         recording, running included; 0 = no ceiling.
     min_swing_s: 0.1 s; shorter swing gaps are impacts inside the stance.
     min_stance_s: 0.05 s; shorter stance runs next to another stance are heel / toe-roll fragments.
-    isolation_s: a shorter stance run with no other stance within 0.4 s on both sides is a candidate
-        running foot-flat (kept if the two rules below pass).
-    isolated_min_flat_fraction: 0.05 (0 = no share rule); an isolated run is kept when the foot-flat it stands for (run +
-        ``window_s``) lasts at least this share of the local stride period (from the previous stance start
-        when within ``span_s``, else ``span_s``). Real running foot-flats are 6-18 % of the
-        stride (pyshoe_vicon, VICON labels), so 5 % keeps every one of them, while in a slow stride
-        (≥ 1 s) a quiet blip of a few samples is not taken for its stance.
-    isolated_min_stance_s: absolute floor on the isolated run itself, s; 0 = the share rule alone (a run
-        of one sample already certifies one window of rest). Files of 2026-11 saved 0.035 s, the old rule.
+    isolation_s, isolated_min_stance_s: a shorter stance run with no other stance within 0.4 s on both
+        sides is a running foot-flat when it lasts ≥ 0.035 s (≈ an 80 ms foot-flat with the 50 ms window)
+        or when it passes the share rule below.
+    isolated_min_flat_fraction: 0.075 (0 = no share rule); an isolated run is also kept when the foot-flat
+        it stands for (run + ``window_s``) lasts at least this share of the local stride period (from the
+        previous stance start when within ``span_s``, else ``span_s``). It lies between a quiet blip of a
+        slow stride (a foot translating at 1 m/s on stairs: 6 % of a 1.04 s stride, pyshoe_vicon) and the
+        shortest running foot-flats (8-11 %: pyshoe_vicon's missed ones, the simulator's 70 ms of 0.7 s;
+        detected real ones 13-17 %); real data is flat over 7.5-15 % (docs/tuning-log.md 2026-12-02).
     """
 
     BOUNDS: ClassVar[dict] = {"window_s": POSITIVE, "span_s": POSITIVE, "alpha": FRACTION, "noise_quantile": FRACTION,
@@ -91,9 +91,9 @@ class AdaptiveDetector(StanceDetector):
     max_rate_radps: float = 4.0
     min_swing_s: float = 0.1
     min_stance_s: float = 0.05
-    isolated_min_stance_s: float = 0.0
+    isolated_min_stance_s: float = 0.035
     isolation_s: float = 0.4
-    isolated_min_flat_fraction: float = 0.05
+    isolated_min_flat_fraction: float = 0.075
 
     def _classify(self, acc_b, gyro_b, dt, bad):
         from scipy.ndimage import maximum_filter1d, minimum_filter1d

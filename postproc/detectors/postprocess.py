@@ -53,7 +53,7 @@ def remove_short_fragments(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: 
                            isolated_min_s: float, isolation_s: float, window_s: float = 0.0,
                            min_flat_fraction: float = 0.0, max_period_s: float = np.inf) -> np.ndarray:
     """Like ``remove_short_runs``, but a short run that is the only stance within ``isolation_s`` on both
-    sides is kept when it lasts at least ``isolated_min_s`` and the foot-flat it stands for lasts at least
+    sides is kept when it lasts at least ``isolated_min_s`` or the foot-flat it stands for lasts at least
     ``min_flat_fraction`` of the local stride period.
 
     Why: a short quiet run next to a longer stance is a fragment (heel or toe roll) or a quiet instant in
@@ -77,12 +77,13 @@ def remove_short_fragments(mask: np.ndarray, t_s: np.ndarray, min_s: float, dt: 
     dur = t_s[stops - 1] - t_s[starts] + dt
     gap_before = np.r_[np.inf, t_s[starts[1:]] - t_s[stops[:-1] - 1]]
     gap_after = np.r_[t_s[starts[1:]] - t_s[stops[:-1] - 1], np.inf]
-    isolated = (gap_before >= isolation_s) & (gap_after >= isolation_s) & (dur >= isolated_min_s)
+    long_enough = dur >= isolated_min_s
     if min_flat_fraction > 0:
         since_previous = np.r_[np.inf, np.diff(t_s[starts])]
         period = np.where(since_previous <= max_period_s, since_previous, max_period_s)
         flat = dur - dt + window_s
-        isolated &= flat >= min_flat_fraction * period
+        long_enough |= flat >= min_flat_fraction * period
+    isolated = (gap_before >= isolation_s) & (gap_after >= isolation_s) & long_enough
     short = (dur < min_s) & ~isolated
     for a, b in zip(starts[short], stops[short]):
         out[a:b] = False
