@@ -6,7 +6,8 @@ whose statistic is a centred moving window and whose post-processing works on bo
 radius is half the statistic's windows + the saturation guard + ``min_swing_s`` + 2 ``min_stance_s`` (the
 paper's rule drops short runs twice; the adaptive detector: its valley/peak span too, its isolation span
 instead of one ``min_stance_s``). The stream runs the detector on the samples from one radius before the
-undecided ones to the newest, and keeps the decisions that lie one radius before the newest (both edges of
+undecided ones (adaptive: one radius + ``span_s`` + ``min_stance_s``, the look-back of its isolated-stance
+rule, which needs the previous stance start) to the newest, and keeps the decisions that lie one radius before the newest (both edges of
 the record are handled as the whole-array detector handles them), so its output equals ``detect_stance`` on
 the whole record for any chunking (tests/test_stream_stance.py), given the same sample period.
 
