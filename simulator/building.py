@@ -391,8 +391,8 @@ def building(rng: np.random.Generator, duration: float | None = 1800.0) -> PathB
             going_up = True
         w.change_storey(going_up, "u" if rng.random() < 0.5 else "s")
     while slack() > 30.0:  # fill the time left with short walks along the corridor and pauses
-        bx, _ = w.xy
-        reach = min(plan.corridor_m, bx + 0.5 * (slack() - 20.0) * WALK_SPEED_MPS)
+        bx = min(max(w.xy[0], 0.0), plan.corridor_m)  # the nearest corridor point (from a stair door, the hall)
+        reach = min(plan.corridor_m, bx + 0.5 * (slack() - 20.0) * WALK_SPEED_MPS)  # there and back in the slack
         w.corridor(float(rng.uniform(max(0.0, bx - (reach - bx)), reach)))
         w.stand(2.0, max(2.5, min(20.0, slack() - 10.0)))
     while w.storey > 0:
