@@ -14,15 +14,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import re
-import types
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from bootnav.core import atomic
+from bootnav.core.validate import check_value
 from bootnav.errors import InputError
 
 from .calibration import CalibrationSettings
@@ -134,7 +133,7 @@ class ProcessSettings:
         INS adds millimetres per flat stride, so 0.1 m removes the drift and keeps every flight; the price
         is that a gentle ramp never counts.
     reference : str or None
-        Reference for the accuracy metrics (``reference``): a file, an inline JSON object, or ``"truth"``
+        Reference for the accuracy metrics (``reference_path``): a file, an inline JSON object, or ``"truth"``
         (a simulated recording's ``/truth``).
     """
 
@@ -218,7 +217,7 @@ class ProcessSettings:
         InputError
             An unknown key (named with its dotted path) or a value the dataclass refuses.
         """
-        return _from_plain(cls, data or {}, "")
+        return from_plain(cls, data or {}, "")
 
     @classmethod
     def from_json(cls, text: str) -> "ProcessSettings":
@@ -256,9 +255,12 @@ def _to_plain(obj: Any) -> Any:
 RETIRED_KEYS = {".filter.gap_factor", ".checks.gap_factor"}
 
 
-def _from_plain(cls, data: Any, where: str):
+def from_plain(cls, data: Any, where: str):
     if not isinstance(data, dict):
         raise InputError(f"settings{where}: expected an object for {cls.__name__}, got {type(data).__name__}")
+    upgrade = getattr(cls, "upgrade_saved", None)  # a section whose layout changed reads its older form
+    if upgrade is not None:
+        data = upgrade(data)
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     data = {k: v for k, v in data.items() if f"{where}.{k}" not in RETIRED_KEYS}
@@ -269,43 +271,16 @@ def _from_plain(cls, data: Any, where: str):
     for name, value in data.items():
         hint = hints.get(name)
         if dataclasses.is_dataclass(hint):
-            kwargs[name] = _from_plain(hint, value, f"{where}.{name}")
+            kwargs[name] = from_plain(hint, value, f"{where}.{name}")
         elif isinstance(value, list) and _is_tuple_hint(hint):
             kwargs[name] = tuple(value)
         else:
-            _check_value(hint, value, f"{where}.{name}")
+            check_value(hint, value, f"{where}.{name}")
             kwargs[name] = value
     try:
         return cls(**kwargs)
     except (TypeError, ValueError) as exc:
         raise InputError(f"settings{where}: {exc}") from None
-
-
-def _check_value(hint, value, where: str) -> None:
-    """Refuse a value of the wrong JSON type for a scalar setting, a non-finite number, a negative duration.
-
-    JSON ``true`` is not a number here (Python would take it as 1), and every ``*_s`` setting is a
-    duration, so a negative one is a typo that would silently change the result.
-    """
-    args = typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType) else (hint,)
-    if value is None:
-        if type(None) not in args:
-            raise InputError(f"settings{where}: null is not allowed here")
-        return
-    number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if float in args:
-        if not number or not math.isfinite(value):
-            raise InputError(f"settings{where}: expected a finite number, got {json.dumps(value)}")
-        if where.endswith("_s") and value < 0:
-            raise InputError(f"settings{where}: a duration cannot be negative, got {value}")
-    elif int in args:
-        if not (number and isinstance(value, int)):
-            raise InputError(f"settings{where}: expected an integer, got {json.dumps(value)}")
-    elif bool in args:
-        if not isinstance(value, bool):
-            raise InputError(f"settings{where}: expected true or false, got {json.dumps(value)}")
-    elif str in args and not isinstance(value, str):
-        raise InputError(f"settings{where}: expected a string, got {json.dumps(value)}")
 
 
 def _is_tuple_hint(hint) -> bool:
