@@ -134,6 +134,24 @@ class FilterSettings:
         Its measurement std, rad: how straight a corridor walk is. 5°.
     hde_min_stride_m : float
         Shortest stride that counts, m (shuffling and turning on the spot give no heading). 0.3 m.
+    level_height : bool
+        Height hold on level strides (``measurements.level_height``): at each stance onset, a stride whose
+        estimated height change is below ``level_max_dz_m`` gets the pseudo-measurement "no height change since
+        the previous footfall" [MunozDiaz2018]. On by default (``docs/floors.md``); False = height integrated
+        freely.
+    level_max_dz_m : float
+        A stride is level when |Δh| < this, m. 0.075 m: half the lowest riser (0.15 m): a stride on stairs
+        changes the height by at least one riser, while the vertical drift of a level stride is millimetres to a
+        centimetre or two (0.2–0.9 % of the distance walked). Physics, not tuned; a ramp steeper than 0.075 m
+        per stride (5 % at 1.4 m strides) is not flattened, a gentler one is.
+    level_min_stride_m : float
+        After a stair stride, a move shorter than this (horizontal, m) is not a stride but the foot rolling
+        onto its heel (stairs down land toe-first): the sensor's height changes by centimetres with the foot's
+        pitch, so it is not held, and the reference moves on to where the foot settles. 0.10 m: a roll moves a sensor within 0.15 m of the pivot by at most r·θ ≈ 0.08 m
+        horizontally (θ ≤ 35°, a steep toe-off).
+    sigma_level_m : float
+        Std of the height change of a level stride, m: floor flatness, 4 mm over 1 m and 10 mm over 4 m for
+        finished floors [DIN18202], plus the foot not landing on exactly the same sole point. 5 mm.
     """
 
     n_states: int = 15
@@ -178,6 +196,10 @@ class FilterSettings:
     hde_threshold_rad: float = 10.0 * DEG
     sigma_hde_rad: float = 5.0 * DEG
     hde_min_stride_m: float = 0.3
+    level_height: bool = True
+    level_max_dz_m: float = 0.075
+    level_min_stride_m: float = 0.10
+    sigma_level_m: float = 0.005
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
@@ -212,6 +234,8 @@ class FilterSettings:
                 raise ValueError(f"FilterSettings.{name} must be in [0, 1], got {getattr(self, name)!r}")
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
+        if not isinstance(self.level_height, bool):
+            raise ValueError(f"FilterSettings.level_height must be true or false, got {self.level_height!r}")
         for f in fields(self):
             if f.name in ("zupt_lever_arm_m", "zaru_rate_factor", "acc_scale_noise", "gyro_scale_noise", "zupt_onset_delay_s",
                           "zupt_onset_max_fraction", "hde_auto_min_cross") or f.name.startswith("sat_"):
@@ -219,7 +243,8 @@ class FilterSettings:
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number >= 0, got {v!r}")
                 continue
-            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name == "smoother_max_segment_s":
+            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "level_max_dz_m",
+                                                                                          "level_min_stride_m"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number > 0, got {v!r}")
