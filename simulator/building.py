@@ -24,9 +24,10 @@ again, until the time left is what going down and out takes; then down the neare
 corridor, straight through the hall and out of the entry, and stand still until the duration is reached.
 
 Built with ``PathBuilder`` (walk_to, stairs, turn_in_place, stand, kneel / crawl / stand_up), so every
-sensor error of the simulator applies unchanged. Extra truth (``plan_truth``): the storey of every sample
-(nearest storey level of the foot), whether the foot is in a stair stride, and the plan as JSON attributes
-(``building_plan``: axis, storey height, risers, stairwell doors and flights in the navigation frame).
+sensor error of the simulator applies unchanged. Extra truth (``plan_truth``, through the simulator's
+``per_sample_truth`` / ``describe`` hooks): the storey of every sample (nearest storey level of the foot),
+whether the foot is in a stair stride, and the plan as JSON attributes (``building_plan``: axis, storey
+height, risers, stairwell doors and flights in the navigation frame).
 """
 
 from __future__ import annotations
@@ -391,8 +392,8 @@ def building(rng: np.random.Generator, duration: float | None = 1800.0) -> PathB
             going_up = True
         w.change_storey(going_up, "u" if rng.random() < 0.5 else "s")
     while slack() > 30.0:  # fill the time left with short walks along the corridor and pauses
-        bx, _ = w.xy
-        reach = min(plan.corridor_m, bx + 0.5 * (slack() - 20.0) * WALK_SPEED_MPS)
+        bx = min(max(w.xy[0], 0.0), plan.corridor_m)  # the nearest corridor point (from a stair door, the hall)
+        reach = min(plan.corridor_m, bx + 0.5 * (slack() - 20.0) * WALK_SPEED_MPS)  # there and back in the slack
         w.corridor(float(rng.uniform(max(0.0, bx - (reach - bx)), reach)))
         w.stand(2.0, max(2.5, min(20.0, slack() - 10.0)))
     while w.storey > 0:
@@ -401,17 +402,25 @@ def building(rng: np.random.Generator, duration: float | None = 1800.0) -> PathB
     w.to(*plan.entry)
     w.to(*plan.outside)
     w.pb.stand(max(10.0, duration - w.pb.t))
-    w.pb.plan_truth = lambda t_s, foot_pos_n, steps: plan_truth(plan, t_s, foot_pos_n, steps)
-    return w.pb
+    pb = w.pb
+    # the simulator's hooks for a scenario's own truth (simulate.simulate): per sample, and attributes
+    pb.per_sample_truth = lambda t_s: plan_truth(plan, t_s, _foot_height(pb, t_s), pb.step_table())
+    pb.describe = lambda: {"building_plan": json.dumps(plan.to_attrs()), "building_axis_rad": float(plan.axis_rad)}
+    return pb
 
 
-def plan_truth(plan: Plan, t_s: np.ndarray, foot_pos_n: np.ndarray, steps: dict) -> tuple[dict, dict]:
-    """Per-sample plan truth and the plan's attributes.
+def _foot_height(pb: PathBuilder, t_s: np.ndarray, block: int = 1 << 16) -> np.ndarray:
+    """Height of the foot origin at times ``t_s`` (the builder's trajectory, in blocks: bounded memory)."""
+    traj = pb.build()
+    return np.concatenate([traj.evaluate(t_s[i:i + block])[0][:, 2] for i in range(0, len(t_s), block)])
 
-    ``storey``: the storey level nearest the foot's height (int16; 0 = ground); ``on_stairs``: 1 inside a
-    stride that climbs or descends (uint8). Attributes: ``building_plan`` (JSON, ``Plan.to_attrs``) and
-    ``building_axis_rad`` (yaw of the building's x axis in the navigation frame, ENU)."""
-    storey = np.rint(foot_pos_n[:, 2] / plan.storey_height_m).astype(np.int16)
+
+def plan_truth(plan: Plan, t_s: np.ndarray, foot_z_m: np.ndarray, steps: dict) -> dict:
+    """Per-sample plan truth: ``storey``, the storey level nearest the foot's height (int16; 0 = ground);
+    ``on_stairs``, 1 inside a stride that climbs or descends (uint8). The plan's attributes come from the
+    builder's ``describe``: ``building_plan`` (JSON, ``Plan.to_attrs``) and ``building_axis_rad`` (yaw of the
+    building's x axis in the navigation frame, ENU)."""
+    storey = np.rint(foot_z_m / plan.storey_height_m).astype(np.int16)
     on = np.zeros(len(t_s), np.uint8)
     sel = np.abs(steps["dz_m"]) > 1e-9
     if sel.any():
@@ -421,8 +430,7 @@ def plan_truth(plan: Plan, t_s: np.ndarray, foot_pos_n: np.ndarray, steps: dict)
         np.add.at(delta, i0, 1)
         np.add.at(delta, i1, -1)
         on = (np.cumsum(delta)[:-1] > 0).astype(np.uint8)
-    return ({"storey": storey, "on_stairs": on},
-            {"building_plan": json.dumps(plan.to_attrs()), "building_axis_rad": float(plan.axis_rad)})
+    return {"storey": storey, "on_stairs": on}
 
 
 __all__ = ["BUILDING", "Plan", "draw_plan", "building", "plan_truth"]

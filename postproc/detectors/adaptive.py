@@ -50,6 +50,10 @@ from .base import FRACTION, NON_NEGATIVE, POSITIVE, StanceDetector, register
 from .shoe import shoe_statistic
 
 
+# change of gravity over a building's height (free-air gradient 3.086e-6 s⁻² [NIMA2000] × 100 m), m/s²
+REST_DG_MPS2 = 3.086e-6 * 100.0
+
+
 @register("adaptive")
 @dataclass(kw_only=True)
 class AdaptiveDetector(StanceDetector):
@@ -95,12 +99,24 @@ class AdaptiveDetector(StanceDetector):
     isolation_s: float = 0.4
     isolated_min_flat_fraction: float = 0.075
 
+    def rest_floor(self) -> float:
+        """The smallest T that still tells one rest from another: T = (δg/σ_a)², δg = ``REST_DG_MPS2``.
+
+        The detector compares |f| with the gravity read at the initial rest (``calibration.stance_reference``);
+        gravity itself changes with height by the free-air gradient, 3.086e-6 s⁻² [NIMA2000], i.e. by
+        3.1e-4 m/s² over the 100 m a tall building spans. A rest that differs from the first by less is the same
+        rest: without this floor a noise-free (simulated) start sets a noise floor of T ≈ 0 that a rest on
+        another storey (T ≈ 1e-8) can never get under. Real MEMS noise (≥ 0.005 m/s², T ≥ 0.25) lies far above
+        it, so it only matters for noise-free data.
+        """
+        return (REST_DG_MPS2 / self.sigma_acc_mps2) ** 2
+
     def _classify(self, acc_b, gyro_b, dt, bad):
         from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
         n = window_samples(self.window_s, dt, 3)
         T = shoe_statistic(acc_b, gyro_b, n, self.sigma_acc_mps2, self.sigma_gyro_radps, self.gravity_mps2)
-        L = np.log10(np.maximum(T, 1e-300))
+        L = np.log10(np.maximum(T, self.rest_floor()))
         span = window_samples(self.span_s, dt, 3)
         valley = minimum_filter1d(L, span, mode="nearest")
         peak = maximum_filter1d(L, span, mode="nearest")
