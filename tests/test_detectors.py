@@ -567,7 +567,8 @@ def test_running_foot_flat_is_stance_and_a_short_pause_in_swing_is_not(rate_hz):
     from bootnav.core.runs import runs
 
     t, acc, gyro, flat, pause = _running_walk(rate_hz, 0.07, pause_s=0.02)
-    stance = detect_stance(t, acc, gyro, DetectorSettings(), gravity=9.81).stance
+    share_rule = DetectorSettings(params={"isolated_min_flat_fraction": 0.075})
+    stance = detect_stance(t, acc, gyro, share_rule, gravity=9.81).stance
     half = int(np.ceil(0.025 * rate_hz))
     starts, stops = runs(flat)
     found = [stance[a:b].any() for a, b in zip(starts, stops)]
