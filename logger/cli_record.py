@@ -21,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--baud", type=int, default=500_000,
                         help="baud rate (default 500000: carries 1 kHz; see firmware-protocol/PROTOCOL.md)")
     parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create")
-    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    parser.add_argument("--force", action="store_true",
+                        help="replace --out if it is an existing recording (never a file that is not HDF5)")
     parser.add_argument("--duration", type=float, default=None, metavar="S",
                         help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
     parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
@@ -40,6 +41,7 @@ def run(args) -> int:
     import os
     from pathlib import Path
 
+    from bootnav.core.paths import output_file
     from bootnav.errors import BootnavError
     from bootnav.logger.serial_recorder import RecorderSettings, SerialRecorder
 
@@ -51,12 +53,11 @@ def run(args) -> int:
                         ("--connect-timeout", args.connect_timeout), ("--duration", args.duration)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise BootnavError(f"{flag} {value}: must be a positive number of seconds")
-    if out.is_dir():
-        raise BootnavError(f"--out {out}: is a directory; give a file name such as {out / 'walk.h5'}")
-    if out.exists() and not args.force:  # never lose a session by re-running a command
-        raise BootnavError(f"{out} exists; choose another --out or add --force to overwrite it")
-    if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
-        raise BootnavError(f"{out.parent}: not a writable directory for --out")
+    from bootnav.core.limits import check_duration
+
+    check_duration("--duration", args.duration)
+    # never lose a session by re-running a command, never turn a user's other file into a recording
+    output_file(out, force=args.force, hdf5=True)
 
     if len(args.port) > 1 or args.label:
         return _run_multi(args)

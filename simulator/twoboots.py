@@ -166,11 +166,10 @@ def _recording_kwargs(res: SimResult) -> dict:
 
 
 def _check_free(paths: list[Path], force: bool) -> None:
-    from bootnav.errors import InputError
+    from bootnav.core.paths import output_file
 
-    for p in paths:
-        if p.exists() and not force:
-            raise InputError(f"{p} exists; give --force to overwrite it")
+    for p in paths:  # the one output rule (bootnav.core.paths)
+        output_file(p, force=force, hdf5=True)
 
 
 def _atomic(path: Path, write) -> None:
