@@ -11,6 +11,7 @@ checked: none may be an input (even with ``--force``), none may exist already (u
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 
@@ -22,6 +23,9 @@ def _floats(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"expected LAT,LON[,H] numbers, got {text!r}") from None
     if len(vals) not in (2, 3):
         raise argparse.ArgumentTypeError(f"expected LAT,LON[,H], got {len(vals)} numbers")
+    if not all(math.isfinite(v) for v in vals):
+        raise argparse.ArgumentTypeError(f"expected finite numbers LAT,LON[,H], got {text!r} (a NaN or infinite "
+                                         "coordinate would be written into the GeoJSON)")
     return vals
 
 

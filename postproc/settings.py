@@ -183,8 +183,11 @@ class ProcessSettings:
 
     def _check_anchor(self):
         a = self.output.geo_anchor
-        if a is not None and not (len(a) in (2, 3) and -90 < float(a[0]) < 90 and -180 <= float(a[1]) <= 180):
-            raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90), lon in [-180, 180], got {a}")
+        if a is not None and not (len(a) in (2, 3) and all(math.isfinite(float(v)) for v in a)
+                                  and -90 < float(a[0]) < 90 and -180 <= float(a[1]) <= 180
+                                  and (len(a) == 2 or -500.0 <= float(a[2]) <= 10000.0)):
+            raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90) deg, lon in [-180, 180] deg and h in "
+                             f"[-500, 10000] m (finite numbers), got {a}")
 
     def _check_results_name(self):
         # an HDF5 group name, and a folder-like name in outputs: no path separators, no '.'/'..'
@@ -281,6 +284,44 @@ def _from_plain(cls, data: Any, where: str):
         raise InputError(f"settings{where}: {exc}") from None
 
 
+#: Ranges of settings (dotted-path suffix -> (lo, hi, unit, why)); a value outside is refused with its range,
+#: never used. Above all the limits that guard against garbage must not be switched off by a huge value.
+SETTING_RANGES: dict[str, tuple[float | None, float | None, str, str]] = {
+    ".checks.max_gap_s": (0.0, 5.0, "s", "a longer gap hides strides no integration recovers; crop around it"),
+    ".checks.max_stride_length_m": (0.5, 10.0, "m", "no foot moves further between two stance phases"),
+    ".checks.max_stance_gyro_radps": (0.01, 2.0, "rad/s", "a foot flat on the ground turns at < 0.1 rad/s"),
+    ".checks.min_duration_s": (0.0, 600.0, "s", ""),
+    ".checks.min_stance_phases": (1, 100000, "", "a stride goes from one stance phase to the next"),
+    ".output.plot_max_points": (100, 10_000_000, "points", ""),
+    ".length_params.length_m": (0.1, 3.0, "m", "a walking or running step of a person"),
+    ".length_params.k": (0.01, 2.0, "", "the model's factor; published values are 0.3-0.7"),
+    ".height_m": (0.5, 2.5, "m", "the walker's body height"),  # PdrSettings (process's is .calibration.height_m)
+    ".length_params.height_m": (0.5, 2.5, "m", "the walker's body height"),
+}
+#: Any ``*_s`` setting longer than this is a typo (a session is bounded to 6 h, ``bootnav.core.limits``).
+SETTING_MAX_S = 6 * 3600.0
+
+
+def _check_bounds(value, where: str) -> None:
+    """Refuse a number outside its range (``SETTING_RANGES`` by exact dotted path, then rules by name: fractions in [0, 1], rates in Hz
+    positive, standard deviations not negative, durations up to ``SETTING_MAX_S``)."""
+    from bootnav.core.limits import check_range
+
+    name = where.rsplit(".", 1)[-1]
+    rng = SETTING_RANGES.get(where)
+    if rng is None and name.endswith("_fraction"):
+        rng = (0.0, 1.0, "", "a fraction")
+    elif rng is None and name.endswith("_hz"):
+        rng = (1e-6, 1e5, "Hz", "a frequency")
+    elif rng is None and (name.startswith("sigma_") or "_sigma_" in name or name.endswith("_sigma")):
+        rng = (0.0, None, "", "a standard deviation")
+    elif rng is None and name.endswith("_s"):
+        rng = (0.0, SETTING_MAX_S, "s", "a duration, up to 6 h")
+    if rng is not None:
+        lo, hi, unit, why = rng
+        check_range(f"settings{where}", value, lo, hi, unit, why=why)
+
+
 def _check_value(hint, value, where: str) -> None:
     """Refuse a value of the wrong JSON type for a scalar setting, a non-finite number, a negative duration.
 
@@ -298,9 +339,11 @@ def _check_value(hint, value, where: str) -> None:
             raise InputError(f"settings{where}: expected a finite number, got {json.dumps(value)}")
         if where.endswith("_s") and value < 0:
             raise InputError(f"settings{where}: a duration cannot be negative, got {value}")
+        _check_bounds(value, where)
     elif int in args:
         if not (number and isinstance(value, int)):
             raise InputError(f"settings{where}: expected an integer, got {json.dumps(value)}")
+        _check_bounds(value, where)
     elif bool in args:
         if not isinstance(value, bool):
             raise InputError(f"settings{where}: expected true or false, got {json.dumps(value)}")
