@@ -825,7 +825,54 @@ def sample_count(path: str | os.PathLike) -> int:
         return int(t.shape[0])
 
 
-def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None) -> Recording:
+#: Rows of a recording the unit check reads (10 min at 200 Hz): enough still seconds and strides, bounded memory.
+UNIT_CHECK_ROWS = 120_000
+
+
+def unit_problems(acc_si, gyro_si, rate_hz: float) -> list[str]:
+    """What is wrong with the units of samples that claim to be SI: ``import``'s checks (one definition,
+    ``bootnav.logger.importers.checks``) applied to stored values times ``scale_to_si``. Gravity at rest must be
+    9.81 m/s^2 +-25 % (a file in g, or in raw int16 counts without a scale, is not) and the gyro's 99.9th percentile
+    at most 35 rad/s (a file in deg/s is not). Empty when the units are plausible."""
+    from bootnav.logger.importers import checks
+
+    out = []
+    acc = np.asarray(acc_si, dtype=np.float64)
+    if acc.ndim == 2 and acc.shape[0] >= 2:
+        p = checks.acc_unit_problem(acc, 1.0, "m/s^2 (stored value x scale_to_si)", rate_hz)
+        if p:
+            out.append(p.replace("--acc-unit ", "acc unit "))
+    if gyro_si is not None and np.asarray(gyro_si).shape[0] >= 2:
+        p = checks.gyro_unit_problem(np.asarray(gyro_si, dtype=np.float64), "rad/s (stored value x scale_to_si)")
+        if p:
+            out.append(p.replace("--gyro-unit ", "gyro unit "))
+    return out
+
+
+def units_trusted(meta: Mapping[str, Any]) -> bool:
+    """The recording was imported with ``--trust-units`` (its ``/meta unit_check`` says the check was
+    overridden): the unit check is the user's decision, not repeated."""
+    return "overridden" in str(meta.get("unit_check", ""))
+
+
+def check_units(rec: "Recording", path) -> None:
+    """``InputError`` when a recording's samples are not in SI units (``unit_problems``), naming the file, the
+    figures and the fix; nothing for a recording imported with ``--trust-units``."""
+    if units_trusted(rec.meta) or rec.n < 2:
+        return
+    k = min(rec.n, UNIT_CHECK_ROWS)
+    dt = np.diff(rec.t_s[:k])
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    rate = 1.0 / float(np.median(dt)) if dt.size else float("nan")
+    problems = unit_problems(rec.acc_mps2[:k], rec.gyro_radps[:k], rate)
+    if problems:
+        raise InputError(f"{path}: the samples are not in SI units: {'; '.join(problems)}; set the scale_to_si "
+                         "attributes of /imu/acc and /imu/gyro to the factors to m/s^2 and rad/s, or import the "
+                         "source again with the right --acc-unit/--gyro-unit (--trust-units to keep them)")
+
+
+def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None,
+         check: bool = True) -> Recording:
     """Open a recording and return it in SI units (the one function every consumer uses).
 
     Parameters
@@ -837,6 +884,9 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
     boot
         The boot to read from a multi-boot recording (``boot_labels``); required for one, refused for a
         single-boot recording. Its ``t_s`` is on the session clock shared by all boots.
+    check
+        Refuse samples whose units are not SI (``check_units``: acc in g or counts, gyro in deg/s, as ``import``
+        refuses them); False for tools that inspect such a file (``info`` reports it as a warning).
 
     Raises
     ------
@@ -845,7 +895,10 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
         names the file and the dataset path. A multi-boot file without ``boot`` (or an unknown label).
     """
     with recording_group(path, boot) as (f, g):
-        return _read(f, Path(path), with_truth, g)
+        rec = _read(f, Path(path), with_truth, g)
+    if check:
+        check_units(rec, path)
+    return rec
 
 
 @contextmanager
@@ -856,11 +909,14 @@ def recording_group(path: str | os.PathLike, boot: str | None = None):
     The checks and messages of ``load``; a read error inside the ``with`` block (a damaged chunk or header)
     becomes the same one-line ``InputError``.
     """
+    from bootnav.core.paths import regular_input
+
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, expected a recording file")
+    regular_input(path, "recording")  # a FIFO would block forever
     with _open_for_read(path) as f:
         labels = _boots_attr(f, path)
         if labels and boot is None:

@@ -114,8 +114,8 @@ def make_fixtures(d: Path) -> dict[str, Path]:
                     acc_channel=counts_channel("acc", 16 * G / 32768), gyro_channel=counts_channel("gyro", 1e-3),
                     measured_rate=False)
     # a CSV cut in the middle of its gzip stream
-    rows = "\n".join(f"{i / 100:.2f},0,0,9.81,0,0,0" for i in range(6000))
-    full = gzip.compress(("t,ax,ay,az,gx,gy,gz\n" + rows + "\n").encode())
+    rows = "\n".join(f"{i / 100:.2f},0,0,9.81,0.01,0,0" for i in range(60000))
+    full = gzip.compress(("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n" + rows + "\n").encode())
     fx["cut_gz"] = d / "cut.csv.gz"
     fx["cut_gz"].write_bytes(full[: len(full) // 2])
     # a CSV with a time column (rate given on the command line too)
@@ -159,6 +159,9 @@ def _specials(d: Path, fx: dict[str, Path]) -> dict[str, Path]:
     fx["evalout"] = d / "evalout"
     fx["evalout"].mkdir()
     (fx["evalout"] / "mine.txt").write_text("keep me\n")
+    fx["evalroot"] = d / "evalroot"
+    fx["evalroot"].mkdir()
+    (fx["evalroot"] / "manifest.json").write_text('{"trials": [{"id": "x/1", "set": "x"}]}')
     return fx
 
 
@@ -232,8 +235,10 @@ CASES: list[Case] = [
     Case("emulate --out-link EXISTING.h5", ["emulate", "--out-link", "{fx:rec}", "--duration", "1", "--no-wait"],
          inputs=("rec",), timeout=30),
     Case("record --out notes.txt --force", ["record", "--port", "loop://", "--out", "{fx:notes}", "--force",
-                                            "--duration", "0.5", "--connect-timeout", "1"], inputs=("notes",)),
-    Case("eval --out NON-EMPTY", ["eval", "{d}", "--out", "{fx:evalout}"], inputs=(), check=_eval_kept),
+                                            "--duration", "0.5", "--connect-timeout", "1"], inputs=("notes",),
+         words=("not an HDF5",)),
+    Case("eval --out NON-EMPTY", ["eval", "{fx:evalroot}", "--out", "{fx:evalout}"], check=_eval_kept,
+         words=("not empty", "--force")),
     # -- hangs
     Case("info FIFO", ["info", "{fx:fifo}"], timeout=20, words=("FIFO",)),
     Case("import FIFO", ["import", "{fx:fifo}", "--out", "{d}/x.h5"], timeout=20, words=("FIFO",)),
@@ -351,7 +356,11 @@ def run_case(case: Case, d: Path, fx: dict[str, Path]):
     changed = [k for k in case.inputs if sha256(fx[k]) != before[k]]
     if changed:
         problems.append("DESTROYED " + ",".join(changed))
-    if "Traceback" in err:
+    if case.code is not None:  # the API raises: the exception must be bootnav's own, one line in its words
+        last = [ln for ln in err.splitlines() if ln.strip()][-1:] or [""]
+        if proc.returncode != 0 and not last[0].startswith("bootnav.errors.InputError"):
+            problems.append(f"API error is not an InputError: {last[0][:80]}")
+    elif "Traceback" in err:
         problems.append("TRACEBACK")
     if proc.returncode is not None and proc.returncode < 0 and case.term_after is None:
         problems.append(f"CRASH (signal {-proc.returncode})")
@@ -365,7 +374,7 @@ def run_case(case: Case, d: Path, fx: dict[str, Path]):
         if case.expect == "ok" and proc.returncode != 0:
             problems.append(f"failed (exit {proc.returncode})")
     for w in case.words:
-        if w.lower() not in err.lower():
+        if w.lower() not in (err + (out or "")).lower():
             problems.append(f"no '{w}' in stderr")
     if case.check is not None and not hung:
         extra = case.check(proc, d, fx)
@@ -375,7 +384,10 @@ def run_case(case: Case, d: Path, fx: dict[str, Path]):
 
 
 def first_line(text: str) -> str:
-    lines = [ln for ln in text.splitlines() if ln.strip()]
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith(("bootnav process: load",
+                                                                                  "bootnav process: compiling"))]
+    if lines and lines[0].startswith("Traceback"):
+        return lines[-1][:150]
     return lines[0][:150] if lines else ""
 
 
