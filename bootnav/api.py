@@ -86,12 +86,39 @@ def _settings(cls, settings, overrides: dict):
     return cls.from_dict(_merged(base.to_dict(), overrides)) if overrides else base
 
 
+def _numbers(value, name: str, fn: str) -> np.ndarray:
+    """``value`` as a float array, or an ``InputError`` in the API's words (strings, None, objects)."""
+    from bootnav.errors import InputError
+
+    if value is None or isinstance(value, (str, bytes)):
+        raise InputError(f"{fn}: {name} must be an array of numbers, got {type(value).__name__}")
+    try:
+        return np.asarray(value, float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{fn}: {name} must be an array of numbers, got {type(value).__name__} ({exc})") from None
+
+
+def _check_source(source, fn: str, arrays: str) -> None:
+    """A file path or a ``Recording``; anything else is an ``InputError`` saying what the function takes."""
+    import os
+
+    from bootnav.errors import InputError
+    from bootnav.logger.recording import Recording
+
+    if isinstance(source, (str, os.PathLike, Recording)):
+        return
+    got = type(source).__name__
+    hint = f" (with arrays, give {arrays} too)" if isinstance(source, (np.ndarray, list, tuple)) else ""
+    raise InputError(f"{fn}: expected a file path, a Recording, or t_s with {arrays}; got {got}{hint}")
+
+
 def _arrays(t_s, acc_mps2, gyro_radps, need_gyro: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     from bootnav.errors import InputError
 
-    t = np.asarray(t_s, float)
-    acc = np.asarray(acc_mps2, float)
-    gyro = None if gyro_radps is None else np.asarray(gyro_radps, float)
+    fn = "process(t_s, acc_mps2, gyro_radps)" if need_gyro else "pdr(t_s, acc_mps2, gyro_radps)"
+    t = _numbers(t_s, "t_s", fn)
+    acc = _numbers(acc_mps2, "acc_mps2", fn)
+    gyro = None if gyro_radps is None else _numbers(gyro_radps, "gyro_radps", fn)
     if gyro is None and need_gyro:
         raise InputError("process(t_s, acc_mps2, gyro_radps): the gyroscope is required")
     if t.ndim != 1 or acc.shape != (len(t), 3) or (gyro is not None and gyro.shape != (len(t), 3)):
@@ -225,6 +252,7 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
 
     if acc_mps2 is not None or gyro_radps is not None:
         source = _recording_of_arrays(source, acc_mps2, gyro_radps)
+    _check_source(source, "process(source)", "acc_mps2 and gyro_radps")
     return _path_result(run(source, _settings(ProcessSettings, settings, overrides), progress))
 
 
@@ -480,11 +508,20 @@ def pdr(source, acc_mps2=None, gyro_radps=None, /, *, mag_b=None, settings=None,
     extra: dict = {}
     if acc_mps2 is not None:
         t, acc, gyro = _arrays(source, acc_mps2, gyro_radps, need_gyro=False)
+        if mag_b is not None:
+            from bootnav.errors import InputError
+
+            mag_b = _numbers(mag_b, "mag_b", "pdr(..., mag_b=)")
+            if mag_b.shape != (len(t), 3):
+                raise InputError(f"pdr(..., mag_b=): expected the magnetometer as (N, 3) = ({len(t)}, 3) like acc_mps2, "
+                                 f"got {mag_b.shape}")
         extra["mag_b"] = mag_b
     elif isinstance(source, Recording):
         t, acc, gyro = source.t_s, source.acc_mps2, source.gyro_radps
     else:
         from bootnav.postproc.pdr.io import load_input
+
+        _check_source(source, "pdr(source)", "acc_mps2")
 
         inp = load_input(source)
         t, acc, gyro = inp.t_s, inp.acc_b, inp.gyro_b

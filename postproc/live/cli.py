@@ -186,8 +186,9 @@ def _quietly(func, *args) -> None:
 def _check_summary(out_dir, force: bool) -> None:
     from bootnav.errors import BootnavError
 
-    if (out_dir / "live.json").exists() and not force:
-        raise BootnavError(f"{out_dir / 'live.json'} exists; choose another --out or add --force to overwrite it")
+    from bootnav.core.paths import output_folder
+
+    output_folder(out_dir, ["live.json"], force=force)  # the one output rule (bootnav.core.paths)
 
 
 def _write_summary(out_dir, feeds, settings, live):
@@ -200,9 +201,9 @@ def _write_summary(out_dir, feeds, settings, live):
     data = {"settings": settings.to_dict(), "live_settings": to_jsonable(live),
             "boots": {f.label: f.view.result() for f in feeds}}
     target = out_dir / "live.json"
-    tmp = out_dir / f".live.json.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(to_jsonable(data, max_array_size=None), indent=1, allow_nan=False) + "\n")
-    os.replace(tmp, target)
+    from bootnav.core import atomic
+
+    atomic.write_text(target, json.dumps(to_jsonable(data, max_array_size=None), indent=1, allow_nan=False) + "\n")
     return target
 
 
