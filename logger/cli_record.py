@@ -37,6 +37,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no live status line")
 
 
+#: The firmware's output rate (firmware-protocol/PROTOCOL.md: 1 kHz / (1 + SMPLRT_DIV 4)), for the space estimate.
+NOMINAL_RATE_HZ = 200.0
+#: Below this many minutes of free space ``record`` warns at start (a walk-through drill lasts 10-30 min).
+WARN_MINUTES = 10.0
+
+
+def check_free_space(out, n_boots: int = 1, quiet: bool = False) -> float:
+    """Say at start how many minutes of recording the free space holds; refuse when not even a new file fits.
+
+    Returns the minutes (uncompressed rows at ``NOMINAL_RATE_HZ`` per boot: a lower bound, gzip typically
+    doubles it). The recorder itself stops cleanly at the last flush that fits (``RecordingWriter.room_for``).
+    """
+    from pathlib import Path
+
+    from bootnav.errors import DiskFullError
+    from bootnav.logger.recording import MIN_FREE_BYTES, free_bytes, minutes_that_fit
+
+    out = Path(out)
+    free = free_bytes(out)
+    if free < MIN_FREE_BYTES:
+        raise DiskFullError(f"--out {out}: only {free / 1024:.0f} KB free there (the file-size limit or the disk), "
+                            f"less than a new recording needs ({MIN_FREE_BYTES >> 10} KB); free some space or "
+                            "record elsewhere")
+    minutes = minutes_that_fit(out, NOMINAL_RATE_HZ * n_boots)
+    if minutes < WARN_MINUTES:
+        print(f"bootnav record: warning: only {free / 1e6:.2f} MB free at {out.parent.resolve()}: about "
+              f"{minutes:.1f} min of recording at {NOMINAL_RATE_HZ:g} Hz x {n_boots} boot(s) fit; the recording stops "
+              "cleanly (readable, everything up to the last flush kept) when the disk is full", file=sys.stderr)
+    elif not quiet:
+        print(f"bootnav record: {free / 1e9:.1f} GB free: about {minutes / 60:.0f} h of recording fit",
+              file=sys.stderr)
+    return minutes
+
+
 def run(args) -> int:
     import os
     from pathlib import Path
@@ -58,6 +92,7 @@ def run(args) -> int:
     check_duration("--duration", args.duration)
     # never lose a session by re-running a command, never turn a user's other file into a recording
     output_file(out, force=args.force, hdf5=True)
+    check_free_space(out, len(args.port), quiet=args.quiet)
 
     if len(args.port) > 1 or args.label:
         return _run_multi(args)

@@ -136,8 +136,33 @@ def is_disk_full(exc: BaseException) -> bool:
     return any(f"errno = {c}," in str(exc) for c in codes)
 
 
-#: Space a new recording needs before its first block (superblock, groups, dataset headers, first chunks).
-MIN_FREE_BYTES = 256 << 10
+#: Space a new recording needs before its first block: the layout (superblock, groups, dataset headers, about
+#: 15 KB measured) and the first chunks at the smallest chunk size, with room to spare.
+MIN_FREE_BYTES = 64 << 10
+
+#: Smallest chunk (rows) a recording on a nearly full disk uses: small chunks let a few hundred KB of free space
+#: hold tens of seconds instead of nothing (HDF5 allocates a whole chunk per dataset at the first flush).
+MIN_CHUNK_ROWS = 64
+
+#: Bytes of one recorder row before compression: t_s 8, acc and gyro 2 x 6 (int16 counts), saturated 1, temp 2,
+#: t_device 4, t_host 8, seq 2 (the worst case a compressed chunk can need).
+RECORDER_ROW_BYTES = 37
+
+
+def chunk_rows_for(path: str | os.PathLike, chunk_rows: int = CHUNK_ROWS, row_bytes: int = RECORDER_ROW_BYTES) -> int:
+    """Rows per chunk for a new recording at ``path``: ``chunk_rows`` when space is plentiful, smaller (a power of
+    two, at least ``MIN_CHUNK_ROWS``) so that one chunk of every dataset takes at most 1/64 of the free space."""
+    fit = free_bytes(Path(path)) // (64 * row_bytes)
+    rows = MIN_CHUNK_ROWS
+    while rows * 2 <= min(fit, chunk_rows):
+        rows *= 2
+    return int(min(max(rows, MIN_CHUNK_ROWS), chunk_rows))
+
+
+def minutes_that_fit(path: str | os.PathLike, rate_hz: float, row_bytes: int = RECORDER_ROW_BYTES) -> float:
+    """Minutes of recording the free space at ``path`` holds at ``rate_hz`` (uncompressed rows: a lower bound)."""
+    room = max(free_bytes(Path(path)) - MIN_FREE_BYTES, 0)
+    return room / (row_bytes * rate_hz) / 60.0
 
 
 def free_bytes(path: Path) -> int:
@@ -213,10 +238,12 @@ class RecordingWriter:
         seq: bool = False,
         meta: Mapping[str, Any] | None = None,
         swmr: bool = True,
-        chunk_rows: int = CHUNK_ROWS,
+        chunk_rows: int | None = None,
         _shared: tuple[h5py.File, str] | None = None,
     ):
         self.path = Path(path)
+        if chunk_rows is None:  # smaller chunks on a nearly full disk (``chunk_rows_for``)
+            chunk_rows = chunk_rows_for(self.path)
         self._peers = [self]  # writers sharing the file (one per boot): a failed write rolls back all of them
         # what `bootnav info` reports, stored at close (a multi-boot recorder rewrites t_s after it: none there)
         self._stats = SampleStats() if _shared is None else None
@@ -539,8 +566,10 @@ class MultiBootWriter:
     """
 
     def __init__(self, path: str | os.PathLike, boots: Mapping[str, BootLayout], *,
-                 attrs: Mapping[str, Any] | None = None, swmr: bool = True, chunk_rows: int = CHUNK_ROWS):
+                 attrs: Mapping[str, Any] | None = None, swmr: bool = True, chunk_rows: int | None = None):
         self.path = Path(path)
+        if chunk_rows is None:  # every boot shares the free space
+            chunk_rows = chunk_rows_for(self.path, row_bytes=RECORDER_ROW_BYTES * max(len(boots), 1))
         labels = [check_boot_label(label) for label in boots]
         if len(set(labels)) != len(labels) or not labels:
             raise InputError(f"boot labels {labels}: give one distinct label per boot")
@@ -855,7 +884,7 @@ def units_trusted(meta: Mapping[str, Any]) -> bool:
     return "overridden" in str(meta.get("unit_check", ""))
 
 
-def check_units(rec: "Recording", path) -> None:
+def check_recording_units(rec: "Recording", path) -> None:
     """``InputError`` when a recording's samples are not in SI units (``unit_problems``), naming the file, the
     figures and the fix; nothing for a recording imported with ``--trust-units``."""
     if units_trusted(rec.meta) or rec.n < 2:
@@ -872,7 +901,7 @@ def check_units(rec: "Recording", path) -> None:
 
 
 def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None,
-         check: bool = True) -> Recording:
+         check_units: bool = False) -> Recording:
     """Open a recording and return it in SI units (the one function every consumer uses).
 
     Parameters
@@ -884,9 +913,11 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
     boot
         The boot to read from a multi-boot recording (``boot_labels``); required for one, refused for a
         single-boot recording. Its ``t_s`` is on the session clock shared by all boots.
-    check
+    check_units
         Refuse samples whose units are not SI (``check_units``: acc in g or counts, gyro in deg/s, as ``import``
-        refuses them); False for tools that inspect such a file (``info`` reports it as a warning).
+        refuses them). Every consumer that computes a path asks for it (``postproc.source.load_source``: process,
+        eval and the API; ``live``; ``pdr``); tools that inspect or convert a file read it as it is (``info``
+        reports the problem as a warning).
 
     Raises
     ------
@@ -896,8 +927,8 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
     """
     with recording_group(path, boot) as (f, g):
         rec = _read(f, Path(path), with_truth, g)
-    if check:
-        check_units(rec, path)
+    if check_units:
+        check_recording_units(rec, path)
     return rec
 
 

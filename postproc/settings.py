@@ -303,16 +303,14 @@ SETTING_MAX_S = 6 * 3600.0
 
 
 def _check_bounds(value, where: str) -> None:
-    """Refuse a number outside its range (``SETTING_RANGES`` by exact dotted path, then rules by name: fractions in [0, 1], rates in Hz
-    positive, standard deviations not negative, durations up to ``SETTING_MAX_S``)."""
+    """Refuse a number outside its range (``SETTING_RANGES`` by exact dotted path, then rules by name: fractions in [0, 1], standard
+    deviations not negative, durations up to ``SETTING_MAX_S``)."""
     from bootnav.core.limits import check_range
 
     name = where.rsplit(".", 1)[-1]
     rng = SETTING_RANGES.get(where)
     if rng is None and name.endswith("_fraction"):
         rng = (0.0, 1.0, "", "a fraction")
-    elif rng is None and name.endswith("_hz"):
-        rng = (1e-6, 1e5, "Hz", "a frequency")
     elif rng is None and (name.startswith("sigma_") or "_sigma_" in name or name.endswith("_sigma")):
         rng = (0.0, None, "", "a standard deviation")
     elif rng is None and name.endswith("_s"):

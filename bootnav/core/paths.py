@@ -149,12 +149,12 @@ def output_file(path: str | os.PathLike, *, force: bool = False, inputs: Iterabl
     """
     p = Path(path)
     if any(same_path(p, i) for i in inputs if i is not None):
-        raise InputError(f"{flag} {p} is an input of this run; choose another name (an input is never overwritten, "
-                         "not even with --force)")
+        raise InputError(f"{flag} {p} is the input file (it is an input of this run): the output would replace an "
+                         "input; choose another name (an input is never overwritten, not even with --force)")
     target = p.resolve() if p.is_symlink() else p
     if target.is_dir():
-        raise InputError(f"{flag} {p} is a folder; give a file name inside it, e.g. {p / 'out.h5'}"
-                         if hdf5 else f"{flag} {p} is a folder; give a file name inside it")
+        raise InputError(f"{flag} {p} is a directory; give a file name inside it, e.g. {p / 'out.h5'}"
+                         if hdf5 else f"{flag} {p} is a directory; give a file name inside it")
     kind = special_kind(target)
     if kind is not None:
         raise InputError(f"{flag} {p} is a {kind}, not a regular file; bootnav writes only regular files")
@@ -164,7 +164,7 @@ def output_file(path: str | os.PathLike, *, force: bool = False, inputs: Iterabl
             raise InputError(f"{flag} {p} exists and is not an HDF5 file; bootnav never replaces it (not even with "
                              "--force): choose another name")
         if not force:
-            raise InputError(f"{flag} {p} exists; choose another name or add --force to replace it")
+            raise InputError(f"{p} exists; use --force to replace it, or choose another {flag}")
     return target
 
 

@@ -120,7 +120,7 @@ class ReplayRecording:
 
     def __init__(self, path: str | Path, speed: float = 1.0, boot: str | None = None):
         self.path = Path(path)
-        rec = load(self.path, with_truth=False, boot=boot)
+        rec = load(self.path, with_truth=False, boot=boot, check_units=True)
         if rec.n < 2:
             from bootnav.errors import InputError
 
