@@ -146,8 +146,9 @@ def test_every_hdf5_reader_checks_units(tmp_path, capsys, name, dataset, value, 
     assert load(p).n > 0  # read as it is for inspection and conversion (info, import)
     with pytest.raises(InputError, match=words):
         bootnav.process(str(p))
-    code, err = run(["process", p, "--out", tmp_path / "o", "--no-plots"], capsys)
-    assert code == 1 and words in err and not (tmp_path / "o").exists()
+    for extra in ([], ["--chunk-s", "10"]):  # the whole-array and the block-by-block reader
+        code, err = run(["process", p, "--out", tmp_path / "o", "--no-plots", *extra], capsys)
+        assert code == 1 and words in err and not (tmp_path / "o").exists()
     code, err = run(["info", p], capsys)  # info shows the file, with the problem as a warning
     assert code == 0 and "warning: units:" in err and words in err
     with h5py.File(p, "r+") as f:  # imported on purpose with --trust-units: the user's decision stands

@@ -14,7 +14,6 @@ import pytest
 
 from bootnav.cli import main
 from bootnav.core import atomic
-from bootnav.core.paths import output_file, output_folder
 from bootnav.errors import InputError
 
 REC = Path(__file__).resolve().parents[2] / "recordings" / "sim_paper-straight.h5"
@@ -59,6 +58,8 @@ def test_every_writer_refuses_to_destroy_a_file(files, tmp_path, capsys, argv, t
 
 
 def test_policy_rules(tmp_path):
+    from bootnav.core.paths import output_file, output_folder
+
     notes = tmp_path / "notes.txt"
     notes.write_text("x")
     rec = tmp_path / "r.h5"
@@ -146,3 +147,19 @@ def test_eval_refuses_a_non_empty_out_and_with_force_clears_only_its_own_files(t
     prepare_out(out, force=True)
     assert sorted(p.name for p in out.rglob("*")) == ["mine.txt", "plots"]
     assert (tmp_path / "escape.txt").read_text() == "outside"
+
+
+@pytest.mark.timeout(120)
+def test_into_recording_on_a_symlink_writes_through_to_the_target(tmp_path, capsys):
+    target = tmp_path / "data" / "walk.h5"
+    target.parent.mkdir()
+    shutil.copy(REC, target)
+    link = tmp_path / "walk.h5"
+    link.symlink_to(target)
+    assert main(["process", str(link), "--into-recording", "--out", str(tmp_path / "o"), "--no-plots"]) == 0
+    import h5py
+
+    assert link.is_symlink() and os.readlink(link) == str(target)  # the link stays a link
+    with h5py.File(target, "r") as f:
+        assert "results/default/pos_n_m" in f  # the results went into the file it points to
+    assert sorted(p.name for p in target.parent.iterdir()) == ["walk.h5"]  # no temporary left beside it
