@@ -11,7 +11,6 @@ cleanly and writes ``DIR/live.json`` (the live strides of every boot and the set
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 
 
@@ -53,9 +52,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _check(args) -> None:
     from bootnav.errors import BootnavError
 
-    for flag, value in (("--speed", args.speed), ("--no-motion-s", args.no_motion_s)):
-        if not (math.isfinite(value) and value > 0):
-            raise BootnavError(f"{flag} {value}: must be a positive number")
+    from bootnav.core.limits import check_range
+
+    check_range("--speed", args.speed, 0.0, 1000.0, "x real time", lo_open=True)
+    check_range("--no-motion-s", args.no_motion_s, 0.0, 3600.0, "s", lo_open=True,
+                why="the PASS-device alarm time is 30 s")
     if not 0 <= args.http_port <= 65535:
         raise BootnavError(f"--http-port {args.http_port}: must be in 0..65535")
     if args.port and not args.out:

@@ -149,6 +149,9 @@ def build_settings(args):
                              ("--weinberg-k", args.weinberg_k, ".length_params.k"), ("--height", args.height, ".height_m")):
         lo, hi, unit, why = SETTING_RANGES[key]  # the settings file's ranges (one definition)
         check_range(flag, value, lo, hi, unit, why=why)
+    for flag, value in (("--heading0", args.heading0), ("--declination", args.declination)):
+        check_range(flag, value, -360.0, 360.0, "deg")
+    check_range("--complementary-tau", args.complementary_tau, 0.0, 3600.0, "s", lo_open=True)
     length = args.length
     for flag, model, key, value in (("--weinberg-k", "weinberg", "k", args.weinberg_k),
                                     ("--step-length", "constant", "length_m", args.step_length)):
