@@ -10,7 +10,6 @@ to the ``server.Hub``.
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
