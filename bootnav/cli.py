@@ -40,8 +40,42 @@ class Stopped(KeyboardInterrupt):
         self.signum = signum
 
 
+#: Seconds a stopped command may take to unwind before it is ended from a watchdog thread: an exception raised
+#: by a signal inside a library's lock (llvmlite, seen under SIGHUP) can deadlock the unwinding.
+STOP_GRACE_S = 10.0
+_STOPPING: list[int] = []
+_UNWOUND = __import__("threading").Event()  # set when main() has returned: the watchdog stands down
+
+
 def _raise_stopped(signum, frame):
+    """Stop like Ctrl-C: raise ``Stopped`` here; a watchdog ends the process if unwinding hangs; a second stop
+    signal ends it at once. Either way this process's temporary files are removed and the exit code is 128 + sig."""
+    if _STOPPING:
+        _hard_exit(signum)
+    _STOPPING.append(signum)
+    import threading
+
+    threading.Thread(target=_watchdog, args=(signum,), daemon=True).start()
     raise Stopped(signum)
+
+
+def _watchdog(signum: int) -> None:
+    if not _UNWOUND.wait(STOP_GRACE_S):
+        _hard_exit(signum)
+
+
+def _hard_exit(signum: int) -> None:
+    from bootnav.core.atomic import remove_temporaries
+
+    remove_temporaries()
+    name = signal.Signals(signum).name
+    command = next((a for a in sys.argv[1:] if a in SUBCOMMANDS), "")
+    try:
+        os.write(2, f"bootnav {command}: stopped by {name}; unfinished output files were removed\n".replace(
+            "bootnav : ", "bootnav: ").encode("ascii", "replace"))
+    except OSError:
+        pass
+    os._exit(128 + int(signum))
 
 
 def _ascii_fallback(exc: UnicodeEncodeError):
@@ -59,7 +93,8 @@ def prepare_process() -> dict:
     - fds 0-2 closed by the caller (``bootnav info X >&-``) are reopened on /dev/null, so no file bootnav opens
       gets fd 1 and no print fails;
     - a console that cannot encode our symbols (ASCII, cp1252) gets them spelled in ASCII, never an error;
-    - SIGTERM and SIGHUP stop the command like Ctrl-C (``Stopped``);
+    - SIGINT (Ctrl-C), SIGTERM and SIGHUP stop the command (``Stopped``, a KeyboardInterrupt), with a watchdog
+      that ends the process if the unwinding hangs;
     - SIGXFSZ (the file-size limit, ``ulimit -f``) is ignored so a write past the limit fails with EFBIG, which
       every writer turns into a clean error, instead of killing the process with a half-written file set.
 
@@ -91,9 +126,11 @@ def prepare_process() -> dict:
             pass
     sys.unraisablehook = _quiet_hdf5_dealloc
     sys.excepthook = _quiet_hdf5_excepthook
-    wanted = [(n, _raise_stopped) for n in STOP_SIGNALS[1:]] + [("SIGXFSZ", signal.SIG_IGN)]
+    wanted = [(n, _raise_stopped) for n in STOP_SIGNALS] + [("SIGXFSZ", signal.SIG_IGN)]
     for name, handler in wanted:
         if hasattr(signal, name):
+            if handler is _raise_stopped and signal.getsignal(getattr(signal, name)) == signal.SIG_IGN:
+                continue  # ignored by the caller (nohup, a background job): stays ignored
             try:
                 previous[getattr(signal, name)] = signal.signal(getattr(signal, name), handler)
             except (ValueError, OSError):  # not the main thread (embedded use): leave the defaults
@@ -197,13 +234,17 @@ def main(argv: list[str] | None = None) -> int:
     """
     raw = sys.argv[1:] if argv is None else list(argv)
     previous = prepare_process()
+    _UNWOUND.clear()
     try:
         code = _main(raw)
     finally:
         restore_signals(previous)
-    if argv is None and code != 0 and hdf5_left_open():
-        # a file whose write failed cannot be closed; HDF5 would retry at interpreter exit and may crash after
-        # the clean message: leave now (the program's own exit only, never when main() is called from Python)
+        _UNWOUND.set()
+        _STOPPING.clear()
+    if argv is None and (code > 128 or code != 0 and hdf5_left_open()):
+        # a stopped run may leave worker threads blocked (a stop signal inside a library's lock), and a file whose
+        # write failed cannot be closed (HDF5 retries at exit and may crash after the clean message): leave now,
+        # without the interpreter's teardown (the program's own exit only, never when main() is called from Python)
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

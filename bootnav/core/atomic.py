@@ -26,10 +26,32 @@ def through_links(target: str | Path) -> Path:
     return target.resolve() if target.is_symlink() else target
 
 
+#: Folders where this process made temporary files (``remove_temporaries`` cleans them on a forced exit).
+_TMP_DIRS: set[Path] = set()
+
+
 def temporary_beside(target: str | Path) -> Path:
     """The hidden temporary name used for ``target`` by this process: ``.<name>.<pid>.tmp`` beside it."""
     target = through_links(target)
+    _TMP_DIRS.add(target.parent)
     return target.with_name(f".{target.name}.{os.getpid()}.tmp")
+
+
+def remove_temporaries() -> list[Path]:
+    """Remove every hidden temporary of this process (``.<name>.<pid>.tmp``, ``.<name>.<pid>.set.tmp``) in the
+    folders it wrote to: the clean-up of an exit that cannot unwind (a stop signal that deadlocked a library).
+    Returns the files removed."""
+    removed = []
+    pid = os.getpid()
+    for folder in list(_TMP_DIRS):
+        for pattern in (f".*.{pid}.tmp", f".*.{pid}.set.tmp"):
+            for p in folder.glob(pattern):
+                try:
+                    p.unlink()
+                    removed.append(p)
+                except OSError:
+                    pass
+    return removed
 
 
 def fsync_path(path: str | Path) -> None:
