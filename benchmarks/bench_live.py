@@ -125,7 +125,7 @@ def chain(source: Path, label: str, work: Path, detector: str, report: Path | No
     rec = load(out / f"{label}.h5")
     final = np.array(json.loads((out / "live.json").read_text())["boots"][label]["rows"], float)
     s_same, s_default = ProcessSettings(), ProcessSettings()
-    s_same.detector.method = s_default.detector.method = detector
+    s_same.detector = s_default.detector = s_default.detector.with_method(detector)
     s_same.selftune.timing_calibration = False
     same, default = process(rec, s_same), process(rec, s_default)
     row = {"source": label, "duration_s": float(rec.t_s[-1]), "live_strides": len(final) - 1,

@@ -95,7 +95,7 @@ def current_value(path: str):
 
     node = ProcessSettings()
     for part in path.split("."):
-        node = getattr(node, part)
+        node = node[part] if isinstance(node, dict) else getattr(node, part)
     return node
 
 
@@ -275,7 +275,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--setting", required=True,
-                    help="dotted ProcessSettings path, e.g. filter.sigma_gyro_radps, detector.adaptive_alpha; "
+                    help="dotted ProcessSettings path, e.g. filter.sigma_gyro_radps, detector.params.alpha; "
                          "'none' to compare only --eval runs with the default")
     ap.add_argument("--values", nargs="*", default=[], help="candidate values (JSON literals, or e.g. 0.6deg)")
     ap.add_argument("--eval", action="append", default=[], metavar="NAME=METRICS_JSON",

@@ -57,7 +57,7 @@ def _run(job) -> tuple:
     mode, detector = CONFIGS[label]
     s = ProcessSettings(reference="truth")
     s.filter.mode = mode
-    s.detector.method = detector
+    s.detector = s.detector.with_method(detector)
     r = process(path, s)
     m = r.metrics
     return (path, label, m["distance_error_pct"], m["deviation_error_pct"], m["height_error_pct"],

@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bootnav.postproc.evaluate.runner import PdrEstimate, read_imu, score_pdr  # noqa: E402
 from bootnav.postproc.pdr import run_pdr  # noqa: E402
-from bootnav.postproc.pdr.evaluate import PDR_SETS, list_trials  # noqa: E402
+from bootnav.postproc.evaluate.pdr import PDR_SETS, list_trials  # noqa: E402
 from bootnav.postproc.pdr.pipeline import PdrSettings  # noqa: E402
 
 # name -> (detector, length model, parameter name, values); the values are the physically sensible range

@@ -43,7 +43,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bootnav.postproc.pdr.evaluate import evaluate_trial, list_trials, position_of  # noqa: E402
+from bootnav.postproc.evaluate.pdr import evaluate_trial, list_trials, position_of  # noqa: E402
 from bootnav.postproc.pdr.pipeline import PdrSettings  # noqa: E402
 
 DETECTORS = ["robust", "peak_group", "li", "leppakoski", "footpath", "peak_valley", "zero_crossing", "pan_tompkins",

@@ -15,7 +15,8 @@
     both.left.pos_n_m, both.walker_pos_n_m, both.strides["step_width_m"], both.save("out/")
 
 Settings are given as keywords: any field of ``bootnav.postproc.settings.ProcessSettings`` (``PdrSettings``
-for ``pdr``), nested ones as dicts, e.g. ``process(rec, crop_s=(0, 60), detector={"method": "shoe"})``; or a
+for ``pdr``), nested ones as dicts, e.g. ``process(rec, crop_s=(0, 60), detector={"method": "shoe", "params": {"threshold":
+2e5}})`` (a detector's parameters are the fields of its class, validated as a settings file's are); or a
 whole object / dict / JSON file as ``settings=``. Frames and units: ``bootnav.CONVENTIONS``.
 
 ``import bootnav`` imports none of this (nor numpy): the package resolves these names on first use.
@@ -66,8 +67,12 @@ def _pandas():
 
 
 def _merged(base: dict, overrides: dict) -> dict:
-    """``base`` with ``overrides`` applied; nested dicts are merged key by key."""
+    """``base`` with ``overrides`` applied; nested dicts are merged key by key. A section given another
+    ``method`` starts from that method's defaults (``detector={"method": "shoe"}``: the base detector's
+    ``params`` belong to another detector)."""
     out = dict(base)
+    if "method" in overrides and overrides["method"] != out.get("method"):
+        out.pop("params", None)
     for key, value in overrides.items():
         out[key] = _merged(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
     return out

@@ -1,13 +1,6 @@
-"""Errors shown to the user as ``bootnav CMD: error: MESSAGE`` (exit code 1)."""
+"""The user-facing errors, ``bootnav.errors`` as every module imports them; defined in ``bootnav.core.errors``
+(the ground floor, which imports nothing else of the package)."""
 
+from bootnav.core.errors import BootnavError, DiskFullError, InputError
 
-class BootnavError(Exception):
-    """An error whose message says what is wrong and where (file, line, byte offset)."""
-
-
-class InputError(BootnavError):
-    """Bad input data: unreadable, wrong units, non-monotonic time, no stance, ..."""
-
-
-class DiskFullError(BootnavError):
-    """The disk (or the file-size limit) is full: the message says what was safely written and where."""
+__all__ = ["BootnavError", "DiskFullError", "InputError"]

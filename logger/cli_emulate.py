@@ -241,7 +241,7 @@ def _run_multi(args, kinds, corrupt: list[float]) -> int:
 
 
 def _progress():
-    from bootnav.cli import Progress
+    from bootnav.core.progress import Progress
 
     shown = Progress()
 

@@ -79,7 +79,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     """``summarize`` of a recording file ``path``, reported under the name ``shown``."""
     import numpy as np
 
-    from bootnav.logger.recording import EVENT_DTYPE, _decode, recording_group
+    from bootnav.logger.recording import EVENT_DTYPE, decode_attr, recording_group
     from bootnav.logger.samplestats import read_summary
 
     with recording_group(path, boot) as (_, g):
@@ -94,7 +94,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
                 "a writer was killed or the file was edited")
         file_warnings += _unit_warnings(imu, n)
         events = g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE)
-        meta = {k: _decode(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
+        meta = {k: decode_attr(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
         acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
         has_seq = "seq" in imu
         gyro_present = str(meta.get("gyro_present", 1)) not in ("0", "False")

@@ -745,7 +745,8 @@ def _open_for_read(path: Path) -> h5py.File:
             raise InputError(f"{path}: cannot open as an HDF5 recording ({first})") from first
 
 
-def _decode(value):
+def decode_attr(value):
+    """An HDF5 attribute as a plain Python value (bytes -> str, numpy scalar -> Python scalar, array -> list)."""
     if isinstance(value, bytes):
         return value.decode("utf-8", "replace")
     if isinstance(value, np.generic):
@@ -753,6 +754,10 @@ def _decode(value):
     if isinstance(value, np.ndarray):
         return value.tolist()
     return value
+
+
+#: the name before issue #25 made it public, for code of this module written against it (use ``decode_attr``)
+_decode = decode_attr
 
 
 def _finite_number(value) -> bool:
@@ -773,7 +778,7 @@ def _check_layout(f: h5py.File, path: Path, g: h5py.Group | None = None) -> None
     if isinstance(version, np.ndarray) and version.size == 1:
         version = version.reshape(()).item()
     if isinstance(version, (bool, np.bool_)) or not isinstance(version, (int, np.integer)):
-        raise InputError(f"{path}: attribute /format_version is {_decode(version)!r}, expected an integer "
+        raise InputError(f"{path}: attribute /format_version is {decode_attr(version)!r}, expected an integer "
                          "(not written by bootnav, or damaged)")
     if int(version) > FORMAT_VERSION:
         raise InputError(f"{path}: format_version {version} is newer than this bootnav reads ({FORMAT_VERSION})")
@@ -798,7 +803,7 @@ def _check_layout(f: h5py.File, path: Path, g: h5py.Group | None = None) -> None
             if isinstance(value, np.ndarray) and value.size == 1:
                 value = value.reshape(()).item()
             if not _finite_number(value):
-                raise InputError(f"{path}: attribute {key} of {at}/imu/{name} is {_decode(value)!r}, expected a finite number")
+                raise InputError(f"{path}: attribute {key} of {at}/imu/{name} is {decode_attr(value)!r}, expected a finite number")
     if "events" in g:
         ev = g["events"]
         if not isinstance(ev, h5py.Dataset) or ev.dtype.names is None \
@@ -812,11 +817,11 @@ def _boots_attr(f: h5py.File, path: Path) -> list[str]:
     if raw is None:
         return []
     try:
-        labels = json.loads(_decode(raw))
+        labels = json.loads(decode_attr(raw))
     except (TypeError, ValueError):
         labels = None
     if not isinstance(labels, list) or not all(isinstance(x, str) for x in labels):
-        raise InputError(f"{path}: root attribute boots is {_decode(raw)!r}, expected a JSON list of boot labels")
+        raise InputError(f"{path}: root attribute boots is {decode_attr(raw)!r}, expected a JSON list of boot labels")
     return labels
 
 
@@ -987,8 +992,8 @@ def _read(f: h5py.File, path: Path, with_truth: bool, g: h5py.Group | None = Non
         gyro_radps=scale("gyro"),
         saturated=np.zeros(n, np.uint8) if saturated is None else saturated,
         events=g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE),
-        meta={k: _decode(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {},
-        attrs={k: _decode(v) for k, v in f.attrs.items()},
+        meta={k: decode_attr(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {},
+        attrs={k: decode_attr(v) for k, v in f.attrs.items()},
         temp_degc=scale("temp") if "temp" in imu else None,
         t_device=get("t_device"),
         t_host=get("t_host"),
@@ -1003,7 +1008,7 @@ def _read(f: h5py.File, path: Path, with_truth: bool, g: h5py.Group | None = Non
     if with_truth and "truth" in g:
         tg = g["truth"]
         rec.truth = {k: tg[k][()] for k in tg if isinstance(tg[k], h5py.Dataset)}
-        rec.truth["attrs"] = {k: _decode(v) for k, v in tg.attrs.items()}
+        rec.truth["attrs"] = {k: decode_attr(v) for k, v in tg.attrs.items()}
     return rec
 
 

@@ -44,7 +44,7 @@ from bootnav.core.rotations import quat_from_euler_zyx
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 
-from .detectors._common import moving_mean, row_norm, rows_finite
+from bootnav.core.arrays import moving_mean, row_norm, rows_finite
 
 # WGS-84 constants [NIMA2000, tables 3.1-3.4]
 WGS84_A_M = 6378137.0

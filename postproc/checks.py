@@ -26,7 +26,7 @@ from bootnav.core.timebase import GAP_FACTOR, gap_mask, nominal_period
 from bootnav.errors import InputError
 from bootnav.logger.recording import SATURATION_BITS
 
-from .detectors._common import row_norm, rows_finite
+from bootnav.core.arrays import row_norm, rows_finite
 from .settings import InputChecks
 
 AXIS_NAMES = {v: k for k, v in SATURATION_BITS.items()}  # bit -> "ax", ...
@@ -150,9 +150,9 @@ def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray) -> np.ndarray:
     -------
     ndarray of uint8, shape (N,)
         Bit ``SATURATION_BITS[axis]`` set where that axis sits on a rail
-        (``bootnav.postproc.detectors._common.clipped_axes``).
+        (``bootnav.core.arrays.clipped_axes``).
     """
-    from .detectors._common import clipped_axes
+    from bootnav.core.arrays import clipped_axes
 
     bits = np.zeros(len(acc_b), dtype=np.uint8)
     for first, x in ((0, acc_b), (3, gyro_b)):

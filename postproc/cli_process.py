@@ -88,7 +88,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--detector", choices=_DetectorNames(), metavar="NAME",
                    help="stance detector: %(choices)s (default: adaptive; --list-detectors describes them)")
     g.add_argument("--list-detectors", action=_ListDetectors, help="list the stance detectors and exit")
-    g.add_argument("--threshold", type=float, help="detector threshold (fixed-threshold detectors only)")
+    g.add_argument("--threshold", type=float,
+                   help="threshold of a fixed-threshold detector in its statistic's units (shoe, ared, mv, mag, xio, "
+                        "paper_accmag, shoe-literal); an error with the default adaptive detector, which reads its "
+                        "own threshold off the recording")
     g.add_argument("--mode", choices=("time_varying", "riccati"),
                    help="filter gain: time_varying (Kalman, default) or riccati (the paper's steady-state gain)")
     g.add_argument("--states", type=int, choices=(9, 15), help="error states: 9 (position, velocity, attitude) or 15 (+ sensor biases); "
@@ -125,15 +128,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def build_settings(args):
     """Defaults < --settings file < command-line options."""
+    from bootnav.errors import InputError
     from bootnav.postproc.settings import ProcessSettings
 
     s = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
-    if args.detector:
-        from bootnav.postproc.detectors import DetectorSettings
-
-        s.detector = DetectorSettings(**{**s.detector.to_dict(), "method": args.detector})  # argparse checked the name
-    if args.threshold is not None:
-        s.detector.threshold = args.threshold
+    if args.detector:  # argparse checked the name
+        s.detector = s.detector.with_method(args.detector)
+    if args.threshold is not None:  # validated as a file's value is, and refused by a detector without one
+        try:
+            s.detector = s.detector.with_params(threshold=args.threshold)
+        except ValueError as exc:
+            raise InputError(f"--threshold {args.threshold:g}: {exc}") from None
     if args.mode:
         s.filter.mode = args.mode
     if args.states:
@@ -184,7 +189,7 @@ class StageProgress:
     """
 
     def __init__(self, quiet: bool = False):
-        from bootnav.cli import Progress
+        from bootnav.core.progress import Progress
 
         self.shown = Progress(quiet=quiet)
         self.t0 = time.perf_counter()

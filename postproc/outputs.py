@@ -230,12 +230,16 @@ def _csv_text(columns: list[np.ndarray], fmts: list[str]) -> np.ndarray:
     return out[:size]
 
 
-def _write_csv(path: Path, header: tuple[str, ...], columns: list[np.ndarray], fmts: list[str]) -> None:
+def write_csv(path: Path, header: tuple[str, ...], columns: list[np.ndarray], fmts: list[str]) -> None:
     """Write columns as CSV, ``fmt % value`` per field (``_csv_text``, in blocks of rows: no full (N, k) copy
     of the data or of the text is ever made)."""
     with atomic.replacing(path) as f:  # never a half-written CSV under its name (kill -9, full disk)
         f.write((",".join(header) + "\n").encode("ascii"))
         append_csv_rows(f, columns, fmts)
+
+
+#: the name before issue #25 made it public, for code of this module written against it (use ``write_csv``)
+_write_csv = write_csv
 
 
 def append_csv_rows(f, columns: list[np.ndarray], fmts: list[str]) -> None:
@@ -253,7 +257,7 @@ def trajectory_columns(t_s, pos_n, vel_n, stance) -> list[np.ndarray]:
 
 
 def write_trajectory_csv(path: Path, result) -> Path:
-    _write_csv(path, TRAJECTORY_COLUMNS, trajectory_columns(result.t_s, result.pos_n, result.vel_n, result.stance),
+    write_csv(path, TRAJECTORY_COLUMNS, trajectory_columns(result.t_s, result.pos_n, result.vel_n, result.stance),
                TRAJECTORY_FORMATS)
     return path
 
@@ -285,7 +289,7 @@ def write_steps_csv(path: Path, steps: dict) -> Path:
     if "quality_flags" in steps:
         columns["quality_flags"] = np.asarray(steps["quality_flags"])
         fmts.append("%d")
-    _write_csv(path, tuple(columns), list(columns.values()), fmts)
+    write_csv(path, tuple(columns), list(columns.values()), fmts)
     return path
 
 
@@ -746,7 +750,7 @@ def _draw(stream, out: Path, keys=None, html: bool = True) -> dict[str, str]:
     return files
 
 
-def _draw_here(stream, out: Path) -> tuple[dict[str, str], str | None]:
+def draw_here(stream, out: Path) -> tuple[dict[str, str], str | None]:
     """Draw in this process (no chart process), a failure reported as ``ChartWorker.wait`` does."""
     try:
         return _draw(stream, out), None
@@ -819,7 +823,7 @@ def write_outputs(result, out_dir: str | Path, into_recording: bool = False, for
             if chart_error is not None:
                 drawn, error = {}, chart_error
             else:
-                drawn, error = charts.wait() if charts is not None else _draw_here(stream, out)
+                drawn, error = charts.wait() if charts is not None else draw_here(stream, out)
             if error:
                 result.warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
             files.update(drawn)

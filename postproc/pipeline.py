@@ -3,7 +3,7 @@
 The stages are the paper's pipeline [Heidari2019] with the standard reconstructions it cites; each is
 timed in ``summary["timings_s"]`` and each lives in its own module, read top to bottom:
 
-1. **load** (``source``): the recording or imported file; a reference file (``reference``) is read first, so a
+1. **load** (``source``): the recording or imported file; a reference file (``reference_path``) is read first, so a
    bad one fails before any work.
 2. **checks** (``source.crop``, ``checks``): crop to ``crop_s``, refuse samples that would give a garbage path
    (NaN, time going backwards, gaps the integration cannot bridge, too short) with the sample index and time;
@@ -18,7 +18,7 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    refused.
 5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
    ``selftune.min_stride_m`` are not strides), distance, closure, floors.
-6. **reference** (``reference``), when a reference is given: its metrics [Heidari2019, Table 1].
+6. **reference** (``reference_path``), when a reference is given: its metrics [Heidari2019, Table 1].
 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
@@ -79,7 +79,7 @@ class ProcessResult:
     index: slice = field(default_factory=lambda: slice(None))  # processed samples within the recording
     saturation_intervals: list[dict] = field(default_factory=list)
     metrics: dict | None = None  # reference metrics [Heidari2019, Table 1] when a reference was given
-    reference: Any = None  # reference.Reference
+    reference: Any = None  # reference_path.Reference
     navigation: Any = None  # navigate.Navigation: stance choice, timing offset, confidence, stride flags
 
 
@@ -131,7 +131,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         filter.
     """
     from .calibration import apply_accel_calibration, initial_alignment
-    from .reference import compute_metrics, load_reference, truth_reference
+    from .reference_path import compute_metrics, load_reference, truth_reference
 
     settings = settings or ProcessSettings()
     settings.validate()
@@ -318,7 +318,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
     import h5py
 
-    from bootnav.core.conventions import CONVENTIONS, __version__
+    from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
     from bootnav.logger.recording import attach_dimension_scales, write_group
 
@@ -326,7 +326,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from .calibration import initial_alignment
     from .detectors.stream import StreamStance
     from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, _draw_here,
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
 
@@ -488,7 +488,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
                           "duration_s": float(t_all[n - 1] - t_all[0]), "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
-                "software": f"bootnav {__version__}",
+                "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                            "phases": int(len(fp)), "noise_floor_log10": floor},
                 "navigation": {"stance_choice": f"configured ({settings.detector.method})", "chunked": True,
@@ -524,7 +524,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 files["hdf5"] = f"{target}:{group}"
             lap("write")
             if charts is not None:
-                drawn, error = worker.wait() if worker is not None else _draw_here(charts, out)
+                drawn, error = worker.wait() if worker is not None else draw_here(charts, out)
                 if error:
                     warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
                 files.update(drawn)

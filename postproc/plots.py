@@ -143,7 +143,7 @@ class ChartStream:
         s.push_nav(t, result.pos_n, result.vel_n, result.q_nb, result.stance)
         reference = None
         if result.reference is not None and len(result.reference.points_n):
-            from .reference import align_to_reference
+            from .reference_path import align_to_reference
 
             _, ref_pts, yaw = align_to_reference(result.reference, t, result.pos_n)
             reference = {"points": ref_pts, "yaw": yaw, "t_s": result.reference.t_s,
@@ -210,7 +210,7 @@ class ChartStream:
 
     def path_drawn(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times (M,) s, kept path points (M, 3) m and footprints (K, 3) m as the path charts show them: moved
-        and turned onto the reference like ``reference.align_to_reference`` does, when one is given."""
+        and turned onto the reference like ``reference_path.align_to_reference`` does, when one is given."""
         _, t, pos = self.path.points()
         fp = self.info["fp_n"]
         ref = self.info["reference"]
@@ -469,7 +469,7 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
 
 
 def reference_in_estimate_frame(ref_pts: np.ndarray, yaw_rad: float | None, start_n: np.ndarray) -> np.ndarray:
-    """Reference points (from ``reference.align_to_reference``: its frame, origin at the start) in the
+    """Reference points (from ``reference_path.align_to_reference``: its frame, origin at the start) in the
     estimate's nav frame: rotated by −yaw about z, moved to the estimate's start.
 
     Parameters

@@ -74,7 +74,8 @@ from bootnav.core.peaks import local_maxima
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 from bootnav.errors import InputError
-from bootnav.postproc.detectors._common import row_dot, row_norm
+from bootnav.core.arrays import row_dot, row_norm
+from bootnav.postproc.detectors.shoe import ShoeDetector
 from bootnav.postproc.strides import footprints
 
 FAST, MISSED, VERTICAL, ROLLING, TINY = 1, 2, 4, 8, 16
@@ -113,7 +114,7 @@ class SelfTuneSettings:
     """
 
     alphas: tuple[float, ...] = (0.2, 0.4)
-    shoe_threshold: float | None = 3e5
+    shoe_threshold: float | None = ShoeDetector.DEFAULT_THRESHOLD
     max_bad_fraction: float = 0.10
     fail_stance_rate_radps: float = 1.5
     v_pen_mps: float = 1.0
@@ -202,7 +203,8 @@ def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, de
                          settings: SelfTuneSettings | None = None, bad: np.ndarray | None = None) -> np.ndarray:
     """Stance windows at the lowest-energy instant of every gait cycle.
 
-    The SHOE statistic (window ``adaptive_window_s``, σ's of ``detector_settings``) is taken in log10; its
+    The SHOE statistic (window and σ's of the adaptive detector: the configured one's parameters, or its
+    defaults when another detector is configured) is taken in log10; its
     minima at least 0.6 gait periods apart and at least one decade below their neighbouring swing peaks are
     the moments the foot moves least; each gets the samples within ``cycle_depth_decades`` of the minimum
     and within ± ``cycle_window_fraction`` × period of it. Such a window exists in every stride, resting or
@@ -231,9 +233,9 @@ def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, de
     if not np.isfinite(period_s):
         return np.zeros(n, bool)
     dt = sample_period(t_s)
-    win = max(3, int(round(detector_settings.adaptive_window_s / dt)))
-    T = shoe_statistic(acc_b, gyro_b, win, detector_settings.sigma_acc_mps2, detector_settings.sigma_gyro_radps,
-                       gravity)
+    adaptive = detector_settings.with_method("adaptive").params  # the configured one's, or the defaults
+    win = max(3, int(round(adaptive["window_s"] / dt)))
+    T = shoe_statistic(acc_b, gyro_b, win, adaptive["sigma_acc_mps2"], adaptive["sigma_gyro_radps"], gravity)
     L = np.log10(np.maximum(T, 1e-300))
     minima, _ = find_peaks(-L, distance=max(1, int(0.6 * period_s / dt)), prominence=1.0)
     if minima.size == 0:
@@ -450,11 +452,11 @@ def select_stance(t_s, acc_b, gyro_b, init, gravity: float, detector_settings, f
         failed = f"its stance turns at a median {float(np.median(rate0)):.2f} rad/s"
     if failed:  # only then are the other candidates worth their filter runs
         for a in s.alphas:
-            ds = replace(detector_settings, method="adaptive", adaptive_alpha=a)
+            ds = detector_settings.with_method("adaptive", alpha=a)
             masks[f"adaptive alpha={a:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_b, ds, gravity,
                                                                       saturated=saturated).stance, bool)
         if s.shoe_threshold:
-            ds = replace(detector_settings, method="shoe", threshold=s.shoe_threshold)
+            ds = detector_settings.with_method("shoe", threshold=s.shoe_threshold)
             masks[f"shoe {s.shoe_threshold:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_b, ds, gravity,
                                                                            saturated=saturated).stance, bool)
         bad = np.zeros(len(t_s), bool)

@@ -1,6 +1,7 @@
 """The layout of ``summary.json``: what one ``process`` run did and found, in plain JSON types.
 
-Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
+The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: this one,
+``pipeline.process_chunked``, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``
 (``strides.path_summary``), ``metrics`` (reference metrics or null), ``saturation_intervals``, ``warnings``,
 ``timings_s``, ``settings`` (everything needed to reproduce the run), and the headline numbers repeated at the
@@ -18,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from bootnav.core.conventions import CONVENTIONS, __version__
+from bootnav.core.conventions import CONVENTIONS, SOFTWARE
 from bootnav.core.jsonio import to_jsonable
 
 #: path figures repeated at the top level of the summary
@@ -47,7 +48,7 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
     t_s, init, stance_res = result.t_s, result.init, result.stance_result
     dt = np.diff(t_s)
     summary = {
-        "software": {"name": "bootnav", "version": __version__},
+        "software": dict(SOFTWARE),
         "conventions": {**CONVENTIONS,
                         "time": "t_s = recording time (a crop keeps the recording's clock)",
                         "origin": ("nav-frame origin = sensor position at the first processed sample; initial yaw = 0, "
@@ -118,7 +119,7 @@ def is_closed_loop(reference: Any) -> bool:
 
     Parameters
     ----------
-    reference : reference.Reference or None
+    reference : reference_path.Reference or None
 
     Returns
     -------

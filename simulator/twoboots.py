@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.simulator.gait import WALK, YAW
 from bootnav.simulator.scenarios import Scenario, get_scenario
 from bootnav.simulator.simulate import SimResult, simulate
@@ -128,6 +129,8 @@ def simulate_two_boots(scenario: str | Scenario, seed: int = 0, profile="mpu6050
     geo = geometry or WalkerGeometry()
     sc = get_scenario(scenario)
     builder = sc.make(np.random.default_rng(seed), duration_s)
+    if not hasattr(builder, "steps"):
+        raise ValueError(f"scenario {sc.name!r} is not a walk; two boots need a walking scenario")
     walk = builder.build()
     paths = {"left": _FootPath(builder, left_foot(walk, geo), 0.0),
              "right": _FootPath(builder, right_foot(walk, geo), geo.phase_s)}
@@ -172,21 +175,11 @@ def _check_free(paths: list[Path], force: bool) -> None:
         output_file(p, force=force, hdf5=True)
 
 
-def _atomic(path: Path, write) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 def write_two_boots_h5(results: dict[str, SimResult], path: str | os.PathLike, force: bool = False) -> Path:
     """One multi-boot recording (``docs/recording-format.md``) with ``/boots/<label>/truth`` per foot
     (crash-safe: temp + rename; refuses to overwrite unless ``force``)."""
     from bootnav.logger.recording import write_group, write_multi_boot
-    from bootnav.simulator.writers import TRUTH_DESCRIPTION, TRUTH_UNITS, _step_arrays
+    from bootnav.simulator.writers import TRUTH_DESCRIPTION, TRUTH_UNITS, step_arrays
 
     path = Path(path)
     _check_free([path], force)
@@ -196,10 +189,10 @@ def write_two_boots_h5(results: dict[str, SimResult], path: str | os.PathLike, f
                          attrs={"session_start_unix_s": float("nan")})
         for label, res in results.items():
             meta = {"clock_alignment": "simulated (session clock = true sample time)", "clock_offset_s": 0.0}
-            write_group(tmp, f"boots/{label}/truth", {**res.truth, **_step_arrays(res)},
+            write_group(tmp, f"boots/{label}/truth", {**res.truth, **step_arrays(res)},
                         attrs={**res.attrs, "description": TRUTH_DESCRIPTION, **meta}, units=TRUTH_UNITS)
 
-    _atomic(path, write)
+    atomic.replace_with(path, write)
     return path
 
 
@@ -213,7 +206,7 @@ def write_two_boots(results: dict[str, SimResult], out: str | os.PathLike, force
     paths = [out.with_name(f"{stem}_{label}.h5") for label in results]
     _check_free(paths, force)
     for p, res in zip(paths, results.values()):
-        _atomic(p, lambda tmp, res=res: write_h5(res, tmp))
+        atomic.replace_with(p, lambda tmp, res=res: write_h5(res, tmp))
     return paths
 
 

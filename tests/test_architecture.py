@@ -128,3 +128,74 @@ def test_layers_import_downwards_only(graph, layer, forbidden):
     bad = sorted((m, d) for m, deps in graph.items() if m == layer or m.startswith(layer + ".")
                  for d in deps if d.startswith(forbidden))
     assert bad == []
+
+
+def private_imports(mods: dict[str, Path]) -> list[str]:
+    """``module: imported thing`` for every import of another module's private name (``from a import _x``) and
+    of a private module (``a._m``) from outside the package that holds it. A name with a leading underscore
+    is its module's own business: what another module needs is public, under a name that says what it is."""
+    bad = []
+    for mod, path in mods.items():
+        package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+            if isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                    src = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    src = node.module or ""
+                targets = [(src, a.name) for a in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [(a.name, None) for a in node.names]
+            else:
+                continue
+            for src, name in targets:
+                full = f"{src}.{name}" if name and f"{src}.{name}" in mods else src
+                if name and full == src and name.startswith("_") and not name.startswith("__") and src != mod:
+                    bad.append(f"{mod}: {src}.{name}")
+                parts = full.split(".")
+                for i, part in enumerate(parts):
+                    if part.startswith("_") and not part.startswith("__"):
+                        owner = ".".join(parts[:i])
+                        if package != owner:
+                            bad.append(f"{mod}: {full} (a private module of {owner})")
+                        break
+    return sorted(set(bad))
+
+
+def test_the_private_import_checker_sees_both_kinds(tmp_path):
+    (tmp_path / "a.py").write_text("from pkg.b import _x, y\nfrom pkg.sub._m import z\n")
+    (tmp_path / "b.py").write_text("def _x(): pass\ny = 1\n")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "__init__.py").write_text("")
+    (tmp_path / "sub" / "_m.py").write_text("z = 1\n")
+    (tmp_path / "sub" / "c.py").write_text("from ._m import z\nfrom . import _m\n")  # siblings may
+    mods = {"pkg.a": tmp_path / "a.py", "pkg.b": tmp_path / "b.py", "pkg.sub": tmp_path / "sub" / "__init__.py",
+            "pkg.sub._m": tmp_path / "sub" / "_m.py", "pkg.sub.c": tmp_path / "sub" / "c.py"}
+    assert private_imports(mods) == ["pkg.a: pkg.b._x", "pkg.a: pkg.sub._m (a private module of pkg.sub)"]
+
+
+def test_no_module_imports_another_modules_private_names():
+    assert private_imports(_modules()) == []
+
+
+def test_no_cycle_between_subpackages(graph):
+    """pdr and evaluate (and every other pair of subpackages) depend one way."""
+    def pkg(m: str) -> str:
+        parts = m.split(".")
+        return ".".join(parts[:3]) if parts[:2] == ["bootnav", "postproc"] and len(parts) > 3 else m
+
+    packages: dict[str, set[str]] = {}
+    for m, deps in graph.items():
+        packages.setdefault(pkg(m), set()).update(pkg(d) for d in deps if pkg(d) != pkg(m))
+    for p in list(packages):
+        for d in packages[p]:
+            packages.setdefault(d, set())
+    assert [c for c in cycles(packages) if any(len(x.split(".")) == 3 for x in c)] == []
+
+
+def test_core_is_the_ground_floor(graph):
+    """``bootnav.core`` (errors, arrays, progress, registry, ...) imports only itself."""
+    bad = sorted((m, d) for m, deps in graph.items() if m.startswith("bootnav.core")
+                 for d in deps if not d.startswith("bootnav.core"))
+    assert bad == []

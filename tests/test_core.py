@@ -243,3 +243,32 @@ def test_atomic_write_is_all_or_nothing(tmp_path):
     assert target.read_text() == "new\n"
     atomic.write_text(tmp_path / "fresh.json", "{}\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fresh.json", "out.csv"]
+
+
+def test_registry_enters_names_once_and_lists_them_for_an_unknown_one():
+    from bootnav.core.registry import Registry, description
+
+    reg = Registry("widget")
+
+    @reg.register("a")
+    class A:
+        """Makes widgets of kind a.
+
+        More text."""
+
+    assert reg == {"a": A} and A.name == "a" and reg.get_class("a") is A and description(A) == "Makes widgets of kind a."
+    with pytest.raises(ValueError, match="widget 'a' registered twice"):
+        reg.register("a")(type("B", (), {}))
+    with pytest.raises(ValueError, match=r"unknown widget 'c'; choose one of a$"):
+        reg.get_class("c")
+
+
+def test_every_registry_names_its_classes_by_their_registered_name():
+    from bootnav.postproc.detectors import DETECTORS as STANCE
+    from bootnav.postproc.pdr.detectors import DETECTORS as STEPS
+    from bootnav.postproc.pdr.length import LENGTH_MODELS
+
+    for reg in (STANCE, STEPS, LENGTH_MODELS):
+        assert len(reg) >= 7 and all(cls.name == name for name, cls in reg.items())
+    for reg in (STEPS, LENGTH_MODELS):  # the parameters saved with a PDR result
+        assert all(isinstance(cls().to_dict(), dict) for cls in reg.values())

@@ -74,12 +74,21 @@ SYNTH = {
 }
 
 
+def _own(method: str, **params) -> dict:
+    """The parameters among ``params`` that detector ``method`` has (the synthetic tests set σ's and a window
+    for all detectors; x-io and the acceleration-magnitude rule have no σ's, the adaptive rule its own window)."""
+    from bootnav.postproc.detectors import parameter_fields
+
+    own = parameter_fields(DETECTORS[method])
+    return {k: v for k, v in params.items() if k in own and not (method == "adaptive" and k == "window_s")}
+
+
 @pytest.mark.parametrize("fs", [100.0, 200.0, 820.0])
 @pytest.mark.parametrize("method", sorted(DETECTORS))
 def test_detector_finds_synthetic_stance(method, fs):
     t, acc, gyro, truth = synthetic_gait(fs)
-    s = DetectorSettings(method=method, sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G, window_s=0.03,
-                         **SYNTH[method])
+    s = DetectorSettings(method, _own(method, sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G, window_s=0.03,
+                                      **SYNTH[method]))
     res = detect_stance(t, acc, gyro, s, G)
     assert res.stance.shape == truth.shape and res.stance.dtype == bool
     n_win = res.info.get("window_samples", 1)
@@ -151,9 +160,13 @@ def test_settings_saved_before_the_registry_still_load_and_build_the_same_detect
     assert s == DetectorSettings()
     # adaptive_<p> fills parameter p; the unprefixed fields fill the rest
     assert s.build(9.8) == AdaptiveDetector(gravity_mps2=9.8)
-    tuned = DetectorSettings(adaptive_alpha=0.25, adaptive_min_swing_s=0.2, sigma_gyro_radps=0.002, min_swing_s=0.7)
+    flat = {"adaptive_alpha": 0.25, "adaptive_min_swing_s": 0.2, "sigma_gyro_radps": 0.002, "min_swing_s": 0.7}
+    tuned = ProcessSettings.from_dict({"detector": flat}).detector  # a partial file of 2026-11
     assert tuned.build(9.8) == AdaptiveDetector(gravity_mps2=9.8, alpha=0.25, min_swing_s=0.2, sigma_gyro_radps=0.002)
-    shoe = DetectorSettings(**{**saved, "method": "shoe", "min_swing_s": 0.1, "window_samples": 3}).build(9.8)
+    partial = ProcessSettings.from_dict({"detector": {"window_s": 0.03}}).detector  # was SHOE's window, not adaptive's
+    assert partial.build(9.8) == AdaptiveDetector(gravity_mps2=9.8)
+    old_shoe = {**saved, "method": "shoe", "min_swing_s": 0.1, "window_samples": 3}
+    shoe = ProcessSettings.from_dict({"detector": old_shoe}).detector.build(9.8)
     assert shoe == ShoeDetector(gravity_mps2=9.8, min_swing_s=0.1, window_samples=3)
     assert shoe.threshold == ShoeDetector.DEFAULT_THRESHOLD  # None in the settings: the class default
 
@@ -268,20 +281,18 @@ def test_shoe_statistic_equals_hand_computed_value():
 
 def test_settings_recorded_beside_threshold_and_literal_form():
     t, acc, gyro, truth = synthetic_gait(200.0)
-    res = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", literal_paper_form=True,
-                                                       sigma_acc_mps2=0.05, sigma_gyro_radps=0.01), G)
+    res = detect_stance(t, acc, gyro, DetectorSettings("shoe", {"literal_paper_form": True, "sigma_acc_mps2": 0.05,
+                                                                "sigma_gyro_radps": 0.01}), G)
     assert res.info["form"] == "literal_paper" and res.info["sigma_acc_mps2"] == 0.05
     assert res.info["sigma_gyro_radps"] == 0.01 and res.threshold == 1e3  # the printed form's default γ
     assert res.info["window_samples"] == 5  # 0.025 s at 200 Hz
     # the window follows the recording's own rate: 0.03 s at 820 Hz = 24.6 -> 25 samples
     t8, a8, g8, _ = synthetic_gait(820.0, n_strides=2)
-    assert detect_stance(t8, a8, g8, DetectorSettings(method="shoe", window_s=0.03), G).info["window_samples"] == 25
+    assert detect_stance(t8, a8, g8, DetectorSettings("shoe", {"window_s": 0.03}), G).info["window_samples"] == 25
     # hysteresis never shrinks the single-threshold stance (it only extends runs that reach γ)
-    s1 = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", sigma_acc_mps2=SIGMA_A,
-                                                      sigma_gyro_radps=SIGMA_G, threshold=120.0), G)
-    s2 = detect_stance(t, acc, gyro, DetectorSettings(method="shoe", sigma_acc_mps2=SIGMA_A,
-                                                      sigma_gyro_radps=SIGMA_G, threshold=120.0,
-                                                      hysteresis_ratio=3.0), G)
+    shoe = DetectorSettings("shoe", {"sigma_acc_mps2": SIGMA_A, "sigma_gyro_radps": SIGMA_G, "threshold": 120.0})
+    s1 = detect_stance(t, acc, gyro, shoe, G)
+    s2 = detect_stance(t, acc, gyro, shoe.with_params(hysteresis_ratio=3.0), G)
     assert np.all(s2.stance[s1.stance]) and s2.stance.sum() >= s1.stance.sum()
     ad = detect_stance(t, acc, gyro, DetectorSettings(), G)
     assert ad.method == "adaptive" and ad.info["threshold_log10_per_sample"].shape == t.shape
@@ -321,7 +332,7 @@ def test_saturated_samples_are_never_stance(method):
     sat = np.zeros(t.size, bool)
     sat[250:260] = True  # inside the initial rest and the first stride's stance
     sat[np.flatnonzero(truth)[300:305]] = True
-    s = DetectorSettings(method=method, sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G, **SYNTH[method])
+    s = DetectorSettings(method, _own(method, sigma_acc_mps2=SIGMA_A, sigma_gyro_radps=SIGMA_G, **SYNTH[method]))
     res = detect_stance(t, acc, gyro, s, G, saturated=sat.astype(np.uint8) * 8)  # bitmask (gyro x)
     assert not res.stance[sat].any()
     assert res.info["n_saturated"] == sat.sum()
@@ -339,7 +350,7 @@ def test_clipping_plateaus_are_detected_without_a_mask():
     res = detect_stance(t, acc_c, gyro_c, DetectorSettings(), G)
     assert not res.stance[k:k + 6].any()
     assert res.info["n_saturated"] >= 6
-    from bootnav.postproc.detectors._common import clipped_samples
+    from bootnav.core.arrays import clipped_samples
 
     # a constant (dead or noise-free) axis repeats its extreme everywhere: that is not clipping
     assert not clipped_samples(np.column_stack([np.full(100, G), np.linspace(-1, 1, 100)])).any()
@@ -468,7 +479,7 @@ def test_adaptive_invents_no_stance_in_continuous_motion():
     res = detect_stance(t, acc, gyro, DetectorSettings(), G)
     assert not res.stance.any()
     # and with the ceiling switched off the relative rule alone would mark the quietest parts
-    off = detect_stance(t, acc, gyro, DetectorSettings(adaptive_max_rate_radps=0.0), G)
+    off = detect_stance(t, acc, gyro, DetectorSettings("adaptive", {"max_rate_radps": 0.0}), G)
     assert off.stance.any()
 
 
@@ -488,7 +499,7 @@ def test_clipping_on_both_rails_of_a_twos_complement_sensor():
     """MPU6050 rails are -32768 and +32767 counts (3e-5 apart, relative): both plateaus are found, as the
     iez_mpu6050 README counts (raw value at -32768 or 32767); a value repeated below the opposite extreme
     (e.g. duplicated rows) is not a rail."""
-    from bootnav.postproc.detectors._common import clipped_samples
+    from bootnav.core.arrays import clipped_samples
 
     lsb = math.radians(1.0 / 131.0)  # ±250 °/s range
     x = np.sin(np.linspace(0, 12 * np.pi, 1200)) * 40000 * lsb

@@ -12,7 +12,7 @@ import pytest
 from bootnav.postproc.evaluate import metrics as M
 from bootnav.postproc.evaluate import runner
 from bootnav.postproc.evaluate.report import write_metrics_json, write_report
-from bootnav.postproc.pdr import evaluate as pdr_eval
+from bootnav.postproc.evaluate import pdr as pdr_eval
 from tests.test_pdr_detectors import walk
 
 NAN = float("nan")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from bootnav.postproc.outputs import _csv_text, _write_csv
+from bootnav.postproc.outputs import _csv_text, write_csv
 
 
 def fields(x: np.ndarray, fmt: str) -> list[str]:
@@ -46,7 +46,7 @@ def test_file_equals_the_row_format(tmp_path, monkeypatch):
         c[rng.choice(n, EDGES.size, replace=False)] = EDGES
         c[4000 : 4000 + EDGES.size] = EDGES
     fmts = ["%.6f", "%.4f", "%.4f", "%.4f", "%d"]
-    _write_csv(tmp_path / "a.csv", ("t_s", "x", "y", "z", "stance"), cols, fmts)
+    write_csv(tmp_path / "a.csv", ("t_s", "x", "y", "z", "stance"), cols, fmts)
     row = ",".join(fmts) + "\n"
     expected = "t_s,x,y,z,stance\n" + "".join(row % tuple(c[i] for c in cols) for i in range(n))
     assert (tmp_path / "a.csv").read_text() == expected

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from bootnav.postproc.checks import clipping_bits
-from bootnav.postproc.detectors._common import clipped_axes, clipped_samples, row_dot, row_norm, rows_finite
+from bootnav.core.arrays import clipped_axes, clipped_samples, row_dot, row_norm, rows_finite
 
 
 def _rows(seed: int, n: int = 20000) -> np.ndarray:

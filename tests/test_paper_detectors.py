@@ -72,7 +72,7 @@ def test_literal_shoe_with_a_fixed_threshold_fragments_the_stairs():
     finds 13."""
     res = _simulated("paper-stairs", 0)
     fixed = detect_stance(res.t_s, res.acc_mps2, res.gyro_radps,
-                          DetectorSettings(method="shoe", literal_paper_form=True), saturated=res.saturated)
+                          DetectorSettings("shoe", {"literal_paper_form": True}), saturated=res.saturated)
     read_off = detect_stance(res.t_s, res.acc_mps2, res.gyro_radps, DetectorSettings(method="shoe-literal"),
                              saturated=res.saturated)
     assert fixed.info["n_stance_phases"] > 20

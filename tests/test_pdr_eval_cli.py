@@ -11,7 +11,7 @@ import pytest
 
 from bootnav.postproc.pdr import PdrSettings, run_pdr
 from bootnav.postproc.evaluate.metrics import match_events, step_event_metrics, step_length_metrics
-from bootnav.postproc.pdr.evaluate import list_trials
+from bootnav.postproc.evaluate.pdr import list_trials
 from tests.conftest import REPO
 from tests.test_pdr_detectors import walk
 
@@ -101,7 +101,7 @@ def test_cli_bad_start_is_a_clear_error(tmp_path):
 def test_one_oxford_trial(datasets):
     tr = [t for t in list_trials(datasets, sets=("oxford_steps",)) if t.id.endswith("Samsung_Dario_Hard_InHand_1")]
     assert tr, "trial missing from the manifest"
-    from bootnav.postproc.pdr.evaluate import evaluate_trial
+    from bootnav.postproc.evaluate.pdr import evaluate_trial
 
     row = evaluate_trial(tr[0])
     assert row["error"] is None
@@ -159,7 +159,7 @@ def test_bad_rows_are_reported_with_line_numbers(tmp_path):
 
 
 def test_alternation_corrected_count():
-    from bootnav.postproc.pdr.evaluate import alternation_corrected_count
+    from bootnav.postproc.evaluate.pdr import alternation_corrected_count
 
     t = np.array([0.0, 0.5, 0.6, 1.0, 1.5, 3.0, 3.5])
     f = np.array(["L", "R", "R", "L", "R", "R", "L"])  # a 0.1-s R bounce, and a missed L (R..R 1.5 s)

@@ -376,7 +376,7 @@ def error_budget(res) -> tuple[float, float]:
 
 
 def _truth_errors(res, r):
-    from bootnav.postproc.reference import Reference, compute_metrics
+    from bootnav.postproc.reference_path import Reference, compute_metrics
 
     ref = Reference("trajectory", res.truth["pos_n_m"], t_s=r.t_s, has_z=True)
     return compute_metrics(ref, r.t_s, r.pos_n, r.stance)

@@ -204,7 +204,7 @@ def bundled_open(tmp_path_factory):
 def test_closure_only_for_a_closed_loop_in_every_output(bundled_open, tmp_path):
     from bootnav.postproc.cli_process import format_summary
     from bootnav.postproc.outputs import write_outputs
-    from bootnav.postproc.reference import load_reference
+    from bootnav.postproc.reference_path import load_reference
     from bootnav.postproc.summary import is_closed_loop
 
     r = bundled_open
@@ -240,7 +240,7 @@ def test_reference_drawn_in_the_estimate_frame():
     """The reference on the time charts: ``align_to_reference`` took the estimate onto the reference; mapping
     the reference back must land on an estimate that is the reference rotated and moved (exactly)."""
     from bootnav.postproc.plots import reference_in_estimate_frame
-    from bootnav.postproc.reference import Reference, align_to_reference
+    from bootnav.postproc.reference_path import Reference, align_to_reference
 
     t = np.linspace(0, 10, 201)
     ref = np.column_stack((t, np.sin(t), 0.1 * t))

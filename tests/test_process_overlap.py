@@ -20,7 +20,7 @@ import pytest
 
 from bootnav.core import atomic
 from bootnav.postproc import plots
-from bootnav.postproc.outputs import ChartWorker, _draw_here, write_outputs
+from bootnav.postproc.outputs import ChartWorker, draw_here, write_outputs
 from bootnav.postproc.pipeline import process
 from bootnav.postproc.settings import ProcessSettings
 from tests.conftest import REPO
@@ -55,7 +55,7 @@ def _gone(pid: int) -> bool:
 def test_the_charts_of_the_child_are_those_drawn_here(result, complete, tmp_path):
     out, files = complete
     assert {k for k in files if k.startswith("plot_")} == {f"plot_{k}" for k in plots.FILES} and "html" in files
-    drawn, error = _draw_here(plots.ChartStream.from_result(result), tmp_path)
+    drawn, error = draw_here(plots.ChartStream.from_result(result), tmp_path)
     assert error is None
     for name in [*plots.FILES.values(), "path.html"]:
         assert (out / name).read_bytes() == (tmp_path / name).read_bytes(), name

@@ -1,4 +1,4 @@
-"""Reference metrics (paper Table 1, definitions in postproc/reference.py) and strides/floors on hand-made
+"""Reference metrics (paper Table 1, definitions in postproc/reference_path.py) and strides/floors on hand-made
 paths whose answers are computed by hand in each test."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from bootnav.postproc.reference import Reference, align_to_reference, compute_metrics, load_reference
+from bootnav.postproc.reference_path import Reference, align_to_reference, compute_metrics, load_reference
 from bootnav.postproc.strides import FloorSettings, count_floors, path_summary, segment_strides
 
 

@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from bootnav.postproc.reference import distance_to_polyline
+from bootnav.postproc.reference_path import distance_to_polyline
 from tests.conftest import REPO
 
 

@@ -10,7 +10,7 @@ import pytest
 import bootnav
 from bootnav.errors import InputError
 from bootnav.postproc.detectors import DetectorSettings, detect_stance
-from bootnav.postproc.detectors._common import median_dt
+from bootnav.core.arrays import median_dt
 from bootnav.postproc.detectors.stream import StreamStance, streamable_detectors
 from bootnav.postproc.ins import FilterSettings, run_filter
 from bootnav.postproc.ins.filter import delay_zupt_onsets
@@ -71,7 +71,7 @@ def test_stream_equals_whole_array(records, data, method, extra):
     """Chunks of 7, 1000, random 1-299 and the whole record (and single samples for SHOE on the shorter
     record) give exactly the whole-array mask (same sample period, no clipping search)."""
     t, acc, gyr, sat = records[data]
-    ds = DetectorSettings(method=method, detect_clipping=False, **extra)
+    ds = DetectorSettings(method, extra, detect_clipping=False)
     ref = detect_stance(t, acc, gyr, ds, G, saturated=sat)
     assert 0.3 < ref.stance.mean() < 0.9 and not ref.stance[len(t) // 2:len(t) // 2 + 30].any()
     chunkings = [7, 1000, _sizes(2), t.shape[0]]
@@ -125,7 +125,7 @@ def test_running_noise_floor_is_close(records):
 ])
 def test_whole_record_detectors_are_refused(method, extra, why):
     with pytest.raises(InputError, match=f"'{method}' cannot run on a stream: .*{why}.*choose one of"):
-        StreamStance(DetectorSettings(method=method, **extra), 200.0)
+        StreamStance(DetectorSettings(method, extra), 200.0)
     assert set(streamable_detectors()) == {"adaptive", "ared", "mag", "mv", "shoe"}
 
 

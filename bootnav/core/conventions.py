@@ -4,6 +4,9 @@ root can expose the Python API (``bootnav.api``) without an import cycle."""
 
 __version__ = "0.1.0"
 
+#: ``summary.json["software"]`` of every kind of run (one shape: docs/summary.schema.json)
+SOFTWARE = {"name": "bootnav", "version": __version__}
+
 CONVENTIONS = {
     "units": "SI: m, s, m/s^2, rad/s, degC",
     "nav_frame": "ENU (x east, y north, z up), right-handed, origin at start",

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 TIME_COLUMN = "t_s"
 ACC_COLUMNS = ("ax_mps2", "ay_mps2", "az_mps2")

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 
 def to_jsonable(obj: Any, *, max_array_size: int | None = 64) -> Any:

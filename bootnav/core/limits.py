@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import os
 
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 #: Longest walk a command simulates or a recorder session is bounded to (s): a firefighter's breathing-apparatus
 #: shift is under an hour; 6 h covers a long exercise, and keeps a simulation in memory (~0.5 GB per hour at

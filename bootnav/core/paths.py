@@ -26,7 +26,7 @@ import stat
 from pathlib import Path
 from typing import Iterable
 
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 #: The HDF5 format signature, found at byte 0 or at 512, 1024, 2048, ... after a user block.
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"

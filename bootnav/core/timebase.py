@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bootnav.errors import InputError
+from bootnav.core.errors import InputError
 
 GAP_FACTOR = 1.5  # a step longer than 1.5 nominal periods has lost at least one sample (module docstring)
 T_US_MODULUS = 1 << 32  # u32 microsecond device clock

@@ -142,7 +142,7 @@ class _Source:
     messages: list[str] = field(default_factory=list)
     events: list[dict] = field(default_factory=list)
     meta: dict[str, Any] = field(default_factory=dict)
-    # columns (_map_columns)
+    # columns (map_columns)
     idx: dict[str, int] = field(default_factory=dict)  # role (t, ax, ..., aux:NAME) -> column index
     header_units: dict[str, str] = field(default_factory=dict)
     quantities: dict[str, str] = field(default_factory=dict)
@@ -168,7 +168,7 @@ class _Source:
 
 
 @dataclass
-class _Units:
+class Units:
     """Output of ``_check_units``: the arrays as stored and their channels."""
 
     acc: np.ndarray
@@ -187,9 +187,9 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
 
     The stages, in order: read the text (gzip undone, a damaged stream cut at its last complete line); our
     SD-card log goes to ``sdlog``; otherwise detect the format and profile (``_detect``), map the columns
-    (``_map_columns``), parse the numbers (``_parse_numbers``), build the time axis and its events
+    (``map_columns``), parse the numbers (``_parse_numbers``), build the time axis and its events
     (``_build_time``), check the units against gravity (``_check_units``), flag saturation and repeated rows
-    (``_sample_events``) and assemble the result with its metadata (``_build_result``).
+    (``_sample_events``) and assemble the result with its metadata (``build_result``).
 
     Parameters
     ----------
@@ -231,13 +231,13 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
         result = sdlog.read_sd_log(path, text, raw, data, **overrides)  # a line cut by the damage fails its CRC
     else:
         src = _detect(path, text, profile, overrides, damage)
-        _map_columns(src)
+        map_columns(src)
         _parse_numbers(src)
         t, time_unit = _build_time(src)
         units = _check_units(src, t)
         saturated = _sample_events(src, t, units)
-        result = _build_result(src, t, time_unit, units, saturated, _sha256(raw))
-    _check_physical(result, path, overrides.get("check_units", True))
+        result = build_result(src, t, time_unit, units, saturated, _sha256(raw))
+    check_physical(result, path, overrides.get("check_units", True))
     utf16 = utf16_encoding(data)
     if utf16:
         result.meta["source_encoding"] = utf16
@@ -254,7 +254,7 @@ MAX_GYRO_RADPS = 50.0  # ~2900 deg/s: above the ±2000 deg/s of MEMS gyros
 RATE_BOUNDS_HZ = (1.0, 10_000.0)
 
 
-def _check_physical(result: ImportResult, path: Path, strict: bool, over: dict | None = None) -> None:
+def check_physical(result: ImportResult, path: Path, strict: bool, over: dict | None = None) -> None:
     """Refuse a result whose values are physically impossible: a non-finite time, a rate outside
     1 Hz-10 kHz, |acc| above 200 m/s^2 or |gyro| above 50 rad/s, each named with its sample index and
     the likely fix. ``strict=False`` (``--no-unit-check``) turns the value bounds into note events; a
@@ -333,10 +333,10 @@ def _detect(path: Path, text: str, profile, overrides: dict, damage: str | None)
         prof = prof.for_sensor(overrides.get("sensor"))
     elif overrides.get("sensor") not in (None, 1):
         raise InputError(f"{path}: --sensor needs a profile with several sensors")
-    return _new_source(path, table, prof, detected, overrides)
+    return new_source(path, table, prof, detected, overrides)
 
 
-def _new_source(path: Path, table: TextTable, prof: Profile | None, detected: bool, overrides: dict) -> _Source:
+def new_source(path: Path, table: TextTable, prof: Profile | None, detected: bool, overrides: dict) -> _Source:
     """The ``_Source`` of a file's table, with the messages saying which profile and format were found."""
     src = _Source(path, table, prof, detected, overrides)
     src.messages.append(f"profile: {src.pname}" + (" (auto-detected)" if detected else " (given)" if prof else
@@ -363,7 +363,7 @@ def _delimiter_name(table: TextTable) -> str:
     return {"\t": "tab", "whitespace": "whitespace"}.get(table.delimiter, repr(table.delimiter))
 
 
-def _map_columns(src: _Source) -> None:
+def map_columns(src: _Source) -> None:
     """Stage 2: the role of each column (``--columns``, the profile, the header names or the default order)."""
     table, path, pget = src.table, src.path, src.pget
     header_units: dict[str, str] = {}
@@ -446,14 +446,14 @@ def _parse_numbers(src: _Source) -> None:
     skipped = [(ln, reason) for ln, reason in table.bad_lines]
     skipped += [(int(table.line_numbers[r]), reason) for r, reason in bad.items()]
     skipped.sort()
-    _report_skipped(src, skipped, table.n_rows - len(bad))
+    report_skipped(src, skipped, table.n_rows - len(bad))
     keep = np.ones(table.n_rows, dtype=bool)
     keep[list(bad)] = False
     src.line_numbers = table.line_numbers[keep]
     src.values = {k: v[keep] for k, v in values.items()}
 
 
-def _report_skipped(src: _Source, skipped: list[tuple[int, str]], n_kept: int) -> None:
+def report_skipped(src: _Source, skipped: list[tuple[int, str]], n_kept: int) -> None:
     """The skipped lines (sorted (line, reason)) as events and messages; an error when more than
     ``MAX_BAD_FRACTION`` of the data lines (``n_kept`` + skipped) are bad."""
     path, table = src.path, src.table
@@ -535,7 +535,7 @@ def _build_time(src: _Source) -> tuple[np.ndarray, str]:
     return t, time_unit
 
 
-def _check_units(src: _Source, t: np.ndarray) -> _Units:
+def _check_units(src: _Source, t: np.ndarray) -> Units:
     """Stage 5: accelerometer/gyro units and ranges (declared, from the header, or from gravity), checked
     against gravity and physics; a contradiction is an error naming the flag (or a note with
     ``check_units=False``)."""
@@ -609,10 +609,10 @@ def _check_units(src: _Source, t: np.ndarray) -> _Units:
         src.events.append(dict(kind="note", detail=f"acc is {acc_quantity} (gravity removed), NOT specific force"))
         src.messages.append(f"WARNING: acc is {acc_quantity.upper()} (gravity removed), NOT specific force: fine for "
                             f"step counting, wrong for strapdown/ZUPT (meta acc_quantity)")
-    return _Units(acc_arr, gyro_arr, acc_ch, gyro_ch, acc_unit, gyro_unit, acc_range, gyro_range, acc_quantity)
+    return Units(acc_arr, gyro_arr, acc_ch, gyro_ch, acc_unit, gyro_unit, acc_range, gyro_range, acc_quantity)
 
 
-def _sample_events(src: _Source, t: np.ndarray, u: _Units) -> np.ndarray:
+def _sample_events(src: _Source, t: np.ndarray, u: Units) -> np.ndarray:
     """Stage 6: saturation bits and events, repeated rows, the profile's notes. Returns the saturation mask."""
     n = src.n
     sat_a, ev_a = checks.saturation(u.acc, u.acc_channel.full_scale, u.acc_unit == "counts", 0)
@@ -639,7 +639,7 @@ def _sample_events(src: _Source, t: np.ndarray, u: _Units) -> np.ndarray:
     return (sat_a | sat_g).astype(np.uint8)
 
 
-def _build_result(src: _Source, t: np.ndarray, time_unit: str, u: _Units, saturated: np.ndarray,
+def build_result(src: _Source, t: np.ndarray, time_unit: str, u: Units, saturated: np.ndarray,
                   sha256: str) -> ImportResult:
     """Stage 7: extra columns, metadata and the summary messages, as an ``ImportResult``."""
     path, table, prof, n, meta = src.path, src.table, src.prof, src.n, src.meta

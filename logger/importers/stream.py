@@ -28,7 +28,7 @@ from bootnav.core.timebase import time_events
 from bootnav.logger.recording import RecordingWriter, make_events, si_channel
 
 from . import checks, sdlog
-from .core import (OverBound, _build_result, _check_physical, _map_columns, _new_source, _report_skipped, _Units,
+from .core import (OverBound, build_result, check_physical, map_columns, new_source, report_skipped, Units,
                    read_any, write_atomically, write_result)
 from .profiles import Profile, load_profile
 from .result import ImportResult
@@ -173,8 +173,8 @@ def _stream(path: Path, tmp: Path, first_line: str, block_bytes: int, overrides:
     prof = load_profile("canonical_imu_csv" if has_gyro else "canonical_acc_csv")
     stub = TextTable(path=path, delimiter=",", decimal_comma=False, header=list(fields), header_line=1, preamble=[],
                      rows=None, line_numbers=np.zeros(0, np.int64), n_fields=n_fields)
-    src = _new_source(path, stub, prof, True, overrides)  # its columns and units; rebuilt with the counts at the end
-    _map_columns(src)
+    src = new_source(path, stub, prof, True, overrides)  # its columns and units; rebuilt with the counts at the end
+    map_columns(src)
     time_unit = src.overrides.get("time_unit") or src.header_units.get("t") or src.pget("time_unit")
     acc_unit = src.header_units.get("ax") or src.pget("acc_unit")
     gyro_unit = (src.header_units.get("gx") or src.pget("gyro_unit")) if has_gyro else "radps"
@@ -300,10 +300,10 @@ def _finish(path, prof, overrides, writer, fields, n_lines, ends_without_newline
     table = TextTable(path=path, delimiter=",", decimal_comma=False, header=list(fields), header_line=1,
                       preamble=[], rows=None, line_numbers=line_numbers, n_fields=len(fields), bad_lines=bad,
                       ends_without_newline=ends_without_newline, n_lines=n_lines)
-    src = _new_source(path, table, prof, True, overrides)
-    _map_columns(src)
+    src = new_source(path, table, prof, True, overrides)
+    map_columns(src)
     src.line_numbers = line_numbers
-    _report_skipped(src, bad, n)
+    report_skipped(src, bad, n)
     # the magnitudes first, so they are freed before the time base's temporaries; the rate from the writer's
     # exact count of the steps (timing_summary's median, without its copies of t)
     rate = 1.0 / writer.stats.steps.median() if n > 1 else 1.0
@@ -342,9 +342,9 @@ def _finish(path, prof, overrides, writer, fields, n_lines, ends_without_newline
         src.messages.append(f"note: {n_rep} rows repeat the previous row's values (kept)")
     for note in src.pget("notes", []) or []:
         src.events.append(dict(kind="note", detail=note))
-    units = _Units(None, None, acc_ch, gyro_ch, "mps2", "radps", None, None, "specific_force")
-    result = _build_result(src, t, time_unit, units, np.zeros(n, np.uint8), hasher.hexdigest())
-    _check_physical(result, path, src.overrides.get("check_units", True), over)
+    units = Units(None, None, acc_ch, gyro_ch, "mps2", "radps", None, None, "specific_force")
+    result = build_result(src, t, time_unit, units, np.zeros(n, np.uint8), hasher.hexdigest())
+    check_physical(result, path, src.overrides.get("check_units", True), over)
     events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
     writer.add_events(make_events(events))
     writer.close(final_meta=result.meta)  # holds timing_summary(t), which write_recording writes again

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import postprocess
-from ._common import moving_mean, row_norm, window_samples
+from bootnav.core.arrays import moving_mean, row_norm, window_samples
 
 
 def log_otsu_threshold(statistic: np.ndarray, bins: int = 256) -> float:

@@ -39,12 +39,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from . import postprocess
-from ._common import window_samples
-from .base import StanceDetector, register
+from bootnav.core.arrays import window_samples
+from .base import FRACTION, NON_NEGATIVE, POSITIVE, StanceDetector, register
 from .shoe import shoe_statistic
 
 
@@ -67,6 +68,9 @@ class AdaptiveDetector(StanceDetector):
     isolated_min_stance_s, isolation_s: a stance run of at least 0.035 s with no other stance within
         0.4 s on both sides is kept: the 45-70 ms foot-flat of a running stride.
     """
+
+    BOUNDS: ClassVar[dict] = {"window_s": POSITIVE, "span_s": POSITIVE, "alpha": FRACTION, "noise_quantile": FRACTION,
+                              "max_rate_radps": NON_NEGATIVE}
 
     window_s: float = 0.05
     sigma_acc_mps2: float = 0.01

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import moving_mean
+from bootnav.core.arrays import moving_mean
 from .base import WindowedDetector, register
 
 

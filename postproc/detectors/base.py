@@ -7,22 +7,23 @@ statistic and the rule that turns it into a raw stance mask (``_classify``); the
 detector shares, once: NaN and excluded-sample handling and the post-processing of the mask (minimum swing,
 saturation guard, minimum stance).
 
-``@register("name")`` enters a class into ``DETECTORS`` (name -> class); the name is the ``method`` of
+``@register("name")`` enters a class into ``DETECTORS`` (name -> class, ``bootnav.core.registry``); the name is the ``method`` of
 ``DetectorSettings`` and the choice of ``bootnav process --detector``, the first line of the class
 docstring its one-line description (``bootnav process --list-detectors``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import ClassVar
+from dataclasses import dataclass, field, fields
+from typing import Callable, ClassVar
 
 import numpy as np
 
+from bootnav.core.registry import Registry, description
 from bootnav.core.runs import runs
 
 from . import postprocess
-from ._common import as_imu_arrays, dilate, median_dt, rows_finite, window_samples
+from bootnav.core.arrays import as_imu_arrays, dilate, median_dt, rows_finite, window_samples
 
 
 @dataclass
@@ -51,55 +52,21 @@ class StanceResult:
         return runs(self.stance)
 
 
-DETECTORS: dict[str, type["StanceDetector"]] = {}
+#: name -> class of every stance detector (``bootnav.core.registry``: the pattern of the PDR step detectors and
+#: step-length models too)
+DETECTORS = Registry("stance detector")
+register = DETECTORS.register
 
-
-def register(name: str):
-    """Class decorator: enter a ``StanceDetector`` subclass into ``DETECTORS`` under ``name``.
-
-    Parameters
-    ----------
-    name : str
-        Registry name (``DetectorSettings.method``, ``--detector``); must be new.
-
-    Returns
-    -------
-    callable
-        The decorator; it sets ``cls.name`` and returns the class unchanged otherwise.
-    """
-
-    def enter(cls):
-        if name in DETECTORS:
-            raise ValueError(f"stance detector {name!r} registered twice ({DETECTORS[name].__name__}, {cls.__name__})")
-        cls.name = name
-        DETECTORS[name] = cls
-        return cls
-
-    return enter
+# physical ranges of parameters (``StanceDetector.BOUNDS``): (test, what the message says)
+POSITIVE: tuple[Callable[[float], bool], str] = (lambda v: v > 0, "> 0")
+NON_NEGATIVE: tuple[Callable[[float], bool], str] = (lambda v: v >= 0, ">= 0")
+FRACTION: tuple[Callable[[float], bool], str] = (lambda v: 0 < v < 1, "in (0, 1)")
+AT_LEAST_ONE: tuple[Callable[[float], bool], str] = (lambda v: v >= 1, ">= 1")
 
 
 def detector_class(name: str) -> type["StanceDetector"]:
-    """The registered class of ``name``.
-
-    Parameters
-    ----------
-    name : str
-        Registry name.
-
-    Returns
-    -------
-    type
-        The ``StanceDetector`` subclass.
-
-    Raises
-    ------
-    ValueError
-        For an unknown name; the message lists the registered names.
-    """
-    try:
-        return DETECTORS[name]
-    except KeyError:
-        raise ValueError(f"unknown stance detector {name!r}; choose one of {', '.join(sorted(DETECTORS))}") from None
+    """The registered class of ``name``; ValueError listing the registered names for an unknown one."""
+    return DETECTORS.get_class(name)
 
 
 @dataclass(kw_only=True)
@@ -117,6 +84,9 @@ class StanceDetector:
     """
 
     name: ClassVar[str] = ""
+    #: parameter -> its physical range; merged along the class hierarchy. Without an entry, a ``sigma_*``
+    #: must be > 0 and a duration ``*_s`` >= 0 (``check``).
+    BOUNDS: ClassVar[dict] = {"gravity_mps2": POSITIVE}
 
     gravity_mps2: float = 9.80665
     min_swing_s: float = 0.0
@@ -124,9 +94,30 @@ class StanceDetector:
     saturation_guard_s: float = 0.02
 
     @classmethod
+    def bounds(cls, name: str):
+        """(test, text) of parameter ``name``'s range, or None when any finite value is physical."""
+        for klass in cls.__mro__:
+            if name in vars(klass).get("BOUNDS", {}):
+                return vars(klass)["BOUNDS"][name]
+        if name.startswith("sigma_"):
+            return POSITIVE
+        return NON_NEGATIVE if name.endswith("_s") else None
+
+    def check(self) -> None:
+        """Raise ValueError naming the first parameter outside its physical range (``BOUNDS``)."""
+        for f in fields(self):
+            value = getattr(self, f.name)
+            rule = self.bounds(f.name)
+            if rule is None or value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+                continue
+            test, text = rule
+            if not test(value):
+                raise ValueError(f"{f.name} must be {text}, got {value!r}")
+
+    @classmethod
     def description(cls) -> str:
         """One line for listings: the first line of the class docstring."""
-        return (cls.__doc__ or cls.__name__).strip().splitlines()[0]
+        return description(cls)
 
     def detect(self, acc_b, gyro_b, t_s, *, excluded=None) -> StanceResult:
         """Stance mask of one recording.
@@ -181,6 +172,7 @@ class ThresholdDetector(StanceDetector):
     """
 
     DEFAULT_THRESHOLD: ClassVar[float]
+    BOUNDS: ClassVar[dict] = {"threshold": POSITIVE, "hysteresis_ratio": AT_LEAST_ONE}
 
     threshold: float | None = None
     hysteresis_ratio: float = 1.0
@@ -223,6 +215,8 @@ class WindowedDetector(ThresholdDetector):
     window_samples: the window in samples, overriding ``window_s`` (to reproduce a published setting
         literally, e.g. OpenShoe's 3 samples at 820 Hz [Nilsson2012]).
     """
+
+    BOUNDS: ClassVar[dict] = {"window_s": POSITIVE, "window_samples": POSITIVE}
 
     window_s: float = 0.025
     window_samples: int | None = None

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import row_norm
+from bootnav.core.arrays import row_norm
 from ._paper import PaperRule, rest_magnitude
 from .base import ThresholdDetector, register
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import moving_mean, row_norm
+from bootnav.core.arrays import moving_mean, row_norm
 from ._paper import PaperRule
 from .base import WindowedDetector, register
 

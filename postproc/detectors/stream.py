@@ -25,7 +25,7 @@ the whole-array detector's; with the running floor it differs only where F + δ 
 floor being that of the walk so far).
 
 What ``detect_stance`` adds on the whole record and a stream cannot: the clipping plateaus
-(``detect_clipping``, ``_common.clipped_samples``) are found from the extremes of the whole record; the stream
+(``detect_clipping``, ``bootnav.core.arrays.clipped_samples``) are found from the extremes of the whole record; the stream
 excludes the samples the pushed ``saturated`` mask flags (the firmware's saturation bits). The sample period
 is the device's nominal one (``rate_hz``); ``detect_stance`` uses the record's median step.
 """
@@ -39,7 +39,7 @@ import numpy as np
 
 from bootnav.errors import InputError
 
-from ._common import window_samples
+from bootnav.core.arrays import window_samples
 from .base import StanceDetector, WindowedDetector
 
 _HIST_LO, _HIST_STEP, _HIST_N = -20.0, 1e-3, 60_000  # log10 T histogram of the running noise floor
@@ -203,7 +203,7 @@ class StreamStance:
         """The detector's ``detect`` on the buffer with the nominal period (``base.StanceDetector.detect``'s
         steps; samples a..b−1 are the ones being decided)."""
         from . import postprocess
-        from ._common import dilate
+        from bootnav.core.arrays import dilate
 
         det = self.detector
         dt = self.dt_s

@@ -19,12 +19,13 @@ from rest. Stance runs shorter than ``min_stance_s`` and swing gaps shorter than
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-from ._common import row_norm
+from bootnav.core.arrays import row_norm
 from ._paper import PaperRule, rest_magnitude
-from .base import ThresholdDetector, register
+from .base import POSITIVE, ThresholdDetector, register
 
 
 def xio_statistic(acc_b: np.ndarray, dt: float, gravity: float, *, highpass_hz: float = 0.001,
@@ -56,6 +57,7 @@ class XioDetector(PaperRule, ThresholdDetector):
     """
 
     DEFAULT_THRESHOLD = 0.05
+    BOUNDS: ClassVar[dict] = {"highpass_hz": POSITIVE, "lowpass_hz": POSITIVE}
 
     min_stance_s: float = 0.05
     min_swing_s: float = 0.2

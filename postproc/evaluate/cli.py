@@ -96,7 +96,7 @@ def run(args) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
 
-    from bootnav.cli import Progress
+    from bootnav.core.progress import Progress
 
     shown = Progress(quiet=getattr(args, "quiet", False))
 

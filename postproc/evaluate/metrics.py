@@ -1,5 +1,5 @@
 """The one scorer of the developer datasets' METRICS.md [DatasetMetrics]: every accuracy figure of
-``bootnav eval``, the PDR evaluation (``bootnav.postproc.pdr.evaluate``) and the benchmarks comes from here.
+``bootnav eval``, the PDR evaluation (``bootnav.postproc.evaluate.pdr``) and the benchmarks comes from here.
 
 Every position metric first removes the unknown start position and start heading — never scale, never
 anything fitted to the whole path:

@@ -221,7 +221,7 @@ def _inside_walking_bouts(folder: Path, truth: dict, t: np.ndarray) -> np.ndarra
 def score_pdr(est: PdrEstimate, folder: Path, kinds: list[str]) -> tuple[dict, dict]:
     """METRICS.md metrics of a PDR estimate for the truth ``kinds`` in ``folder``; (metrics, plot data).
 
-    The one PDR scoring of the project: ``bootnav eval`` and ``bootnav.postproc.pdr.evaluate`` (the PDR
+    The one PDR scoring of the project: ``bootnav eval`` and ``bootnav.postproc.evaluate.pdr`` (the PDR
     benchmark) both call it. Step events of mobgap_lab are scored inside the reference's walking bouts."""
     out: dict = {"seconds": est.seconds, "n_steps": int(len(est.step_t))}
     truth = _truth_json(folder)

@@ -1,7 +1,7 @@
 """Fast engine: the whole ZUPT error-state filter (+ segment RTS smoother) as one numba kernel.
 
 No per-sample Python loop: Python only slices the record into a few chunks (for the progress callback).
-The algebra is exactly ``reference.py``'s, written for speed:
+The algebra is exactly ``filterpy_engine.py``'s, written for speed:
 
 * mechanization with scalar locals (no small-array allocation per sample);
 * covariance propagation P ← F P Fᵀ + Q_d in place with the block structure of
@@ -12,7 +12,7 @@ The algebra is exactly ``reference.py``'s, written for speed:
   model's H = [0 I 0] is a constant index block (``kalman.py``: no H matrix, closed-form 3×3 innovation
   inverse or a scalar gain, Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ by blocks).
 
-Error-state conventions (shared with reference.py, see ``bootnav.postproc.ins.filter``): δx = x_true − x̂, so
+Error-state conventions (shared with filterpy_engine.py, see ``bootnav.postproc.ins.filter``): δx = x_true − x̂, so
 the ZUPT pseudo-measurement is z = 0 − v̂ = δv + noise, δx = K z, then p̂ += δp, v̂ += δv, q̂ ← exp(δθ/2) ⊗ q̂,
 b̂ += δb, δx ← 0. The "+ k_n v_n" of [Heidari2019, eq. 3] is this with the minus sign of z absorbed in k_n.
 
@@ -42,6 +42,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+from typing import NamedTuple
+
 from numba import literal_unroll, njit
 
 from bootnav.postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
@@ -100,6 +102,44 @@ def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
             P[DBG + i, DBG + i] += qbg * dt
 
 
+class KernelInputs(NamedTuple):
+    """The input rows of a ``filter_chunk`` call (row 0 is the sample before the chunk)."""
+
+    dt_s: np.ndarray  # (L+1,) s, step to each row
+    acc: np.ndarray  # (L+1, 3) m/s², specific force
+    gyro: np.ndarray  # (L+1, 3) rad/s
+    stance: np.ndarray  # (L+1,) bool, the ZUPT mask
+    xvar: np.ndarray  # (L+1, 6) extra process variance of saturated rows
+    ric_tau: np.ndarray  # (L+1,) s, the open-loop interval a ZUPT run closes (paper mode)
+
+
+class RiccatiGain(NamedTuple):
+    """The paper mode's constant ZUPT gain factors (``riccati.ZuptGain``; identity and zeros otherwise)."""
+
+    u: np.ndarray  # (3, 3)
+    lam: np.ndarray  # (3,)
+    t: np.ndarray  # (6, 3)
+
+
+class PathRows(NamedTuple):
+    """The output rows the filter writes and the smoother corrects in place."""
+
+    pos: np.ndarray  # (M, 3) m
+    vel: np.ndarray  # (M, 3) m/s
+    q: np.ndarray  # (M, 4) wxyz
+    ba: np.ndarray  # (M, 3) m/s²
+    bg: np.ndarray  # (M, 3) rad/s
+
+
+class SmootherBuffers(NamedTuple):
+    """The ring of the smoother's open and closed segments (``filter_chunk`` docstring)."""
+
+    post: np.ndarray  # (cap, n, n) P⁺
+    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle
+    fpar: np.ndarray  # (cap, 13) the transition's parameters
+    dx: np.ndarray  # (cap, n) the error-state correction
+
+
 @njit(cache=True, nogil=True)
 def close_segment(seg, closed, counters, next_row):
     """End the open segment: list it in ``closed`` to be smoothed (``smooth_segments``; one sample needs no
@@ -118,13 +158,15 @@ def close_segment(seg, closed, counters, next_row):
 
 
 @njit(cache=True, nogil=True)
-def smooth_segments(closed, n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar, buf_dx):
+def smooth_segments(closed, n, rows, bufs):
     """Smooth the closed segments listed in ``closed`` (rows CL_RING, CL_LEN, CL_ROW; ``smoother.rts_backward``
     corrects their output rows in place). Returns the smoother's skipped steps.
 
     Closed segments are independent of each other and of the forward filter (which only writes buffer rows
     after the oldest one still listed, ``seg[SEG_TAIL]``, and output rows after theirs), so this may run in
     another thread while ``filter_chunk`` goes on."""
+    pos, vel, q, ba, bg = rows
+    buf_post, buf_pred, buf_fpar, buf_dx = bufs
     bad = 0
     for i in range(closed.shape[0]):
         bad += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, closed[i, CL_RING], closed[i, CL_LEN], n,
@@ -133,20 +175,19 @@ def smooth_segments(closed, n, pos, vel, q, ba, bg, buf_post, buf_pred, buf_fpar
 
 
 @njit(cache=True, nogil=True)
-def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active, n, ric_u, ric_lam, ric_t, st, P,
-                 pos, vel, q, ba, bg, pos_sig, buf_post, buf_pred, buf_fpar, buf_dx, seg, closed, batch_rows, applied,
+def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, bufs, seg, closed, batch_rows, applied,
                  counters):
     """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
     Returns the input row to resume at: k1, or earlier when the smoother's closed segments are due
     (``seg``'s SEG_N_CLOSED of them in ``closed``; call again from there after handing them on).
 
-    Input row k (``dt_s``, ``acc``, ``gyro``, ``stance`` = the ZUPT mask, ``xvar``, ``ric_tau``) writes output
-    row o0 + k. Input row k0 − 1 is the sample before (only its ZUPT flag is read: the heading aid's stance
+    Input row k (``inp``: ``KernelInputs``, whose ``stance`` is the ZUPT mask) writes output row o0 + k of
+    ``rows`` (``PathRows``) and ``pos_sig``; ``ric`` is the paper mode's gain (``RiccatiGain``). Input row k0 − 1 is the sample before (only its ZUPT flag is read: the heading aid's stance
     onset and the end of a stance phase; a False row before the record's first sample). The smoother's open
     segment starts at output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in
     ``closed`` for ``smooth_segments``) when the next sample shows that it ended: after the last sample of a
     stance phase, or when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one).
-    Its buffers (``buf_post`` P⁺ whole, ``buf_pred`` P⁻'s packed lower triangle, ``buf_fpar``, ``buf_dx``) are
+    Its buffers (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx) are
     a ring of segments: sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel
     returns after a close when the closed segments reach ``batch_rows`` buffer rows, when ``closed`` is full,
     or when the next segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest
@@ -155,6 +196,10 @@ def filter_chunk(k0, k1, dt_s, acc, gyro, stance, xvar, ric_tau, o0, prm, active
     (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
     smoother's bookkeeping.
     """
+    dt_s, acc, gyro, stance, xvar, ric_tau = inp
+    ric_u, ric_lam, ric_t = ric
+    pos, vel, q, ba, bg = rows
+    buf_post, buf_pred, buf_fpar, buf_dx = bufs
     ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
     K = np.zeros((n, 3))
     A = np.empty((n, n))
@@ -359,10 +404,9 @@ def _compile(nav) -> None:
         none3, none4 = np.zeros((0, 3)), np.zeros((0, 4))
         seg, counters = np.zeros(N_SEG, dtype=np.int64), np.zeros(2, dtype=np.int64)
         closed = np.zeros((1, 3), dtype=np.int64)
-        filter_chunk(1, 1, np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1),
-                     0, nav.prm, nav._active, n, *nav._ric, nav._st.copy(), nav._P.copy(), none3, none3.copy(), none4,
-                     none3.copy(), none3.copy(), none3.copy(), nav._buf_post, nav._buf_pred, nav._buf_fpar,
-                     nav._buf_dx, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
+        inp = KernelInputs(np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1))
+        rows = PathRows(none3, none3.copy(), none4, none3.copy(), none3.copy())
+        filter_chunk(1, 1, inp, 0, nav.prm, nav._active, n, nav._ric, nav._st.copy(), nav._P.copy(), rows,
+                     none3.copy(), nav._bufs, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
         close_segment(seg, closed, counters, 0)
-        smooth_segments(closed[:0], n, none3, none3.copy(), none4, none3.copy(), none3.copy(), nav._buf_post,
-                        nav._buf_pred, nav._buf_fpar, nav._buf_dx)
+        smooth_segments(closed[:0], n, rows, nav._bufs)

@@ -29,7 +29,7 @@ the still period (riccati.py); P is still propagated and Joseph-updated with tha
 ``pos_sigma_n`` stays meaningful.
 
 Engines (``FilterSettings.engine``): ``fast.py`` (numba, production; driven incrementally by
-``stream.StreamNavigator``) and ``reference.py`` (filterpy, readable); they agree to 1e-9 m. Variants tried and
+``stream.StreamNavigator``) and ``filterpy_engine.py`` (filterpy, readable); they agree to 1e-9 m. Variants tried and
 not kept are in ``docs/tuning-log.md`` (section Filter).
 """
 
@@ -175,9 +175,8 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     if settings.engine == "fast":
         from bootnav.postproc.ins.stream import run_fast as run_engine
     else:
-        from bootnav.postproc.ins.reference import run_reference as run_engine
-    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep.q0_nb, prep.gyro_bias0_b, prep.acc_bias0_b, settings,
-                            tb, prep.P0, zupt_gain, prm, progress, extra_var)
+        from bootnav.postproc.ins.filterpy_engine import run_reference as run_engine
+    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep, settings, tb, progress, extra_var)
     elapsed = time.perf_counter() - t0
     biases = settings.n_states == 15
     info = {

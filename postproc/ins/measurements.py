@@ -17,7 +17,7 @@ after the time update of every sample, each as a sequential Kalman update with t
 
 * the fast engine (``fast.py``) calls ``measure(kind, …)`` in its numba loop, unrolled over ``KERNEL_REGISTRY``
   so that every model's H is a compile-time index block (``kalman.py``: no H matrix);
-* the reference engine (``reference.py``) calls the very same jitted ``measure`` through the thin classes
+* the reference engine (``filterpy_engine.py``) calls the very same jitted ``measure`` through the thin classes
   below (``ZuptMeasurement`` …), which return dense ``z, H, R`` for filterpy's ``KalmanFilter.update``.
 
 Adding a measurement (e.g. a per-recording self-tuned noise, or a pseudo-measurement of a new state):

@@ -26,7 +26,7 @@ of P⁻ only the lower triangle is stored (the Cholesky factor reads nothing els
 in floating point, so P⁺, used whole, is stored whole).
 
 ``rts_backward`` is the numba kernel used by ``fast.py``; ``rts_backward_numpy`` is the same algorithm in
-readable NumPy used by ``reference.py``, which also takes its error dynamics A from ``error_dynamics`` here.
+readable NumPy used by ``filterpy_engine.py``, which also takes its error dynamics A from ``error_dynamics`` here.
 """
 
 from __future__ import annotations

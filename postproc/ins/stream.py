@@ -198,10 +198,11 @@ class StreamNavigator:
         self._active = active_flags(settings)
         zg = setup.zupt_gain
         if zg is not None:
-            self._ric = (np.ascontiguousarray(zg.U, dtype=np.float64), np.ascontiguousarray(zg.lam, dtype=np.float64),
+            self._ric = fast.RiccatiGain(np.ascontiguousarray(zg.U, dtype=np.float64),
+                                         np.ascontiguousarray(zg.lam, dtype=np.float64),
                          np.ascontiguousarray(zg.T, dtype=np.float64))
         else:
-            self._ric = (np.eye(3), np.zeros(3), np.zeros((6, 3)))
+            self._ric = fast.RiccatiGain(np.eye(3), np.zeros(3), np.zeros((6, 3)))
         self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
         self._P = np.array(setup.P0, dtype=np.float64, order="C", copy=True)
         nb = _RING_CAPS * prm.max_segment if prm.smooth else 1
@@ -209,6 +210,7 @@ class StreamNavigator:
         self._buf_pred = np.empty((nb, n * (n + 1) // 2))  # lower triangle of P⁻ (all the smoother reads)
         self._buf_fpar = np.empty((nb, 13))
         self._buf_dx = np.empty((nb, n))
+        self._bufs = fast.SmootherBuffers(self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx)
         self._seg = np.zeros(fast.N_SEG, dtype=np.int64)
         self._closed = np.zeros((nb // 2 + 1, 3), dtype=np.int64)  # closed segments hold ≥ 2 buffer rows each
         self._batch_rows = max(1, int(_BATCH_CAPS * prm.max_segment))
@@ -491,8 +493,7 @@ class StreamNavigator:
             if self._pool is None:
                 self._pool = ThreadPoolExecutor(max_workers=self._workers, thread_name_prefix="bootnav-smoother")
             batch = self._closed[:nc].copy()
-            fut = self._pool.submit(fast.smooth_segments, batch, self.n, *rows_out, self._buf_post, self._buf_pred,
-                                    self._buf_fpar, self._buf_dx)
+            fut = self._pool.submit(fast.smooth_segments, batch, self.n, rows_out, self._bufs)
             self._in_flight.append((fut, int(batch[0, fast.CL_RING])))
             seg[fast.SEG_N_CLOSED] = 0
         cap = self._buf_post.shape[0]
@@ -506,8 +507,8 @@ class StreamNavigator:
         """Smooth the closed segments still listed, in this thread."""
         nc = int(self._seg[fast.SEG_N_CLOSED])
         if nc:
-            self._counters[fast.SMOOTHER_SKIPPED] += fast.smooth_segments(
-                self._closed[:nc], self.n, *rows_out, self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx)
+            self._counters[fast.SMOOTHER_SKIPPED] += fast.smooth_segments(self._closed[:nc], self.n, rows_out,
+                                                                          self._bufs)
             self._seg[fast.SEG_N_CLOSED] = 0
 
     def _drain(self, rows_out) -> None:
@@ -662,15 +663,15 @@ class StreamNavigator:
         out["zupt"][n_open:] = zupt
         self._seg[fast.SEG_ROW] -= self._out_from
         tc = time.perf_counter()
-        rows_out = (out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"])
+        rows_out = fast.PathRows(out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"])
+        inp = fast.KernelInputs(dt, acc, gyr, zm, xvar, tau)
         filled = n_open + L
         k = 1
         try:
             while k <= L:
-                k = fast.filter_chunk(k, L + 1, dt, acc, gyr, zm, xvar, tau, n_open - 1, self.prm, self._active,
-                                      self.n, *self._ric, self._st, self._P, *rows_out, out["pos_sigma_n"],
-                                      self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx, self._seg,
-                                      self._closed, self._batch_rows, self._applied, self._counters)
+                k = fast.filter_chunk(k, L + 1, inp, n_open - 1, self.prm, self._active, self.n, self._ric, self._st,
+                                      self._P, rows_out, out["pos_sigma_n"], self._bufs, self._seg, self._closed,
+                                      self._batch_rows, self._applied, self._counters)
                 if k <= L:  # closed segments due: smooth them in another thread while the filter goes on
                     self._hand_on(rows_out)
             if final and self.prm.smooth and filled:
@@ -697,17 +698,16 @@ class StreamNavigator:
         return rows
 
 
-def run_fast(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, settings, tb, P0, zupt_gain, prm,
-             progress=None, extra_var=None):
+def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None):
     """Push a whole record through a ``StreamNavigator`` in a few chunks (arguments as
-    ``filter.run_filter`` prepares them; ``stance`` is the ZUPT mask, ``extra_var`` the saturation variance).
+    ``filter.run_filter`` prepares them: ``setup`` = ``prepare.prepare_filter``'s, passed whole; ``stance`` is
+    the ZUPT mask, ``extra_var`` the saturation variance).
 
     Returns
     -------
     (arrays dict pos_n, vel_n, q_nb, acc_bias_b, gyro_bias_b, pos_sigma_n; info dict)
     """
     N = t_s.shape[0]
-    setup = FilterSetup(q0_nb, gyro_bias0_b, acc_bias0_b, P0, zupt_gain, prm, [])
     nav = StreamNavigator(settings, setup, tb.nominal_dt_s, apply_onset_delay=False)
     out = {name: np.empty((N, 3)) for name in ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")}
     out["q_nb"] = np.empty((N, 4))

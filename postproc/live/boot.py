@@ -249,7 +249,7 @@ class BootView:
         self._nav = StreamNavigator.from_still(self.settings, rate_hz, t, acc, gyro)
         self._stance = StreamStance(self.settings.detector, rate_hz, gravity=self._nav.gravity)
         self._sat = np.zeros(0, np.uint8)
-        cue = replace(self.settings.detector, method="shoe", min_stance_s=self.live.cue_min_stance_s)
+        cue = self.settings.detector.with_method("shoe", min_stance_s=self.live.cue_min_stance_s)
         self._cue = StreamStance(cue, rate_hz, gravity=self._nav.gravity)
         self._cue_prev = False  # the cue's decision at the sample before its newest chunk
         self._recent = RecentSamples()

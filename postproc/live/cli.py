@@ -77,10 +77,9 @@ def run(args) -> int:
     import tempfile
     from pathlib import Path
 
-    import dataclasses
     import threading
 
-    from bootnav.cli import Progress
+    from bootnav.core.progress import Progress
     from bootnav.errors import BootnavError
     from bootnav.postproc.detectors.stream import StreamStance
     from bootnav.postproc.settings import ProcessSettings
@@ -94,7 +93,7 @@ def run(args) -> int:
     settings = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
     if args.detector:
         try:
-            settings.detector = dataclasses.replace(settings.detector, method=args.detector)
+            settings.detector = settings.detector.with_method(args.detector)
         except ValueError as exc:
             raise BootnavError(f"--detector {args.detector}: {exc}") from None
     settings.validate()
@@ -195,17 +194,13 @@ def _check_summary(out_dir, force: bool) -> None:
 def _write_summary(out_dir, feeds, settings, live):
     """``live.json``: per boot the final stride rows and figures, and the settings (temp file + rename)."""
     import json
-    import os
-
+    from bootnav.core import atomic
     from bootnav.core.jsonio import to_jsonable
 
     data = {"settings": settings.to_dict(), "live_settings": to_jsonable(live),
             "boots": {f.label: f.view.result() for f in feeds}}
-    target = out_dir / "live.json"
-    from bootnav.core import atomic
-
-    atomic.write_text(target, json.dumps(to_jsonable(data, max_array_size=None), indent=1, allow_nan=False) + "\n")
-    return target
+    text = json.dumps(to_jsonable(data, max_array_size=None), indent=1, allow_nan=False) + "\n"
+    return atomic.write_text(out_dir / "live.json", text)
 
 
 def _start_demo(out_dir, helpers: list, progress):

@@ -4,7 +4,7 @@ Public API:
     run_pdr(t_s, acc_b, gyro_b=None, settings=PdrSettings(), mag_b=None, compass_deg=None) -> PdrResult
     PdrSettings (dataclass, to_dict), PdrResult
     detectors.DETECTORS / make_detector, length.LENGTH_MODELS, heading.*, path.*, foot_ins.steps_from_foot_ins
-    evaluate.list_trials / evaluate_trial (scored by bootnav.postproc.evaluate)
+    (the PDR benchmark's trials and scoring: bootnav.postproc.evaluate.pdr)
 
 Sources: [NKUA2009] (a waist-worn PDR system, NKUA thesis 2009), [Bayindir2014] (an evaluation of three
 phone step detectors and four step-length models), [Lazarevskiy2021] (a phone PDR system, NAU Kyiv thesis

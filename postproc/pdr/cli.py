@@ -143,7 +143,7 @@ def build_settings(args):
         s.detector_params["literal"] = False
     s.detector_params.update(_params(args.detector_param, DETECTORS[s.detector], "--detector-param"))
     from bootnav.core.limits import check_range
-    from bootnav.postproc.settings import SETTING_RANGES
+    from bootnav.core.validate import SETTING_RANGES
 
     for flag, value, key in (("--step-length", args.step_length, ".length_params.length_m"),
                              ("--weinberg-k", args.weinberg_k, ".length_params.k"), ("--height", args.height, ".height_m")):

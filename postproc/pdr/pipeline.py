@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.core.conventions import CONVENTIONS
+from bootnav.core.conventions import CONVENTIONS, SOFTWARE
 from bootnav.errors import InputError
 
 
@@ -133,11 +133,11 @@ class PdrSettings:
             An unknown key, a value of the wrong type, a negative duration, an unknown method name or an
             out-of-range value, named by its key path (e.g. ``settings.detector_params.max_step_s``).
         """
-        from bootnav.postproc.settings import _from_plain
+        from bootnav.postproc.settings import from_plain
 
         if isinstance(data, dict) and isinstance(data.get("settings"), dict) and "conventions" in data:
             data = data["settings"]
-        s = _from_plain(cls, data if data is not None else {}, "")
+        s = from_plain(cls, data if data is not None else {}, "")
         s._check()
         return s
 
@@ -150,7 +150,7 @@ class PdrSettings:
         from bootnav.postproc.pdr.detectors import DETECTORS
         from bootnav.postproc.pdr.heading.mag_calibration import MAG_CALIBRATIONS
         from bootnav.postproc.pdr.length import LENGTH_MODELS
-        from bootnav.postproc.settings import _from_plain
+        from bootnav.postproc.settings import from_plain
 
         def bad(key, why):
             raise InputError(f"settings.{key}: {why}")
@@ -161,7 +161,7 @@ class PdrSettings:
                 bad(key, f"unknown {key.replace('_', ' ')} {getattr(self, key)!r}; choose one of {sorted(choices)}")
         for key, registry, name in (("detector_params", DETECTORS, self.detector),
                                     ("length_params", LENGTH_MODELS, self.length)):
-            _from_plain(registry[name], getattr(self, key), f".{key}")  # unknown keys, types, durations
+            from_plain(registry[name], getattr(self, key), f".{key}")  # unknown keys, types, durations
         for key, n in (("forward_axis", 3), ("mag_percentiles", 2), ("mag_calibration_window_s", 2),
                        ("start_lat_lon", 2)):
             v = getattr(self, key)
@@ -198,13 +198,10 @@ class PdrSettings:
     def save(self, path) -> Path:
         """Write ``to_dict`` as JSON to ``path`` (temp file + rename: never a half-written file); returns it."""
         import json
-        import os
 
-        path = Path(path)
-        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-        tmp.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
-        os.replace(tmp, path)
-        return path
+        from bootnav.core import atomic
+
+        return atomic.write_text(Path(path), json.dumps(self.to_dict(), indent=1) + "\n")
 
 
 @dataclass
@@ -231,6 +228,7 @@ class PdrResult:
     def summary(self) -> dict:
         d = float(np.sum(self.length_m))
         return {
+            "software": dict(SOFTWARE),
             "steps": self.count,
             "distance_m": d,
             "mean_step_length_m": float(np.mean(self.length_m)) if self.count else None,

@@ -12,11 +12,12 @@
 
 from __future__ import annotations
 
-import os
+
 from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.postproc.outputs import heading_columns
 
 
@@ -25,10 +26,8 @@ PLOT_FILES = ("steps.png", "steps_zoom.png", "length.png", "heading.png", "path.
 
 
 def _save(fig, path: Path) -> None:
-    """Save a figure crash-safely (temporary file in the same folder, then rename) and close it."""
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    """Save a figure crash-safely (``core.atomic``: temporary beside it, fsync, rename) and close it."""
+    atomic.replace_with(path, lambda tmp: fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".")))
 
 
 def write_plots(res, out_dir) -> list[Path]:

@@ -18,7 +18,7 @@ bound is most likely to bite), or every ``stance_check_interval_s`` within every
 
 With γ = ∞ no update is ever applied and each foot's path is its single-foot path to 1e-9 m (same engine,
 same inputs, the right frame left unturned; tests/test_twoboots_fusion.py). ``FilterSettings.engine`` picks
-the navigators: ``StreamNavigator`` (fast, numba) or ``reference.ReferenceNavigator`` (the filterpy loop); both
+the navigators: ``StreamNavigator`` (fast, numba) or ``filterpy_engine.ReferenceNavigator`` (the filterpy loop); both
 take the same constraint measurement (``constraint.position_measurement``) through ``apply_measurement``, and
 agree to floating-point accuracy (tests/test_twoboots_engines.py).
 """
@@ -126,7 +126,7 @@ def _navigator(foot: FootInput, fs):
                              fs.zupt_onset_max_fraction)
     setup = prepare_filter(foot.init, foot.gravity, fs, dt)
     if fs.engine == "reference":
-        from bootnav.postproc.ins.reference import ReferenceNavigator
+        from bootnav.postproc.ins.filterpy_engine import ReferenceNavigator
 
         return ReferenceNavigator(fs, setup, dt), zupt
     from bootnav.postproc.ins.stream import StreamNavigator

@@ -182,7 +182,7 @@ def plot_paths(result, path: Path) -> None:
 
 def write_two_boot_outputs(result, out_dir: str | Path, force: bool = False) -> dict[str, str]:
     """Write every file of the module docstring; returns {kind: path}."""
-    from bootnav.postproc.outputs import _write_csv, write_outputs
+    from bootnav.postproc.outputs import write_csv, write_outputs
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -191,7 +191,7 @@ def write_two_boot_outputs(result, out_dir: str | Path, force: bool = False) -> 
         foot_files = write_outputs(fused_process_result(result, label), out / label, False, force)
         files.update({f"{label}_{k}": v for k, v in foot_files.items()})
     header, cols = walker_columns(result)
-    _write_csv(out / "walker.csv", tuple(header), cols, ["%.6f"] + ["%.4f"] * 9)  # the fast block writer, crash-safe
+    write_csv(out / "walker.csv", tuple(header), cols, ["%.6f"] + ["%.4f"] * 9)  # the fast block writer, crash-safe
     files["walker"] = str(out / "walker.csv")
     rows = stride_rows(result)
     atomic.write_text(out / "strides.csv", _csv(list(rows), list(rows.values()),

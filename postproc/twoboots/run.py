@@ -25,7 +25,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bootnav.core.conventions import CONVENTIONS, __version__
+from bootnav.core.conventions import CONVENTIONS, SOFTWARE
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
@@ -209,7 +209,7 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
         }
     timings["total_s"] = time.perf_counter() - t0
     result.summary = {
-        "software": f"bootnav {__version__}",
+        "software": dict(SOFTWARE),
         "conventions": CONVENTIONS,
         "method": "maximum-separation constraint between two foot-mounted ZUPT filters [Skog2012]",
         "engine": settings.filter.engine,

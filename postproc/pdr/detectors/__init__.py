@@ -2,34 +2,27 @@
 ``detect(t_s, acc_b) -> StepEvents`` entry (acc_b: (N, 3) specific force in the sensor frame, m/s^2,
 gravity included; t_s: the recording's own clock, any rate, duplicates/gaps allowed).
 
-Registry ``DETECTORS`` maps the CLI names to the classes.
+Each registers itself with ``@register("name")`` (``base.py``, the stance detectors' pattern) into
+``DETECTORS``, name -> class; a new detector is a new module decorated so and imported here.
 """
 
 from __future__ import annotations
 
-from bootnav.postproc.pdr.detectors.footpath import FootPathDetector
-from bootnav.postproc.pdr.detectors.leppakoski import LeppakoskiDetector
-from bootnav.postproc.pdr.detectors.li import LiDetector
-from bootnav.postproc.pdr.detectors.pan_tompkins import PanTompkinsDetector
-from bootnav.postproc.pdr.detectors.peak_group import PeakGroupDetector
-from bootnav.postproc.pdr.detectors.peak_valley import PeakValleyDetector
-from bootnav.postproc.pdr.detectors.robust import RobustDetector
-from bootnav.postproc.pdr.detectors.template import TemplateDetector
-from bootnav.postproc.pdr.detectors.two_axis import TwoAxisFootDetector
-from bootnav.postproc.pdr.detectors.zero_crossing import ZeroCrossingDetector
+from bootnav.postproc.pdr.detectors.base import DETECTORS, StepDetector, register
 
-DETECTORS = {
-    "robust": RobustDetector,
-    "peak_valley": PeakValleyDetector,
-    "zero_crossing": ZeroCrossingDetector,
-    "pan_tompkins": PanTompkinsDetector,
-    "template": TemplateDetector,
-    "two_axis": TwoAxisFootDetector,
-    "footpath": FootPathDetector,
-    "leppakoski": LeppakoskiDetector,
-    "li": LiDetector,
-    "peak_group": PeakGroupDetector,
-}
+# importing the modules fills DETECTORS (in this order: the order --detector lists them)
+from bootnav.postproc.pdr.detectors.robust import RobustDetector  # noqa: E402,F401  isort: skip
+from bootnav.postproc.pdr.detectors.peak_valley import PeakValleyDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.zero_crossing import ZeroCrossingDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.pan_tompkins import PanTompkinsDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.template import TemplateDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.two_axis import TwoAxisFootDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.footpath import FootPathDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.leppakoski import LeppakoskiDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.li import LiDetector  # noqa: F401  isort: skip
+from bootnav.postproc.pdr.detectors.peak_group import PeakGroupDetector  # noqa: F401  isort: skip
+
+__all__ = ["DETECTORS", "StepDetector", "make_detector", "register"]
 
 
 def make_detector(name: str, **params):

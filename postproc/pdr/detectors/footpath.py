@@ -16,17 +16,19 @@ screen up); ``literal=False`` the gravity-projected vertical (any orientation) [
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from bootnav.postproc.pdr.detectors._axes import vertical_and_horizontal
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import clean_time, ema, nominal_rate_hz, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
 
+@register("footpath")
 @dataclass
-class FootPathDetector:
+class FootPathDetector(StepDetector):
     literal: bool = True
     fs_hz: float = 30.0
     alpha: float = 0.5
@@ -34,11 +36,6 @@ class FootPathDetector:
     threshold_mps2: float = 1.5
     lockout_samples: int = 10
     mode: str = "drop"
-
-    name = "footpath"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         t, a = clean_time(t_s, np.asarray(acc_b, float))

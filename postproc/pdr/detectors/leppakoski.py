@@ -23,16 +23,18 @@ datasets' READMEs) [engineered].
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import G0, butter_filter, magnitude, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
 
+@register("leppakoski")
 @dataclass
-class LeppakoskiDetector:
+class LeppakoskiDetector(StepDetector):
     literal: bool = True
     fs_hz: float = 30.0
     cutoff_hz: float = 4.0
@@ -43,11 +45,6 @@ class LeppakoskiDetector:
     g_mps2: float = G0
     same_sample: bool = False  # both conditions at one sample instead of anywhere within the timeout
     own_crossing: bool = True  # conditions must be met before the next up-crossing (a new start candidate)
-
-    name = "leppakoski"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         tg, a = resample_uniform(t_s, acc_b, self.fs_hz)

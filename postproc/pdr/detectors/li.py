@@ -21,10 +21,11 @@ A rejected step removes its END peak from the count (the paper does not say) [en
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import magnitude, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -71,8 +72,9 @@ def _dtw_kernel():
     return _KERNEL
 
 
+@register("li")
 @dataclass
-class LiDetector:
+class LiDetector(StepDetector):
     literal: bool = True
     fs_hz: float = 50.0
     fir_order: int = 30
@@ -89,8 +91,6 @@ class LiDetector:
     dtw_norm: str = "path_length"  # "path_length", "none" or "znorm" (z-normalised segments)
     peak_mode: str = "prominence"  # or "height" (above g): the paper's open reading (module docstring)
 
-    name = "li"
-
     def __post_init__(self):
         if self.peak_mode not in ("prominence", "height"):
             raise ValueError(f"peak_mode {self.peak_mode!r}: choose prominence or height")
@@ -102,9 +102,6 @@ class LiDetector:
         if self.dtw_norm == "none":  # undo the path-length normalisation: total cost
             return d * _path_length(a.size, b.size)
         return d
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         from scipy import signal

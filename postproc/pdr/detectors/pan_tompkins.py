@@ -22,10 +22,11 @@ threshold, [engineered 0.2]), so noise wiggles do not shift the pairing.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import butter_filter, magnitude, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -70,8 +71,9 @@ def humps(y: np.ndarray) -> list[tuple[int, int]]:
     return out
 
 
+@register("pan_tompkins")
 @dataclass
-class PanTompkinsDetector:
+class PanTompkinsDetector(StepDetector):
     literal: bool = True
     fs_hz: float = 20.0
     lowpass: str = "butter"
@@ -79,11 +81,6 @@ class PanTompkinsDetector:
     mwi_n: int = 20
     min_rel_height: float = 0.2
     local_window_s: float = 5.0
-
-    name = "pan_tompkins"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         tg, a = resample_uniform(t_s, acc_b, self.fs_hz)

@@ -16,11 +16,12 @@ with the measured rate). Literal mode processes the rows as recorded (no resampl
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from bootnav.core.peaks import local_maxima
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import G0, butter_filter, clean_time, magnitude, nominal_rate_hz, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -53,19 +54,15 @@ def min_distance_tallest_first(idx: np.ndarray, height: np.ndarray, dist: float)
     return idx[keep]
 
 
+@register("peak_group")
 @dataclass
-class PeakGroupDetector:
+class PeakGroupDetector(StepDetector):
     literal: bool = True
     a_filter_g: float = 1.2
     local_peaks_step_s: float = 0.15
     local_distance_peaks_s: float = 0.3
     resample_hz: float = 100.0
     lowpass_hz: float = 5.0
-
-    name = "peak_group"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         if self.literal:

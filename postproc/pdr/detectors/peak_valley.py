@@ -23,11 +23,12 @@ Quirk kept in literal mode: steps faster than ~2 steps/s are under-counted (a pr
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from bootnav.postproc.pdr.detectors._axes import to_unit, vertical_and_horizontal
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -54,8 +55,9 @@ def wrap_heading_average(values: list[float], normalize: bool = False) -> float:
     return m % 360.0 if normalize else m
 
 
+@register("peak_valley")
 @dataclass
-class PeakValleyDetector:
+class PeakValleyDetector(StepDetector):
     literal: bool = True
     fs_hz: float = 20.0
     n_ma: int = 8
@@ -69,11 +71,6 @@ class PeakValleyDetector:
     max_buffer: int = 201
     drop_on_overflow: int = 50
     axes: str = ""  # "" -> "sensor" if literal else "gravity"
-
-    name = "peak_valley"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         tg, a = resample_uniform(t_s, acc_b, self.fs_hz)

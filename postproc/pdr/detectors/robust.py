@@ -52,10 +52,11 @@ phone turns with the thigh every stride).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import butter_filter, magnitude, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -129,8 +130,9 @@ def gravity_turn_deg(acc: np.ndarray, fs: float, lowpass_hz: float, half_window_
     return np.degrees(np.arccos(np.clip(np.sum(gp[:-2 * n] * gp[2 * n:], axis=1), -1.0, 1.0)))
 
 
+@register("robust")
 @dataclass
-class RobustDetector:
+class RobustDetector(StepDetector):
     """Engineered default detector (equations in the module docstring; every value engineered).
 
     Parameters
@@ -226,11 +228,6 @@ class RobustDetector:
     handling_lowpass_hz: float = 0.5
     handling_half_window_s: float = 0.5
     handling_salience: float = -0.5
-
-    name = "robust"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def _first_pass(self, tp, prom, R):
         ok = (prom >= self.first_pass_rel_prominence * R) & (R >= self.ref_floor_mps2)

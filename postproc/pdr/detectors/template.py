@@ -15,10 +15,11 @@ a minimum peak height of 0.5 m/s^2 (standing still gives no steps).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import butter_filter, magnitude, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
@@ -51,8 +52,9 @@ def step_period_samples(x: np.ndarray, fs: float, lo_s: float = 0.3, hi_s: float
     return lo + int(np.argmax(r[lo:hi]))
 
 
+@register("template")
 @dataclass
-class TemplateDetector:
+class TemplateDetector(StepDetector):
     fs_hz: float = 50.0
     block_s: float = 10.0
     lowpass_hz: float = 20.0
@@ -61,11 +63,6 @@ class TemplateDetector:
     refresh_below: float = 0.55
     min_interval_s: float = 0.25
     min_peak_mps2: float = 0.5
-
-    name = "template"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         from scipy import signal

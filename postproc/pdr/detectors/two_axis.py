@@ -19,17 +19,19 @@ about +50 % contacts). ``literal=False`` keeps only the larger of two intervals 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from bootnav.core.runs import runs
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import butter_filter, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
 
+@register("two_axis")
 @dataclass
-class TwoAxisFootDetector:
+class TwoAxisFootDetector(StepDetector):
     fs_hz: float = 100.0
     axes: tuple = (0, 2)
     band_hz: tuple = (0.5, 8.0)
@@ -37,11 +39,6 @@ class TwoAxisFootDetector:
     threshold_fraction: float = 0.25
     literal: bool = True
     min_interval_s: float = 0.6
-
-    name = "two_axis"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         from scipy import signal

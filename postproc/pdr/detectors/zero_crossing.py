@@ -12,17 +12,19 @@ uses the sensor z axis (belt mount); ``literal=False`` the gravity-projected ver
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from bootnav.postproc.pdr.detectors._axes import to_unit, vertical_and_horizontal
+from bootnav.postproc.pdr.detectors.base import StepDetector, register
 from bootnav.postproc.pdr.signals import causal_moving_average, centered_moving_average, resample_uniform
 from bootnav.postproc.pdr.steps import StepEvents
 
 
+@register("zero_crossing")
 @dataclass
-class ZeroCrossingDetector:
+class ZeroCrossingDetector(StepDetector):
     literal: bool = True
     fs_hz: float = 20.0
     n_ma: int = 8
@@ -30,11 +32,6 @@ class ZeroCrossingDetector:
     min_interval_s: float = 0.25
     min_range: float = 0.20
     acc_unit: str = "g"
-
-    name = "zero_crossing"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def detect(self, t_s, acc_b) -> StepEvents:
         tg, a = resample_uniform(t_s, acc_b, self.fs_hz)

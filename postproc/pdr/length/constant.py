@@ -6,20 +6,18 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.length.base import StepLengthModel, register
 
+
+@register("footpath")
 @dataclass
-class FootPathLength:
+class FootPathLength(StepLengthModel):
     height_m: float = 1.83
     k: float = 0.415
-
-    name = "footpath"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def estimate(self, feat) -> np.ndarray:
         return np.full(len(feat), self.k * self.height_m)
@@ -30,14 +28,10 @@ class FootPathLength:
         return self
 
 
+@register("constant")
 @dataclass
-class ConstantLength:
+class ConstantLength(StepLengthModel):
     length_m: float = 0.5
-
-    name = "constant"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def estimate(self, feat) -> np.ndarray:
         return np.full(len(feat), self.length_m)

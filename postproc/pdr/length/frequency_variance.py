@@ -9,22 +9,20 @@ Quirk: eq. 5 is a standard deviation, but beta's printed unit (s^4/m) needs a va
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.length.base import StepLengthModel, register
 
+
+@register("frequency_variance")
 @dataclass
-class FrequencyVarianceLength:
+class FrequencyVarianceLength(StepLengthModel):
     alpha: float = 0.2
     beta: float = 0.01
     gamma: float = 0.22
     v_mode: str = "std"
-
-    name = "frequency_variance"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def estimate(self, feat) -> np.ndarray:
         v = feat.mag_std_mps2 if self.v_mode == "std" else feat.mag_var

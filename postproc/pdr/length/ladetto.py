@@ -9,21 +9,19 @@ A, B, C come from linear least squares (``fit``). The thesis gives no values; th
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.length.base import StepLengthModel, register
 
+
+@register("ladetto")
 @dataclass
-class LadettoLength:
+class LadettoLength(StepLengthModel):
     a: float = 0.22
     b: float = 0.2
     c: float = 0.01
-
-    name = "ladetto"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def estimate(self, feat) -> np.ndarray:
         return self.a + self.b * feat.freq_hz + self.c * feat.mag_var

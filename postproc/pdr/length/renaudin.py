@@ -6,22 +6,20 @@ f = 1 / step duration (the Turkish paper does not say; Renaudin used an STFT) [e
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.length.base import StepLengthModel, register
 
+
+@register("renaudin")
 @dataclass
-class RenaudinLength:
+class RenaudinLength(StepLengthModel):
     height_m: float = 1.83
     a: float = 0.13
     b: float = 0.13
     c: float = 0.1
-
-    name = "renaudin"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def estimate(self, feat) -> np.ndarray:
         return self.height_m * (self.a * np.asarray(feat.freq_hz) + self.b) + self.c

@@ -10,10 +10,11 @@ K ~ 0.55 (``K_TEXT``); Table 5.2.1 per-user values 0.50 / 0.55 / 0.57 (``K_TABLE
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.postproc.pdr.length.base import StepLengthModel, register
 from bootnav.postproc.pdr.signals import G0
 
 K_CODE = 0.95
@@ -26,15 +27,11 @@ def weinberg(delta_a, k: float = K_CODE) -> np.ndarray:
     return k * np.power(np.maximum(np.asarray(delta_a, float), 0.0), 0.25)
 
 
+@register("weinberg")
 @dataclass
-class WeinbergLength:
+class WeinbergLength(StepLengthModel):
     k: float = K_CODE
     acc_unit: str = "g"
-
-    name = "weinberg"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
     def estimate(self, feat) -> np.ndarray:
         d = feat.vert_range_mps2 / (G0 if self.acc_unit == "g" else 1.0)

@@ -1,4 +1,5 @@
-"""Reference paths and the paper's Table 1 metrics (distance, deviation and height error).
+"""Reference paths and the paper's Table 1 metrics (distance, deviation and height error). (The filter's
+reference *engine*, the filterpy loop, is another idea: ``ins.filterpy_engine``.)
 
 The paper [Heidari2019, §4.2, Table 1] reports "deviation", "distance" and "height" errors in % for a 9 m
 straight walk and an 11 m stair path but never defines them. bootnav fixes these

@@ -1,5 +1,7 @@
 """PDR accuracy on the developer datasets (lower-back and phone trials), for benchmarks/pdr_table.py.
 
+In ``evaluate`` (not ``pdr``): evaluation uses PDR, PDR never uses evaluation (one-way packages).
+
 Scoring is ``bootnav eval``'s, not a copy: a trial's steps come from
 ``bootnav.postproc.evaluate.runner.estimate_pdr`` and its METRICS.md metrics from ``runner.score_pdr``
 (definitions and empty cases: ``bootnav.postproc.evaluate.metrics``). This module adds the dataset walk

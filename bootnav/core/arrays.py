@@ -1,5 +1,5 @@
-"""Shared helpers of the stance detectors: sample rate, windows in seconds, centred moving means,
-saturation / clipping masks. Vectorised with scipy.ndimage (no per-sample Python loop); scipy is imported
+"""Array helpers of the processing stages (stance detectors, checks, calibration, self-tuning): IMU array
+shapes, windows in seconds, centred moving means, row norms and dots, saturation / clipping masks. Vectorised with scipy.ndimage (no per-sample Python loop); scipy is imported
 where it is used, so that importing the detector registry stays light (``bootnav process --help``)."""
 
 from __future__ import annotations

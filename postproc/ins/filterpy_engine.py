@@ -1,4 +1,6 @@
-"""Reference engine: the ZUPT error-state filter as a textbook per-sample loop on filterpy's ``KalmanFilter``.
+"""Reference engine (``FilterSettings.engine = "reference"``): the ZUPT error-state filter as a textbook
+per-sample loop on filterpy's ``KalmanFilter``. (A reference *path* for the accuracy metrics is another idea:
+``postproc.reference_path``.)
 
 Transparent on purpose (slow: a Python loop): every step reads like the equations in ``filter.py``'s
 docstring, so the fast numba engine can be checked against it (tests/test_ins_engines.py: same trajectory to
@@ -285,13 +287,11 @@ class ReferenceNavigator:
         return NavRows(0, *(o[name] for name in _ROWS[:-1]), o["zupt"].copy(), o["zupt"])
 
 
-def run_reference(t_s, acc_b, gyro_b, stance, q0_nb, gyro_bias0_b, acc_bias0_b, settings, tb, P0, zupt_gain, prm,
-                  progress=None, extra_var=None):
+def run_reference(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None):
     """The filter as a per-sample loop (arguments and results as ``stream.run_fast``): the whole record
     pushed through a ``ReferenceNavigator`` in up to 10 chunks (one per progress report)."""
     N = t_s.shape[0]
-    nav = ReferenceNavigator(settings, FilterSetup(q0_nb, gyro_bias0_b, acc_bias0_b, P0, zupt_gain, prm, []),
-                             tb.nominal_dt_s)
+    nav = ReferenceNavigator(settings, setup, tb.nominal_dt_s)
     stance = np.asarray(stance, dtype=bool)
     bounds = np.linspace(0, N, (10 if progress is not None and N >= 10 else 1) + 1).astype(np.int64)
     t0 = time.perf_counter()
