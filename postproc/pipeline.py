@@ -295,7 +295,7 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
 def _check_units_chunked(f, imu, n: int, path) -> None:
     """The recording loader's unit check (``recording.check_recording_units``) on the first rows of a recording
     read block by block: acc in g or counts, gyro in deg/s refused as ``import`` and ``load`` refuse them."""
-    from bootnav.logger.recording import UNIT_CHECK_ROWS, Recording, _decode, check_recording_units, make_events
+    from bootnav.logger.recording import UNIT_CHECK_ROWS, Recording, check_recording_units, decode_attr, make_events
 
     k = min(n, UNIT_CHECK_ROWS)
 
@@ -304,7 +304,7 @@ def _check_units_chunked(f, imu, n: int, path) -> None:
         return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
             + float(ds.attrs.get("offset_to_si", 0.0))
 
-    meta = {key: _decode(v) for key, v in f["meta"].attrs.items()} if "meta" in f else {}
+    meta = {key: decode_attr(v) for key, v in f["meta"].attrs.items()} if "meta" in f else {}
     head = Recording(path=path, t_s=imu["t_s"][:k].astype(np.float64), acc_mps2=si("acc"), gyro_radps=si("gyro"),
                      saturated=np.zeros(k, np.uint8), events=make_events([]), meta=meta, attrs={})
     check_recording_units(head, path)
