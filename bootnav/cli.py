@@ -182,6 +182,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "pdr": ("bootnav.postproc.pdr.cli", "step-and-heading dead reckoning for waist/phone sensors"),
     "eval": ("bootnav.postproc.evaluate.cli", "accuracy and speed on the public datasets, with a report"),
     "live": ("bootnav.postproc.live.cli", "record boots and watch their paths live in the browser, or replay recordings"),
+    "calibrate": ("bootnav.postproc.sensorcal.cli", "per-boot sensor calibration from hand-held poses (file or guided live)"),
 }
 
 

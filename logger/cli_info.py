@@ -92,7 +92,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
             file_warnings.append("the datasets of /imu have different lengths (" + ", ".join(
                 f"{k} {v}" for k, v in lengths.items()) + f"): only the first {n} rows, common to all, are used; "
                 "a writer was killed or the file was edited")
-        file_warnings += _unit_warnings(imu, n)
+        unit_warnings = _unit_warnings(imu, n)
         events = g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE)
         meta = {k: decode_attr(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
         acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
@@ -162,6 +162,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         "start_utc": meta.get("start_utc", ""),
         "complete": "stop_reason" in meta or "rate_measured_hz" in meta,
         "data_warnings": file_warnings + _data_warnings(channels, n) + _cut_warnings(events),
+        "unit_warnings": unit_warnings,
         "gap_list": gaps[:100],
     }
     if boot is not None:  # the boot's place on the session clock (docs/recording-format.md)
@@ -314,7 +315,7 @@ def run(args) -> int:
             print("\n".join(lines))
         return 0
     print("\n".join(_lines(s)), file=sys.stdout)
-    for w in s["data_warnings"]:
+    for w in s["data_warnings"] + s.get("unit_warnings", []):
         print(f"bootnav info: warning: {w}", file=sys.stderr)
     return 0
 
@@ -349,7 +350,7 @@ def _lines(s: dict) -> list[str]:
         f"  saturation  {sat}",
         f"  events      {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}",
     ]
-    for w in s["data_warnings"]:
+    for w in s["data_warnings"] + s.get("unit_warnings", []):
         lines.append(f"  WARNING     {w}")
     if not s["complete"]:
         lines.append("  note        no final metadata: the writer did not close (crash or still recording)")

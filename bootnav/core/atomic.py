@@ -65,13 +65,15 @@ def fsync_path(path: str | Path) -> None:
 
 #: The open ``output_set`` blocks of this process, innermost last: their deferred (tmp, target) renames.
 _SETS: list[list[tuple[Path, Path]]] = []
+_SET_PID = [0]  # the process that opened them (a forked chart worker inherits the list, not the set)
 
 
 def commit(tmp: str | Path, target: str | Path) -> None:
     """fsync ``tmp``, rename it over ``target``, fsync the directory (at the end of an open ``output_set``)."""
     fsync_path(tmp)
     target = through_links(target)
-    if _SETS:  # staged under a name of the set's own: a caller's ``tmp.unlink`` cannot lose it
+    if _SETS and _SET_PID[0] == os.getpid():  # (a forked helper commits at once: the set is its parent's)
+        # staged under a name of the set's own: a caller's ``tmp.unlink`` cannot lose it
         staged = target.with_name(f".{target.name}.{os.getpid()}.set.tmp")
         os.replace(tmp, staged)
         pending = _SETS[-1]
@@ -96,6 +98,7 @@ def output_set(planned: Iterable[str | Path] = ()) -> Iterator[None]:
     existed = {p for p in planned if p.exists()}
     pending: list[tuple[Path, Path]] = []
     _SETS.append(pending)
+    _SET_PID[0] = os.getpid()
     try:
         yield
     except BaseException:

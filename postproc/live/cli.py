@@ -11,6 +11,7 @@ cleanly and writes ``DIR/live.json`` (the live strides of every boot and the set
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 
@@ -54,6 +55,9 @@ def _check(args) -> None:
 
     from bootnav.core.limits import check_range
 
+    for flag, value in (("--speed", args.speed), ("--no-motion-s", args.no_motion_s)):
+        if not (math.isfinite(value) and value > 0):
+            raise BootnavError(f"{flag} {value}: must be a positive number")
     check_range("--speed", args.speed, 0.0, 1000.0, "x real time", lo_open=True)
     check_range("--no-motion-s", args.no_motion_s, 0.0, 3600.0, "s", lo_open=True,
                 why="the PASS-device alarm time is 30 s")
