@@ -20,7 +20,7 @@ import traceback
 
 from bootnav.core.conventions import __version__
 from bootnav.core.progress import Progress  # noqa: F401  (bootnav.cli.Progress, as before)
-from bootnav.errors import BootnavError, InputError
+from bootnav.errors import BootnavError, InputError, UsageError
 
 #: Signals that stop a command like Ctrl-C: one clean line, temporary files removed, exit code 128 + signal number
 #: (Ctrl-C = SIGINT = 2 -> 130, SIGHUP = 1 -> 129, SIGTERM = 15 -> 143), as a shell reports a killed command.
@@ -186,33 +186,32 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _add_global_options(parser: argparse.ArgumentParser, *, top: bool) -> None:
-    """``--verbose``/``--quiet`` on the top parser and on every subcommand that lacks its own.
+def _common_options(top: bool) -> argparse.ArgumentParser:
+    """The parent parser of the top parser and of every subcommand: ``-q/--quiet`` and ``--verbose``.
 
-    Subcommand copies default to SUPPRESS so they never overwrite a flag given before the subcommand.
+    Subcommand copies default to SUPPRESS so they never overwrite a flag given before the subcommand
+    (``bootnav -q info X`` and ``bootnav info -q X`` are the same).
     """
+    parent = argparse.ArgumentParser(add_help=False)
     default = False if top else argparse.SUPPRESS
-    have = parser._option_string_actions
-    if "--verbose" not in have:
-        parser.add_argument("--verbose", action="store_true", default=default,
-                            help="show the Python traceback of an unexpected error")
-    if "--quiet" not in have:
-        parser.add_argument("--quiet", action="store_true", default=default,
-                            help="print only results and errors (no progress)")
+    parent.add_argument("--verbose", action="store_true", default=default,
+                        help="show the Python traceback of an unexpected error")
+    parent.add_argument("-q", "--quiet", action="store_true", default=default,
+                        help="print only results and errors (no progress or status lines)")
+    return parent
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="bootnav",
+        prog="bootnav", parents=[_common_options(top=True)],
         description="Indoor path of a pedestrian from an inertial sensor on the boot: record or import the "
                     "sensor data, check it, and reconstruct the 3-D path. `bootnav COMMAND --help` for each command.",
         epilog="Exit status: 0 ok, 1 error (one line on stderr; --verbose adds the traceback of an unexpected "
                "one), 2 usage, 128+N stopped by signal N (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP), 141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"bootnav {__version__}")
-    _add_global_options(parser, top=True)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module_name, help_text) in SUBCOMMANDS.items():
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        p = sub.add_parser(name, help=help_text, description=help_text, parents=[_common_options(top=False)])
         p.set_defaults(_module=module_name)
         try:
             module = importlib.import_module(module_name)
@@ -222,7 +221,6 @@ def build_parser() -> argparse.ArgumentParser:
                 continue
             raise
         module.add_arguments(p)
-        _add_global_options(p, top=False)
     return parser
 
 
@@ -272,7 +270,7 @@ def _main(raw: list[str]) -> int:
     args = parser.parse_args(raw)
     # a global flag given before the subcommand is seen by subcommands defining their own copy too
     args.verbose = bool(getattr(args, "verbose", False) or "--verbose" in raw)
-    args.quiet = bool(getattr(args, "quiet", False) or "--quiet" in raw)
+    args.quiet = bool(getattr(args, "quiet", False) or "--quiet" in raw or "-q" in raw)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
@@ -296,6 +294,9 @@ def _main(raw: list[str]) -> int:
     except BrokenPipeError:
         _silence_stdout()
         return 141
+    except UsageError as exc:
+        _fail(prefix, str(exc), args.verbose)
+        return 2
     except BootnavError as exc:
         return _fail(prefix, str(exc), args.verbose)
     except OSError as exc:

@@ -25,7 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--corrupt-kinds", default="bitflip,garbage,drop",
                         help="comma-separated subset of bitflip,garbage,drop (default: all)")
     parser.add_argument("--disconnect-at", type=float, default=None, metavar="S",
-                        help="close the port S seconds into the stream and recreate it after --disconnect-pause")
+                        help="close the port S seconds into the stream and recreate it after --disconnect-pause "
+                             "(default: none)")
     parser.add_argument("--disconnect-pause", type=float, default=1.0, metavar="S",
                         help="how long the port stays away (default 1 s)")
     parser.add_argument("--restart-on-reconnect", action="store_true",
@@ -40,22 +41,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--write-timeout", type=float, default=5.0, metavar="S",
                         help="give up if the host reads nothing for S seconds (default 5)")
     parser.add_argument("--linger", type=float, default=1.0, metavar="S",
-                        help="keep the port open S seconds after the last frame")
+                        help="keep the port open S seconds after the last frame (default 1 s)")
     parser.add_argument("--clock-ppm", default=None, metavar="PPM[,PPM]",
                         help="rate error of each device clock in ppm (default 0; two boots: -40,60)")
     parser.add_argument("--start-delay", default=None, metavar="S[,S]",
                         help="each device starts streaming S s after its host connects (default 0; two boots: 0,0.25)")
-    parser.add_argument("--seq0", type=int, default=0, help="first sequence number (0..65535)")
-    parser.add_argument("--t0-us", type=int, default=0, help="first device time in µs (0..2**32-1); a second boot's "
-                        "clock starts 123456789 µs later")
+    parser.add_argument("--seq0", type=int, default=0, help="first sequence number, a count 0..65535 (default 0)")
+    parser.add_argument("--t0-us", type=int, default=0, help="first device time in µs (0..2**32-1; default 0); a second "
+                        "boot's clock starts 123456789 µs later")
     parser.add_argument("--accel-fs", type=int, choices=range(4), default=3,
                         help="AFS_SEL code of the synthetic signal (default 3 = ±16 g; a --source file declares its own)")
     parser.add_argument("--gyro-fs", type=int, choices=range(4), default=3,
                         help="FS_SEL code of the synthetic signal (default 3 = ±2000 °/s; a --source file declares its own)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic signal and the fault plan")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic signal and the fault plan (default 0)")
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="write what was sent (frames_sent, frames_corrupted, valid_seqs, ...)")
-    parser.add_argument("--quiet", action="store_true")
 
 
 def check_link_free(link: str, source: str | None = None) -> None:

@@ -22,26 +22,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="two files: 'timestamps' = their own time columns share one clock (default when both "
                              "have one), 'start' = both first samples at session time 0")
     parser.add_argument("--offset-s", type=float, default=None, metavar="S",
-                        help="two files: FILE2's first sample at S seconds of FILE's clock (may be negative)")
+                        help="two files: FILE2's first sample at S seconds of FILE's clock (may be negative; default: "
+                             "aligned by the files' own timestamps)")
     parser.add_argument("--out", type=Path, help="output recording (default: FILE's name with .h5, in the cwd)")
     parser.add_argument("--profile", help="shipped profile NAME or a FILE.toml (default: auto-detect); "
                         "'--profile list' shows the shipped ones")
     parser.add_argument("--columns", help="column roles in file order, e.g. t,gx,gy,gz,ax,ay,az ('-' skips), "
                         "or role=NAME|INDEX pairs, e.g. 't=Time (s),ax=1'")
-    parser.add_argument("--acc-unit", choices=("g", "mps2", "counts"))
-    parser.add_argument("--gyro-unit", choices=("dps", "radps", "counts"))
-    parser.add_argument("--time-unit", choices=("s", "ms", "us"))
-    parser.add_argument("--acc-range", type=float, metavar="G", help="accelerometer full scale, +-G")
-    parser.add_argument("--gyro-range", type=float, metavar="DPS", help="gyro full scale, +-deg/s")
-    parser.add_argument("--rate", type=float, metavar="HZ", help="nominal sample rate (required without a time column)")
+    parser.add_argument("--acc-unit", choices=("g", "mps2", "counts"),
+                        help="accelerometer unit of the file: %(choices)s (default: from the header or profile, else "
+                             "from the gravity magnitude at rest)")
+    parser.add_argument("--gyro-unit", choices=("dps", "radps", "counts"),
+                        help="gyroscope unit of the file: %(choices)s (default: from the header or profile)")
+    parser.add_argument("--time-unit", choices=("s", "ms", "us"),
+                        help="unit of the time column: %(choices)s (default: from the header or profile, else "
+                             "guessed from the median time step)")
+    parser.add_argument("--acc-range", type=float, metavar="G", help="accelerometer full scale, ±G in g (default: from the file name or profile; "
+                                                              "none: no saturation flags)")
+    parser.add_argument("--gyro-range", type=float, metavar="DPS", help="gyro full scale, ±DPS in deg/s (default: from the file name or profile; none: "
+                                                              "no saturation flags)")
+    parser.add_argument("--rate", type=float, metavar="HZ", help="nominal sample rate, Hz (required without a time column; "
+                                                             "default: measured from the time column)")
     parser.add_argument("--mount", help="where the sensor was worn: left_boot, right_boot, lower_back, phone_hand, ...")
-    parser.add_argument("--sensor", type=int, help="which IMU of a multi-IMU file (e.g. IEZ: 1 or 2)")
+    parser.add_argument("--sensor", type=int, help="which IMU of a multi-IMU file, a number (e.g. IEZ: 1 or 2; default: "
+                                                             "the profile's first)")
     parser.add_argument("--delimiter", help="force the delimiter: ',' ';' 'tab' 'whitespace'")
     parser.add_argument("--no-unit-check", "--trust-units", action="store_true", dest="no_unit_check",
                         help="trust the declared units: record a failed gravity/gyro unit check as a note (and in "
                              "/meta unit_check) instead of an error")
     parser.add_argument("--force", action="store_true", help="replace --out if it is an existing HDF5 file")
-    parser.add_argument("--quiet", action="store_true", help="print only errors")
 
 
 def check_out(src: Path, out: Path, force: bool) -> None:

@@ -153,7 +153,8 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         "saturated_any": int(sat_hist[1:].sum()),
         "accel_range_g": range_of("accel_range_g", acc_attrs, "g"),
         "gyro_range_dps": range_of("gyro_range_dps", gyro_attrs, "dps"),
-        "raw_units": {"acc": _text(acc_attrs.get("units")), "gyro": _text(gyro_attrs.get("units"))},
+        "raw_units": {"acc": _text(acc_attrs.get("raw_units", acc_attrs.get("units"))),  # format 1: `units` was raw
+                      "gyro": _text(gyro_attrs.get("raw_units", gyro_attrs.get("units")))},
         "events": count_of,
         "device": meta.get("device", ""),
         "device_id": meta.get("device_id", ""),

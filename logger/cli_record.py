@@ -26,15 +26,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, default=None, metavar="S",
                         help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
     parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
-                        help="write to disk at least this often; a crash loses at most this much (default 0.5)")
+                        help="write to disk at least every S s; a crash loses at most this much (default 0.5 s)")
     parser.add_argument("--header-wait", type=float, default=1.5, metavar="S",
-                        help="wait this long for the sensor's header frame before assuming ±16 g / ±2000 °/s")
+                        help="wait S s for the sensor's header frame before assuming ±16 g / ±2000 °/s (default 1.5 s)")
     parser.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
-                        help="give up if the port cannot be opened at start within S seconds")
+                        help="give up if the port cannot be opened at start within S seconds (default 10 s)")
     parser.add_argument("--mount", default="", help="where the sensor sits, e.g. left_boot, right_boot (one port)")
-    parser.add_argument("--subject", default="")
+    parser.add_argument("--subject", default="", help="who wears the boot (a name or code), stored in /meta")
     parser.add_argument("--notes", default="", help="free-text session notes stored in /meta")
-    parser.add_argument("--quiet", action="store_true", help="no live status line")
 
 
 #: The firmware's output rate (firmware-protocol/PROTOCOL.md: 1 kHz / (1 + SMPLRT_DIV 4)), for the space estimate.

@@ -117,6 +117,7 @@ class SourceSignal:
     gyro_fs: int
     seq: np.ndarray | None = None  # (N,) u16 as recorded, for --replay-timing
     t_device: np.ndarray | None = None  # (N,) u32 µs as recorded, for --replay-timing
+    device_id: int | None = None  # the recording's board id (meta ``device_id``), sent in the header frames
 
 
 def synthetic_signal(duration_s: float, rate_hz: float, accel_fs: int = 3, gyro_fs: int = 3,
@@ -170,7 +171,16 @@ def load_source(path, accel_fs: int | None = None, gyro_fs: int | None = None, b
         temp = _quantise(rec.temp_degc - mpu6050.TEMP_OFFSET_DEGC, 1 / mpu6050.TEMP_LSB_PER_DEGC)
     else:
         temp = np.full(rec.n, int(round((25.0 - mpu6050.TEMP_OFFSET_DEGC) * mpu6050.TEMP_LSB_PER_DEGC)), np.int16)
-    return SourceSignal(acc, gyro, temp, rate, a_fs, g_fs, rec.seq, rec.t_device)
+    return SourceSignal(acc, gyro, temp, rate, a_fs, g_fs, rec.seq, rec.t_device, _device_id(meta.get("device_id")))
+
+
+def _device_id(value) -> int | None:
+    """The recorded board id (``"0x%08X"`` as the recorder stores it, or an int) as an int, None if absent."""
+    try:
+        v = int(value, 0) if isinstance(value, str) else int(value)
+    except (TypeError, ValueError):
+        return None
+    return v if 0 <= v < 2**32 else None
 
 
 def _code(value, to_code, default):
@@ -298,7 +308,8 @@ class Emulator:
         # SMPLRT_DIV for the nominal rate with DLPF on (1 kHz gyro output rate).
         div = int(np.clip(round(1000.0 / self.rate_hz - 1), 0, 255))
         return HeaderFrame(next_seq & 0xFFFF, t_us & 0xFFFFFFFF, self.accel_fs, self.gyro_fs,
-                           self.settings.dlpf, div, self.settings.fw_version, 0b10, self.settings.device_id)
+                           self.settings.dlpf, div, self.settings.fw_version, 0b10,
+                           self.signal.device_id if self.signal.device_id is not None else self.settings.device_id)
 
     def _counters(self, idx: np.ndarray, period_us: float) -> tuple[np.ndarray, np.ndarray]:
         """(seq, t_us) of frames ``idx``: the source's own, or counted since the last device start."""

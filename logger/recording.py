@@ -67,6 +67,9 @@ EVENT_DTYPE = np.dtype(
 
 SATURATION_BITS = {"ax": 0, "ay": 1, "az": 2, "gx": 3, "gy": 4, "gz": 5}
 
+#: Name of the dimension (and its index coordinate) of every per-sample array in /imu and /results/NAME.
+SAMPLE_DIM = "sample"
+
 
 def make_events(rows: Iterable[Mapping[str, Any]]) -> np.ndarray:
     """Build an event table from dicts; missing fields get their 'not applicable' value."""
@@ -105,13 +108,33 @@ class Channel:
     dtype: str = "<f8"
 
     def attrs(self) -> dict:
+        """The dataset's attributes: CF packing (``scale_factor``, ``add_offset``, ``units`` of the unpacked SI
+        value: xarray, netCDF and MATLAB ``ncread`` return SI without bootnav) and, for readers of format 1,
+        ``scale_to_si``/``offset_to_si`` (the same figures) with the stored unit as ``raw_units``."""
         return {
-            "units": self.units,
+            "units": self.si_units,
+            "raw_units": self.units,
             "si_units": self.si_units,
-            "scale_to_si": float(self.scale_to_si),
-            "offset_to_si": float(self.offset_to_si),
+            **cf_scale(self.scale_to_si, self.offset_to_si),
             "full_scale": float(self.full_scale),
         }
+
+
+def cf_scale(scale_to_si: float, offset_to_si: float = 0.0) -> dict:
+    """The factor from stored to SI values under both names: ``scale_to_si``/``offset_to_si`` (bootnav's, format
+    1) and ``scale_factor``/``add_offset`` (CF: ``si = stored * scale_factor + add_offset``). Every writer of a
+    factor sets both through here, so they never disagree."""
+    return {"scale_to_si": float(scale_to_si), "offset_to_si": float(offset_to_si),
+            "scale_factor": float(scale_to_si), "add_offset": float(offset_to_si)}
+
+
+def label_scale(group, name: str, labels) -> "h5py.Dataset":
+    """A dimension scale of text labels (``axis``: x, y, z; ``q_component``: w, x, y, z) as UTF-8 strings, so
+    that xarray gives ``str`` coordinates (``.sel(axis="x")``), not bytes."""
+    ds = group.create_dataset(name, data=np.array([str(v) for v in labels], dtype=object),
+                              dtype=h5py.string_dtype("utf-8"))
+    ds.make_scale(name)
+    return ds
 
 
 def counts_channel(kind: str, scale_to_si: float) -> Channel:
@@ -284,16 +307,23 @@ class RecordingWriter:
         meta_group.attrs.setdefault("start_utc", _utc_now())
 
         imu = f.create_group("imu")
+        # the dimension of every per-sample array is the sample index (monotonic by construction); t_s, whose
+        # source clock may repeat a value, is a coordinate along it, named by CF's `coordinates` attribute
+        self._sample = imu.create_dataset(
+            SAMPLE_DIM, shape=(0,), maxshape=(None,), dtype="<i8", chunks=(chunk_rows,), **_COMPRESSION
+        )
+        self._sample.attrs["units"] = "1"
+        self._sample.attrs["description"] = "sample index (row number): the dimension of every per-sample array"
+        self._sample.make_scale(SAMPLE_DIM)
         self._t = imu.create_dataset(
             "t_s", shape=(0,), maxshape=(None,), dtype="<f8", chunks=(chunk_rows,), **_COMPRESSION
         )
         self._t.attrs["units"] = "s"
         self._t.attrs["description"] = "sample time since the first sample (device clock, unwrapped)"
-        self._t.make_scale("time")
-        axis = imu.create_dataset("axis", data=np.array([b"x", b"y", b"z"]))
-        axis.make_scale("axis")
+        self._t.dims[0].attach_scale(self._sample)
+        axis = label_scale(imu, "axis", "xyz")
 
-        self._arrays: dict[str, h5py.Dataset] = {"t_s": self._t}
+        self._arrays: dict[str, h5py.Dataset] = {SAMPLE_DIM: self._sample, "t_s": self._t}
         for name, channel in (("acc", acc), ("gyro", gyro)):
             ds = imu.create_dataset(
                 name,
@@ -304,7 +334,8 @@ class RecordingWriter:
                 **_COMPRESSION,
             )
             ds.attrs.update(channel.attrs())
-            ds.dims[0].attach_scale(self._t)
+            ds.attrs["coordinates"] = "t_s"
+            ds.dims[0].attach_scale(self._sample)
             ds.dims[1].attach_scale(axis)
             self._arrays[name] = ds
         optional = {
@@ -320,14 +351,16 @@ class RecordingWriter:
                 name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(chunk_rows,), **_COMPRESSION
             )
             ds.attrs.update(attrs)
-            ds.dims[0].attach_scale(self._t)
+            ds.attrs["coordinates"] = "t_s"
+            ds.dims[0].attach_scale(self._sample)
             self._arrays[name] = ds
         sat = imu.create_dataset(
             "saturated", shape=(0,), maxshape=(None,), dtype="u1", chunks=(chunk_rows,), **_COMPRESSION
         )
         sat.attrs["units"] = "bitmask"
         sat.attrs["description"] = "bit 0-2 acc x/y/z, bit 3-5 gyro x/y/z at full scale"
-        sat.dims[0].attach_scale(self._t)
+        sat.attrs["coordinates"] = "t_s"
+        sat.dims[0].attach_scale(self._sample)
         self._arrays["saturated"] = sat
 
         self._events = f.create_dataset(
@@ -363,6 +396,7 @@ class RecordingWriter:
         if saturated is None:
             saturated = np.zeros(n_new, dtype=np.uint8)
         block["saturated"] = np.asarray(saturated, dtype=np.uint8)
+        block[SAMPLE_DIM] = np.arange(self.n, self.n + n_new, dtype=np.int64)
         for name, value in optional.items():
             if value is None:
                 continue
@@ -718,6 +752,17 @@ class Recording:
     def events_of(self, kind: str) -> np.ndarray:
         return self.events[self.events["kind"] == kind.encode()]
 
+    def __repr__(self) -> str:
+        """One line (a notebook prints it): source, samples, duration, rate, what else it holds."""
+        n = self.n
+        dur = float(self.t_s[-1] - self.t_s[0]) if n > 1 else 0.0
+        rate = f", {self.rate_hz:.1f} Hz" if n > 2 else ""
+        extra = [name for name, v in (("temp", self.temp_degc), ("truth", self.truth)) if v is not None]
+        n_sat = int(np.count_nonzero(self.saturated)) if self.saturated is not None else 0
+        return (f"Recording({self.path.name if self.path else self.meta.get('source_file', 'arrays')!r}, {n} samples, "
+                f"{dur:.1f} s{rate}, {len(self.events)} events, {n_sat} saturated"
+                + (f", {'+'.join(extra)}" if extra else "") + ")")
+
 
 def _open_for_read(path: Path) -> h5py.File:
     """Open read-only; a file left with SWMR/consistency flags (writer running or killed) in SWMR mode.
@@ -954,6 +999,7 @@ def recording_group(path: str | os.PathLike, boot: str | None = None):
         raise InputError(f"{path}: is a directory, expected a recording file")
     regular_input(path, "recording")  # a FIFO would block forever
     with _open_for_read(path) as f:
+        _missing_recording(f, path)
         labels = _boots_attr(f, path)
         if labels and boot is None:
             raise InputError(f"{path}: a multi-boot recording (boots {', '.join(labels)}); read one boot with "
@@ -971,6 +1017,66 @@ def recording_group(path: str | os.PathLike, boot: str | None = None):
             text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
                 from exc
+
+
+def file_sha256(path: str | os.PathLike, block: int = 1 << 22) -> str:
+    """SHA-256 of a file's bytes, read in 4 MB blocks (memory flat in the file's size)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while chunk := fh.read(block):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def start_results_file(path: str | os.PathLike, recording: str | os.PathLike, final_dir: str | os.PathLike) -> None:
+    """Create a results file (``results.h5``) that refers to its recording instead of copying it.
+
+    The new file holds the recording's root attributes, an HDF5 external link per top-level member of the
+    recording (``/imu``, ``/events``, ``/meta``, ``/truth``, ``/boots``, ...; ``/results`` is left out: the caller
+    adds its own) and the reference as root attributes: ``recording_file`` (path relative to ``final_dir``, the
+    directory the file ends up in: HDF5 resolves an external link relative to the file holding it),
+    ``recording_file_absolute`` and ``recording_sha256`` (the recording's bytes when the results were written).
+    ``load`` reads such a file as it reads the recording while the recording is where the link says; when it is
+    not, ``load`` names the recording to put back. Results files of earlier releases (a whole copy of the
+    recording) stay readable.
+
+    Parameters
+    ----------
+    path
+        The file to create (normally a temporary name beside the final one).
+    recording
+        The HDF5 recording the results were computed from.
+    final_dir
+        The directory the results file is committed to.
+    """
+    recording = Path(recording).resolve()
+    rel = os.path.relpath(recording, Path(final_dir).resolve())
+    with h5py.File(recording, "r") as src, h5py.File(path, "w", libver=LIBVER) as f:
+        for key, value in src.attrs.items():
+            f.attrs[key] = value
+        f.attrs["created_utc"] = _utc_now()
+        f.attrs["recording_file"] = rel
+        f.attrs["recording_file_absolute"] = str(recording)
+        f.attrs["recording_sha256"] = file_sha256(recording)
+        f.attrs["content"] = "results of the linked recording (HDF5 external links to its groups)"
+        for name in src:
+            if name != "results":
+                f[name] = h5py.ExternalLink(rel, f"/{name}")
+
+
+def _missing_recording(f: h5py.File, path: Path) -> None:
+    """A results file whose linked recording is not found: say which file to put back (``start_results_file``)."""
+    if "recording_file" not in f.attrs:
+        return
+    try:
+        for name in f:
+            f[name]  # noqa: B018 - an external link is only followed when opened
+    except KeyError:
+        raise InputError(f"{path}: the recording these results refer to is not found: {_decode(f.attrs['recording_file'])}"
+                         f" (relative to {path.parent}; sha256 {_decode(f.attrs.get('recording_sha256', '?'))}); "
+                         "put it back there, or read the results alone with h5py (/results)") from None
 
 
 def _read(f: h5py.File, path: Path, with_truth: bool, g: h5py.Group | None = None) -> Recording:
@@ -1032,16 +1138,18 @@ def write_group(path, group: str, arrays: Mapping[str, Any], attrs: Mapping[str,
             ds.attrs["units"] = units.get(key, "1")
 
 
-_AXIS_LABELS = {3: ("axis", (b"x", b"y", b"z")), 4: ("q_component", (b"w", b"x", b"y", b"z"))}
+_AXIS_LABELS = {3: ("axis", "xyz"), 4: ("q_component", "wxyz")}
 
 
-def attach_dimension_scales(path, group: str, time_key: str = "t_s") -> None:
+def attach_dimension_scales(path, group: str, time_key: str = "t_s", dim: str = SAMPLE_DIM) -> None:
     """Name the dimensions of a group's arrays with HDF5 dimension scales, as ``/imu`` does.
 
-    ``group[time_key]`` becomes the scale of the first dimension of every array with as many rows; a second
-    dimension of 3 gets an ``axis`` (x, y, z) scale, of 4 a ``q_component`` (w, x, y, z) scale, created in the
-    group when needed. netCDF-4 readers (xarray with h5netcdf, MATLAB ``ncread``) then see named dimensions
-    and coordinates instead of anonymous ones.
+    A monotonic index ``group/dim`` (0, 1, ...: the row number) becomes the scale of the first dimension of every
+    array with as many rows as ``group[time_key]``, which is named as their coordinate (CF ``coordinates``): a
+    clock that repeats a value cannot be an index, a row number always can. A second dimension of 3 gets an
+    ``axis`` (x, y, z) scale, of 4 a ``q_component`` (w, x, y, z) scale (UTF-8 strings), created in the group
+    when needed. netCDF-4 readers (xarray with h5netcdf, MATLAB ``ncread``) then see named dimensions and
+    coordinates instead of anonymous ones.
 
     Parameters
     ----------
@@ -1051,17 +1159,25 @@ def attach_dimension_scales(path, group: str, time_key: str = "t_s") -> None:
         The group holding ``time_key`` and the arrays, e.g. ``/results/default``.
     time_key
         The 1-D time array of the group.
+    dim
+        Name of the row dimension (``sample``; ``stride`` for a table of strides).
     """
     with h5py.File(path, "r+", libver=LIBVER) as f:
         g = f[group]
-        t = g[time_key]
-        t.make_scale(time_key)
+        n = g[time_key].shape[0]
+        if dim in g:
+            del g[dim]
+        index = g.create_dataset(dim, data=np.arange(n, dtype=np.int64), **(_COMPRESSION if n > 1024 else {}))
+        index.attrs["units"] = "1"
+        index.make_scale(dim)
         for name, ds in list(g.items()):
-            if not isinstance(ds, h5py.Dataset) or ds.is_scale or ds.ndim == 0 or ds.shape[0] != t.shape[0]:
+            if not isinstance(ds, h5py.Dataset) or ds.is_scale or ds.ndim == 0 or ds.shape[0] != n:
                 continue
-            ds.dims[0].attach_scale(t)
+            ds.dims[0].attach_scale(index)
+            if name != time_key:
+                ds.attrs["coordinates"] = time_key
             if ds.ndim == 2 and ds.shape[1] in _AXIS_LABELS:
                 scale_name, labels = _AXIS_LABELS[ds.shape[1]]
                 if scale_name not in g:
-                    g.create_dataset(scale_name, data=np.array(labels)).make_scale(scale_name)
+                    label_scale(g, scale_name, labels)
                 ds.dims[1].attach_scale(g[scale_name])

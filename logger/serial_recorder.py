@@ -34,7 +34,7 @@ from bootnav.core.timebase import StreamClock, timing_summary
 from bootnav.errors import BootnavError, DiskFullError
 from bootnav.logger import mpu6050
 from bootnav.logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
-from bootnav.logger.recording import LIBVER, RecordingWriter, counts_channel, make_events
+from bootnav.logger.recording import LIBVER, RecordingWriter, cf_scale, counts_channel, make_events
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS = 3, 3  # ±16 g, ±2000 °/s: what a boot needs (see PROTOCOL.md)
@@ -480,8 +480,8 @@ class SerialRecorder:
         import h5py
 
         with h5py.File(self.s.out, "r+", libver=LIBVER) as f:
-            f[f"{group}imu/acc"].attrs["scale_to_si"] = mpu6050.accel_scale_mps2(h.accel_fs)
-            f[f"{group}imu/gyro"].attrs["scale_to_si"] = mpu6050.gyro_scale_radps(h.gyro_fs)
+            f[f"{group}imu/acc"].attrs.update(cf_scale(mpu6050.accel_scale_mps2(h.accel_fs)))
+            f[f"{group}imu/gyro"].attrs.update(cf_scale(mpu6050.gyro_scale_radps(h.gyro_fs)))
 
     @staticmethod
     def _header_meta(h: HeaderFrame) -> dict:

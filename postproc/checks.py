@@ -124,9 +124,13 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
     big = np.flatnonzero(dt > checks.max_gap_s)
     if len(big):
         i = int(big[0])
+        # suggest only the sides long enough to process (never a zero-length crop)
+        sides = [f"--crop {a:.3f} {b:.3f}" for a, b in ((t_s[0], t_s[i]), (t_s[i + 1], t_s[-1]))
+                 if b - a >= checks.min_duration_s]
+        how = (f"process {'each side' if len(sides) == 2 else 'the part after or before it'} with "
+               + " / ".join(sides) if sides else "neither side is long enough to process; are the times in seconds?")
         raise InputError(f"{name}: sample {i + 1 + offset}: gap of {dt[i]:.3f} s at t = {t_s[i]:.3f} s "
-                         f"(> {checks.max_gap_s:g} s cannot be bridged by integration); process each side "
-                         f"with --crop {t_s[0]:.3f} {t_s[i]:.3f} / --crop {t_s[i + 1]:.3f} {t_s[-1]:.3f}")
+                         f"(> {checks.max_gap_s:g} s cannot be bridged by integration); {how}")
     gaps = np.flatnonzero(gap_mask(dt, med))
     if len(gaps):
         warnings.append(f"{len(gaps)} gaps longer than {GAP_FACTOR:g} x the median interval "

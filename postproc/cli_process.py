@@ -78,7 +78,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
     p.add_argument("--chunk-s", type=float, metavar="S",
                    help="read and process an HDF5 recording in chunks of S seconds: memory bounded for recordings "
-                        "of many hours, the same path and charts; no stance fallback (pipeline.process_chunked)")
+                        "of many hours, the same path and charts; no stance fallback (pipeline.process_chunked; "
+                        "default: none, or 600 s when --memory-limit would be exceeded)")
     p.add_argument("--memory-limit", type=float, metavar="MB",
                    help="memory the whole-array run may use (default: half of the available memory); a recording "
                         "that would need more is processed in chunks of 600 s, as with --chunk-s 600")
@@ -89,22 +90,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="stance detector: %(choices)s (default: adaptive; --list-detectors describes them)")
     g.add_argument("--list-detectors", action=_ListDetectors, help="list the stance detectors and exit")
     g.add_argument("--threshold", type=float,
-                   help="threshold of a fixed-threshold detector in its statistic's units (shoe, ared, mv, mag, xio, "
-                        "paper_accmag, shoe-literal); an error with the default adaptive detector, which reads its "
-                        "own threshold off the recording")
+                   help="threshold of a fixed-threshold detector in its statistic's units, dimensionless for shoe "
+                        "(shoe, ared, mv, mag, xio, paper_accmag, shoe-literal; default: the detector's own); an "
+                        "error with the default adaptive detector, which reads its own threshold off the recording")
     g.add_argument("--mode", choices=("time_varying", "riccati"),
                    help="filter gain: time_varying (Kalman, default) or riccati (the paper's steady-state gain)")
     g.add_argument("--states", type=int, choices=(9, 15), help="error states: 9 (position, velocity, attitude) or 15 (+ sensor biases); "
                         "default: FilterSettings.n_states")
     g.add_argument("--engine", choices=("fast", "reference"), help="fast (numba, default) or reference (filterpy)")
     g.add_argument("--no-smoother", action="store_true", help="forward filter only (no RTS smoothing)")
-    g.add_argument("--latitude", type=float, metavar="DEG", help="latitude for WGS-84 normal gravity")
-    g.add_argument("--height", type=float, metavar="M", help="ellipsoidal height for normal gravity")
-    g.add_argument("--gravity", type=float, metavar="MPS2", help="gravity in m/s^2 (overrides latitude/height)")
+    g.add_argument("--latitude", type=float, metavar="DEG", help="latitude for WGS-84 normal gravity, deg (default 45)")
+    g.add_argument("--height", type=float, metavar="M", help="ellipsoidal height for normal gravity, m (default 0)")
+    g.add_argument("--gravity", type=float, metavar="MPS2", help="gravity in m/s^2 (overrides latitude/height; default: WGS-84 "
+                                                                   "normal gravity there)")
     g.add_argument("--accel-calibration", metavar="FILE.json", help="accelerometer bias + 3x3 matrix (JSON)")
     w = p.add_argument_group("data and outputs")
-    w.add_argument("--crop", nargs=2, type=float, metavar=("T0", "T1"), help="process only T0..T1 seconds")
-    w.add_argument("--floor-height", type=float, metavar="M", help="storey height for floor counting (default 3)")
+    w.add_argument("--crop", nargs=2, type=float, metavar=("T0", "T1"), help="process only T0..T1 s of the recording's clock (default: all)")
+    w.add_argument("--floor-height", type=float, metavar="M", help="storey height for floor counting, m (default 3)")
     w.add_argument("--stair-min-dz", type=float, metavar="M",
                    help="floors are counted from stair strides only, |dz| >= M per stride (default 0.1 m): "
                         "immune to slow vertical drift, but a gentle ramp never counts")
@@ -120,7 +122,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     w.add_argument("--results-name", metavar="NAME", help="HDF5 results group /results/NAME (default 'default')")
     w.add_argument("--no-hdf5", action="store_true", help="do not write results.h5 (nor the results group)")
     w.add_argument("--no-plots", action="store_true", help="skip the PNG charts")
-    w.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     from bootnav.postproc.twoboots.cli import add_arguments as add_two_boot_arguments
 
     add_two_boot_arguments(p)
@@ -188,11 +189,12 @@ class StageProgress:
         Show nothing.
     """
 
-    def __init__(self, quiet: bool = False):
+    def __init__(self, quiet: bool = False, stream=None):
         from bootnav.core.progress import Progress
 
-        self.shown = Progress(quiet=quiet)
+        self.shown = Progress(stream, quiet=quiet)
         self.t0 = time.perf_counter()
+        self._compiling_said = False
 
     def __call__(self, stage: str, fraction: float) -> None:
         if fraction >= 1.0:  # a stage boundary always shows (a handful per run)
@@ -201,9 +203,13 @@ class StageProgress:
             self.shown.update(f"bootnav process: {stage} {100 * fraction:3.0f} %")
 
     def compiling(self) -> None:
-        """numba compiles kernels (a first run on this machine: the CSV writer's, then the filter's): say so,
-        it takes seconds."""
-        self.shown.update("bootnav process: compiling numerical kernels (first run only)", force=True)
+        """numba compiles kernels (a first run on this machine: the CSV writer's, then the filter's): say so
+        once, it takes seconds (about 40 s in all on a 2-core machine)."""
+        if self._compiling_said:
+            return
+        self._compiling_said = True
+        self.shown.update("bootnav process: compiling numerical kernels, about 40 s (first run on this machine "
+                          "only)", force=True)
 
     def done(self) -> None:
         """Clear the tty line before the report is printed."""

@@ -150,6 +150,15 @@ def _run(t_s, acc_b, gyro_b, stance, init, gravity, settings: ProcessSettings, s
             acc_used = selftune.rotate_specific_force(acc_b, gyro_b, timing["tau_s"])
     nav = run_filter(t_s, acc_used, gyro_b, stance, init, gravity, settings.filter, progress=filter_progress,
                      saturated=saturated)
+    if settings.filter.heading_aid == "auto":  # decided on the unaided path (building.directions)
+        from .building.directions import auto_heading
+
+        nav = auto_heading(nav, t_s, stance, settings.filter, lambda fs: run_filter(
+            t_s, acc_used, gyro_b, stance, init, gravity, fs, saturated=saturated))
+    if settings.filter.revisits != "none":  # pose graph over strides (building.revisits)
+        from .building.revisits import apply_revisits
+
+        nav = apply_revisits(nav, t_s, stance, settings.filter)
     bias = nav.gyro_bias_b if getattr(nav, "gyro_bias_b", None) is not None else np.asarray(init.gyro_bias_b)
     quality = selftune.stride_quality(t_s, np.asarray(nav.pos_n), stance, gyro_b, bias, period, st)
     return timing, acc_used, nav, quality

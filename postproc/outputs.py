@@ -1,11 +1,16 @@
 """Files written by ``bootnav process --out DIR`` (columns and units are part of the public interface).
 
-* ``trajectory.csv``: ``t_s,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,stance``, one row per processed sample,
-  nav frame ENU (x east, y north, z up), origin at the first processed sample; stance 1 = foot at rest.
+* ``trajectory.csv``: ``t_s,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,stance,qw,qx,qy,qz,sensor_yaw_enu_rad,
+  sensor_heading_deg_cw_from_north``, one row per processed sample, nav frame ENU (x east, y north, z up),
+  origin at the first processed sample; stance 1 = foot at rest; attitude ``q_nb`` scalar first (body to nav);
+  the heading of the sensor's x axis counter-clockwise from east (rad) and clockwise from north (deg).
 * ``steps.csv``: ``t_s,x_m,y_m,z_m,stride_length_m,dz_m,yaw_enu_rad,heading_deg_cw_from_north``, one row
   per stride (``bootnav.postproc.strides``): mid time of the stance phase ending the stride, its footprint,
   horizontal length, height change, and direction twice (``heading_columns``, ``bootnav.CONVENTIONS``):
-  ``atan2(Δy, Δx)`` counter-clockwise from x (east), and clockwise from y (north) in degrees.
+  ``atan2(Δy, Δx)`` counter-clockwise from x (east), and clockwise from y (north) in degrees; then
+  ``quality_flags``, ``floor`` (integer floor level, 0 = the start's) and the footprint's horizontal 1-σ error
+  ellipse ``ellipse_major_m,ellipse_minor_m,ellipse_orientation_rad`` (semi-axes in m; major axis in rad
+  counter-clockwise from east, in (−π/2, π/2]; ``strides.ellipse``; ``docs/floors.md``).
 * ``summary.json``: distance, closure, floors, reference metrics, settings, software version, timings,
   conventions, warnings, saturation intervals, and the list of files written.
 * ``1_raw_imu.png`` … ``7_height.png`` and ``path.html``: charts 1-7 and the interactive path (``plots``).
@@ -18,10 +23,12 @@
   with the WGS-84 meridian radius M = a(1 − e²)/(1 − e² sin²φ0)^{3/2} and prime-vertical radius
   N = a/(1 − e² sin²φ0)^{1/2}. The error grows with the square of the distance: below 1 cm within 1 km,
   far below the drift of any foot-mounted INS.
-* ``results.h5``: a copy of the input recording (the imported recording for a non-HDF5 input) plus
-  ``/results/<name>`` with every setting used as group attributes; its ``t_s`` (and ``steps/t_s``) is the
-  dimension scale of the first axis of every array, ``axis``/``q_component`` of the second, so netCDF
-  readers (xarray with h5netcdf) see named dimensions, as in ``/imu``. The per-sample arrays are resizable
+* ``results.h5``: ``/results/<name>`` with every setting used as group attributes, and the recording by
+  reference, not by copy (``logger.recording.start_results_file``): HDF5 external links to its groups and its
+  file name and SHA-256 as root attributes (the imported recording itself for a non-HDF5 input, which has no
+  HDF5 file to refer to). The first dimension of every array is the row index ``sample`` (``stride`` in
+  ``steps``), ``t_s`` its coordinate, ``axis``/``q_component`` the second, so netCDF readers (xarray with
+  h5netcdf) see named dimensions, as in ``/imu``. The per-sample arrays are resizable
   (``ResultsWriter``: a chunked run appends them as they come); the float ones are stored uncompressed
   (``ResultsWriter``). The input itself is never written to,
   except with ``into_recording=True`` (``bootnav process --into-recording``), and then atomically: the
@@ -57,9 +64,12 @@ from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.jsonio import to_jsonable
 from bootnav.errors import InputError
 
-from .strides import STEP_COLUMNS, footprints
+from .strides import ELLIPSE_COLUMNS, FLOOR_COLUMN, STEP_COLUMNS, footprints
 
-TRAJECTORY_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance")
+#: trajectory.csv: time, position, velocity, stance, attitude ``q_nb`` (wxyz, body to nav) and the heading of the
+#: sensor's x axis (its horizontal projection) in both conventions of ``bootnav.CONVENTIONS["heading"]``.
+TRAJECTORY_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance", "qw", "qx", "qy", "qz",
+                      "sensor_yaw_enu_rad", "sensor_heading_deg_cw_from_north")
 RESULTS_CHUNK_ROWS = 65_536  # rows per HDF5 chunk of the per-sample results (about 0.5-2 MB per chunk)
 WGS84_A_M = 6378137.0
 WGS84_E2 = 6.69437999014e-3
@@ -248,17 +258,24 @@ def append_csv_rows(f, columns: list[np.ndarray], fmts: list[str]) -> None:
         f.write(_csv_text([np.asarray(c[i : i + _BLOCK_ROWS]) for c in columns], fmts))
 
 
-TRAJECTORY_FORMATS = ["%.6f"] + ["%.4f"] * 6 + ["%d"]
+TRAJECTORY_FORMATS = ["%.6f"] + ["%.4f"] * 6 + ["%d"] + ["%.6f"] * 4 + ["%.4f", "%.2f"]
 
 
-def trajectory_columns(t_s, pos_n, vel_n, stance) -> list[np.ndarray]:
-    """The columns of trajectory.csv (``TRAJECTORY_COLUMNS``) of some rows."""
-    return [t_s, pos_n[:, 0], pos_n[:, 1], pos_n[:, 2], vel_n[:, 0], vel_n[:, 1], vel_n[:, 2], stance.astype(np.int8)]
+def trajectory_columns(t_s, pos_n, vel_n, stance, q_nb) -> list[np.ndarray]:
+    """The columns of trajectory.csv (``TRAJECTORY_COLUMNS``) of some rows. The sensor's heading is the ZYX
+    Euler yaw of ``q_nb``: the direction of its x axis projected on the level plane, counter-clockwise from
+    east (``sensor_yaw_enu_rad``) and as a compass reads it (``sensor_heading_deg_cw_from_north``)."""
+    from bootnav.core.rotations import euler_zyx_from_quat
+
+    q = np.asarray(q_nb, float)
+    heading = heading_columns(euler_zyx_from_quat(q)[:, 2] if len(q) else np.zeros(0))
+    return [t_s, pos_n[:, 0], pos_n[:, 1], pos_n[:, 2], vel_n[:, 0], vel_n[:, 1], vel_n[:, 2], stance.astype(np.int8),
+            q[:, 0], q[:, 1], q[:, 2], q[:, 3], heading["yaw_enu_rad"], heading["heading_deg_cw_from_north"]]
 
 
 def write_trajectory_csv(path: Path, result) -> Path:
-    write_csv(path, TRAJECTORY_COLUMNS, trajectory_columns(result.t_s, result.pos_n, result.vel_n, result.stance),
-               TRAJECTORY_FORMATS)
+    write_csv(path, TRAJECTORY_COLUMNS, trajectory_columns(result.t_s, result.pos_n, result.vel_n, result.stance,
+                                                           result.q_nb), TRAJECTORY_FORMATS)
     return path
 
 
@@ -283,12 +300,18 @@ def heading_columns(yaw_enu_rad) -> dict[str, np.ndarray]:
 
 def write_steps_csv(path: Path, steps: dict) -> Path:
     """steps.csv: ``STEP_COLUMNS``, both heading columns and, when present, ``quality_flags`` (bitmask of
-    ``selftune.FLAG_NAMES``; 0 = plausible)."""
+    ``selftune.FLAG_NAMES``; 0 = plausible), ``floor`` and the 1-σ ellipse columns (``strides.ELLIPSE_COLUMNS``)."""
     columns = {**{c: np.asarray(steps[c]) for c in STEP_COLUMNS}, **heading_columns(steps["yaw_enu_rad"])}
     fmts = ["%.6f", "%.4f", "%.4f", "%.4f", "%.4f", "%.4f", "%.5f", "%.3f"]
     if "quality_flags" in steps:
         columns["quality_flags"] = np.asarray(steps["quality_flags"])
         fmts.append("%d")
+    if FLOOR_COLUMN in steps:
+        columns[FLOOR_COLUMN] = np.asarray(steps[FLOOR_COLUMN])
+        fmts.append("%d")
+    if all(c in steps for c in ELLIPSE_COLUMNS):
+        columns.update((c, np.asarray(steps[c])) for c in ELLIPSE_COLUMNS)
+        fmts += ["%.4f", "%.4f", "%.5f"]
     write_csv(path, tuple(columns), list(columns.values()), fmts)
     return path
 
@@ -515,15 +538,17 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
     (Path, str)
         The file written and the group.
     """
-    from bootnav.logger.recording import attach_dimension_scales, write_group, write_recording
+    from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group, write_recording
 
     name = result.settings.output.results_name
     group = f"/results/{name}"
     target = Path(result.source) if into_recording else out_dir / "results.h5"  # checked by check_outputs
     tmp = atomic.temporary_beside(target)
     try:
-        if result.source_is_hdf5 and result.source:
+        if result.source_is_hdf5 and result.source and into_recording:
             shutil.copy2(result.source, tmp)  # the whole recording: /imu, /events, /truth, earlier results
+        elif result.source_is_hdf5 and result.source:
+            start_results_file(tmp, result.source, target.parent)  # links to the recording, not a copy
         else:
             rec = result.recording
             meta = dict(rec.meta)
@@ -551,12 +576,13 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
         }
         write_group(tmp, group, {}, attrs, replace=False)
         step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                      "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1"}
+                      "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "quality_flags": "1", "floor": "1",
+                      "ellipse_major_m": "m", "ellipse_minor_m": "m", "ellipse_orientation_rad": "rad"}
         steps = {**{k: np.asarray(v) for k, v in result.steps.items()}, **heading_columns(result.steps["yaw_enu_rad"])}
         write_group(tmp, f"{group}/steps", steps,
                     {"description": "one row per stride, see postproc/strides.py"}, step_units)
         attach_dimension_scales(tmp, group)  # xarray/netCDF readers see named dims (t_s, axis), as in /imu
-        attach_dimension_scales(tmp, f"{group}/steps")
+        attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
         atomic.commit(tmp, target)
     finally:
         tmp.unlink(missing_ok=True)

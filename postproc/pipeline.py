@@ -17,7 +17,8 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    smoother (``ins.run_filter``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking foot is
    refused.
 5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
-   ``selftune.min_stride_m`` are not strides), distance, closure, floors.
+   ``selftune.min_stride_m`` are not strides), distance, closure, floors; before them the storeys
+   (``floors.snap_storeys``: flights counted in risers, landings on discrete storeys).
 6. **reference** (``reference_path``), when a reference is given: its metrics [Heidari2019, Table 1].
 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
@@ -43,6 +44,7 @@ from bootnav.logger.recording import Recording
 
 from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
                      saturation_intervals, saturation_warnings, stride_findings)
+from .floors import snap_storeys
 from .navigate import navigate
 from .selftune import TINY
 from .settings import ProcessSettings
@@ -172,18 +174,25 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     nav, stance = navi.nav, navi.stance
     pos_n = np.asarray(nav.pos_n)
     check_path_finite(name, t_s, pos_n, offset)
+    storeys = None
+    floors = settings.floor_settings()
+    if floors.storeys:
+        pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                      floors.riser_max_m, settings.filter.level_min_stride_m)
     warnings += navi.warnings
     warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
     lap("navigation")
 
     min_stride = settings.selftune.min_stride_m
-    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY))  # a kept stride is not tiny
+    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
+                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
     findings = stride_findings(steps, settings.checks, navi.choice)
     warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, settings.floor_settings(), min_stride)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
+    path_stats["storeys"] = storeys.summary() if storeys is not None else None
     lap("strides")
     metrics = None
     if ref is not None:
@@ -314,13 +323,12 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                     worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
     import json
-    import shutil
 
     import h5py
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import attach_dimension_scales, write_group
+    from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group
 
     from . import selftune
     from .calibration import initial_alignment
@@ -407,7 +415,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         timing: dict = {}
         tau = 0.0
         if st.timing_calibration:  # pass 2: the two probe filters of the vertical timing calibration
-            probe_filter = replace(settings.filter, smoother="none")
+            probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
             navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, probe_filter) for s in (-1, 1)}
             fps = {s: FootprintAccumulator() for s in (-1, 1)}
             for ch in stance_stream():
@@ -445,7 +453,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         writer = None
         try:
             if opts.write_hdf5:
-                shutil.copy2(path, tmp)
+                start_results_file(tmp, path, out)  # links to the recording, not a copy
             writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
             with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
                 csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
@@ -456,7 +464,8 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                         return
                     if not np.all(np.isfinite(r.pos_n)):
                         check_path_finite(name, r.t_s, r.pos_n, r.start)
-                    append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance), TRAJECTORY_FORMATS)
+                    append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
+                                    TRAJECTORY_FORMATS)
                     if writer is not None:
                         writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
@@ -478,11 +487,15 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
             t_mid, fp = fp_acc.finish()
             min_stride = settings.selftune.min_stride_m
-            steps = footprint_strides(t_mid, fp, min_stride)
+            steps = footprint_strides(t_mid, fp, min_stride, floors=settings.floor_settings())
             if len(steps["t_s"]) == 0:
                 raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
                                  "(is the sensor on a walking foot?)")
             path_stats = footprint_summary(fp, settings.floor_settings(), min_stride, fp_acc.walked_s)
+            path_stats["storeys"] = None
+            if settings.floor_storeys:  # a look-back stage: a flight's landing corrects the samples before it
+                warnings.append("chunked run: the storeys (floors.snap_storeys) need the whole path and were not "
+                                "applied; the filter's level-stride height hold was")
             lap("strides")
             summary = {
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
@@ -515,11 +528,11 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                          **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
                 write_group(tmp, group, {}, attrs, replace=False)
                 step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                              "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg"}
+                              "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
                 write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
                             {"description": "one row per stride, see postproc/strides.py"}, step_units)
                 attach_dimension_scales(tmp, group)
-                attach_dimension_scales(tmp, f"{group}/steps")
+                attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
                 atomic.commit(tmp, target)
                 files["hdf5"] = f"{target}:{group}"
             lap("write")

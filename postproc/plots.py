@@ -39,7 +39,7 @@ from bootnav.core import atomic
 from bootnav.core.runs import runs
 
 from .decimate import PathExtremes, TimeEnvelope
-from .strides import floor_levels, floor_signal, footprints
+from .strides import ELLIPSE_COLUMNS, floor_levels, floor_signal, footprints
 from .summary import endpoint_label
 
 AXIS_COLORS = ("tab:red", "tab:green", "tab:blue")  # x, y, z (the usual RGB convention)
@@ -444,8 +444,9 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
         _trace(ax, nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
         if len(fp_n):
             z_fp = fp_n[:, 2] - z0
-            if floors.stair_min_dz_m is not None:
-                ax.plot(t_fp, floor_signal(z_fp, floors), color="tab:purple", lw=1, ls="--",
+            stair = floor_signal(z_fp, floors)
+            if floors.stair_min_dz_m is not None and np.any(stair != 0):  # a level walk has no stair to draw
+                ax.plot(t_fp, stair, color="tab:purple", lw=1, ls="--",
                         label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
             ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
                     color="tab:orange", lw=1.5, label="floor level (counted)")
@@ -490,7 +491,14 @@ def reference_in_estimate_frame(ref_pts: np.ndarray, yaw_rad: float | None, star
     return out + np.asarray(start_n, float)
 
 
-FLOOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+#: one colour per floor (path.html, the live view): no green and no red, the colours of the start and end markers
+FLOOR_COLORS = ("#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+START_COLOR, END_COLOR = "#2ca02c", "#d62728"
+
+
+def _floor_color(floor_ids: list[int], k: int) -> str:
+    """The colour of floor ``k`` among the walk's ``floor_ids`` (sorted)."""
+    return FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
 
 
 def _html_floors(t_drawn: np.ndarray, t_fp: np.ndarray, fp_n: np.ndarray, settings) -> np.ndarray:
@@ -513,7 +521,8 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
 
     Metre grid with labels and a scale bar that follow the zoom; the reference (when given, in the estimate's
     frame) dotted; one colour per counted floor with a floor selector on multi-storey walks; start, end and
-    a marker per stride (hover: stride number, time, height, length); wheel zooms, drag pans, "fit" (or a
+    a marker per stride (hover: stride number, time, height, floor, length, 1-σ ellipse); the 1-σ horizontal
+    ellipse of every stride, shaded, with a key and a switch; wheel zooms, drag pans, "fit" (or a
     window resize) fits the whole path to the window. Equal axes (1 m east = 1 m north), north up. The path
     is the decimated one of ``ChartStream`` (``decimate.PathExtremes``), the strides all of them.
     """
@@ -541,16 +550,30 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
     lines = []
     for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(xy)]):  # one polyline per run on one floor (joined)
         k = int(level[a])
-        color = FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
+        color = _floor_color(floor_ids, k)
         lines.append(f'<polyline class="path" data-floor="{k}" style="stroke:{color}" '
                      f'points="{points(xy[max(a - 1, 0):b])}"/>')
     st = info["steps"]
     st_floor = level[np.minimum(np.searchsorted(t_drawn, st["t_s"]), len(level) - 1)]
+    n_st = len(st["t_s"])
+    has_unc = all(c in st for c in ELLIPSE_COLUMNS) and n_st > 0
+    if has_unc:
+        ea, eb, eo = (np.asarray(st[c], float) for c in ELLIPSE_COLUMNS)
+        unc = [f", 1σ ellipse {a:.2f} m × {b_:.2f} m" for a, b_ in zip(ea, eb)]
+    else:
+        unc = [""] * n_st
+    floor_txt = ([f", floor {int(f):+d}" for f in st["floor"]] if "floor" in st else [""] * n_st)
     dots = "".join(
         f'<circle class="stride" data-floor="{k}" cx="{x:.3f}" cy="{-y:.3f}" r="{r_dot:.3f}"><title>stride {i + 1}: '
-        f't = {t:.2f} s, z = {z:+.2f} m, length {L:.2f} m</title></circle>'
-        for i, (t, x, y, z, L, k) in enumerate(zip(st["t_s"], st["x_m"], st["y_m"], st["z_m"], st["stride_length_m"],
-                                                   st_floor)))
+        f't = {t:.2f} s, z = {z:+.2f} m{ft}, length {L:.2f} m{u}</title></circle>'
+        for i, (t, x, y, z, L, k, ft, u) in enumerate(zip(st["t_s"], st["x_m"], st["y_m"], st["z_m"],
+                                                          st["stride_length_m"], st_floor, floor_txt, unc)))
+    # the 1-σ ellipse of every stride (strides.ellipse: orientation counter-clockwise from east; the page
+    # draws north up, i.e. y negated, so SVG's clockwise-positive rotate() takes −θ)
+    ellipses = "".join(
+        f'<ellipse class="unc" data-floor="{k}" cx="{x:.3f}" cy="{-y:.3f}" rx="{a:.3f}" ry="{b_:.3f}" '
+        f'transform="rotate({-np.degrees(o):.2f} {x:.3f} {-y:.3f})"/>'
+        for x, y, a, b_, o, k in zip(st["x_m"], st["y_m"], ea, eb, eo, st_floor)) if has_unc else ""
     ref_svg = (f'<polyline id="reference" points="{points(ref)}"><title>reference</title></polyline>'
                if ref is not None else "")
     summary = info["summary"]
@@ -561,8 +584,21 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
     if len(floor_ids) > 1:
         opts = "".join(f'<option value="{k}">floor {k:+d}</option>' for k in floor_ids)
         floor_ui = f'<label>floor <select id="floor"><option value="all">all floors</option>{opts}</select></label>'
-    legend = ("blue line = path" if len(floor_ids) == 1 else "one colour per floor")
-    legend += ", dots = strides, green = start, red = end" + (", dotted = reference" if ref is not None else "")
+    # the key: each floor's colour, then the markers
+    key = "".join(f'<span class="key" data-floor="{k}"><span class="sw" style="background:{_floor_color(floor_ids, k)}">'
+                  f'</span>{"start floor" if k == 0 else f"floor {k:+d}"}</span>' for k in floor_ids)
+    key += (f'<span class="key"><span class="sw dot" style="background:{START_COLOR}"></span>start</span>'
+            f'<span class="key"><span class="sw dot" style="background:{END_COLOR}"></span>end</span>'
+            f'<span class="key"><span class="sw dot" style="background:#1f77b4;opacity:.8"></span>stride</span>')
+    legend = "line = path, coloured by floor" + (", dotted = reference" if ref is not None else "")
+    if has_unc:
+        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's; 39 % inside if it is "
+                   "honest, 2σ = twice as large)")
+        floor_ui += '<label><input type="checkbox" id="unc" checked> uncertainty</label>'
+        key += ('<span class="key"><span class="sw" style="background:#ff7f0e;opacity:.35"></span>'
+                '1σ uncertainty</span>')
+    if "floor" in st and n_st:
+        legend += f"; floor now {int(st['floor'][-1]):+d}"
     vb = [float(lo[0]), float(-hi[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])]
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{title}</title>
 <meta name="viewport" content="width=device-width, initial-scale=1">
@@ -573,13 +609,16 @@ border-top:1px solid #ccc}} polyline{{fill:none;vector-effect:non-scaling-stroke
 #reference{{stroke:#000;stroke-width:2;stroke-dasharray:2 4}} circle.stride{{fill:#1f77b4;opacity:.8}}
 circle.stride:hover{{fill:#d62728}} #grid line{{stroke:#ddd;vector-effect:non-scaling-stroke;stroke-width:1}}
 #grid text{{fill:#888}} #scale{{position:absolute;left:12px;bottom:12px;background:#fffc;padding:2px 6px;font-size:13px}}
-#bar{{height:6px;border:2px solid #000;border-top:none}} button{{margin-left:1em}}</style></head><body>
+#bar{{height:6px;border:2px solid #000;border-top:none}} button{{margin-left:1em}}
+ellipse.unc{{fill:#ff7f0e;fill-opacity:.08;stroke:#ff7f0e;stroke-opacity:.35;stroke-width:1;vector-effect:non-scaling-stroke}}
+.key{{margin-right:1em;white-space:nowrap}} .sw{{display:inline-block;width:1.6em;height:.45em;margin-right:.3em;
+vertical-align:middle}} .sw.dot{{width:.8em;height:.8em;border-radius:50%}}</style></head><body>
 <header><h3>{title}</h3><p>Metres, north up (x east, y north); {legend}. Wheel = zoom, drag = pan, hover a stride
-for details. {floor_ui}<button id="fit">fit</button></p></header>
+for details. {floor_ui}<button id="fit">fit</button></p><p id="key">{key}</p></header>
 <div id="wrap"><svg id="v" viewBox="{' '.join(f'{v:.3f}' for v in vb)}" preserveAspectRatio="xMidYMid meet">
-<g id="grid"></g>{ref_svg}{''.join(lines)}{dots}
-<circle id="start" cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:#2ca02c"><title>start</title></circle>
-<circle id="end" cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:#d62728"><title>end</title></circle>
+<g id="grid"></g>{ref_svg}<g id="uncs">{ellipses}</g>{''.join(lines)}{dots}
+<circle id="start" cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:{START_COLOR}"><title>start</title></circle>
+<circle id="end" cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:{END_COLOR}"><title>end</title></circle>
 </svg><div id="scale"><div id="bar"></div><span id="scalelabel"></span></div></div>
 <script>
 const s=document.getElementById('v'),home={json.dumps(vb)},NS='http://www.w3.org/2000/svg';let b=home.slice(),d=null;
@@ -607,6 +646,7 @@ s.addEventListener('mousedown',e=>d=[e.clientX,e.clientY]);window.addEventListen
 window.addEventListener('mousemove',e=>{{if(!d)return;const k=view()[4];
  b[0]-=(e.clientX-d[0])*k;b[1]-=(e.clientY-d[1])*k;d=[e.clientX,e.clientY];draw();}});
 document.getElementById('fit').onclick=()=>{{b=home.slice();draw();}};window.addEventListener('resize',draw);
+const uc=document.getElementById('unc');if(uc)uc.onchange=()=>{{document.getElementById('uncs').style.display=uc.checked?'':'none';}};
 const fl=document.getElementById('floor');if(fl)fl.onchange=()=>{{for(const el of s.querySelectorAll('[data-floor]'))
  el.style.display=(fl.value==='all'||el.dataset.floor===fl.value)?'':'none';}};
 draw();

@@ -571,7 +571,8 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
     ----------
     t_s, acc_b, gyro_b : calibrated samples (s, m/s², rad/s).
     stance : (N,) bool stance mask; init : ``calibration.InitialState``; gravity : m/s².
-    filter_settings : ``FilterSettings`` (the smoother is switched off for the two runs).
+    filter_settings : ``FilterSettings`` (the smoother and the level-stride height hold are switched off for
+        the two runs).
     saturated : optional saturation mask (as ``run_filter`` takes it).
     delta_s : the two probe offsets ±δ, s; max_abs_s : bound of τ*, s.
     min_level_strides : fewer level strides than this: no calibration (τ* = 0).
@@ -592,7 +593,8 @@ def level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity: float, filter
     if max_level_strides is not None and max_level_strides < 1:
         raise InputError(f"settings selftune.timing_max_level_strides: {max_level_strides} level strides; give at "
                          "least 1, or null for all of them")
-    probe_settings = replace(filter_settings, smoother="none")
+    # the probes measure the level strides' height drift: the height hold (level_height) would erase it
+    probe_settings = replace(filter_settings, smoother="none", level_height=False)
     starts = runs(np.asarray(stance, bool))[0]
     phases = len(starts) if max_level_strides is None else 2 * max_level_strides + 1
     while True:

@@ -132,7 +132,15 @@ class ProcessSettings:
         Count floors from stair strides only (``|Δz| >=`` this per stride), or None to count from the
         footprint height. A stair stride climbs two risers (about 0.3 m) while the vertical drift of a ZUPT
         INS adds millimetres per flat stride, so 0.1 m removes the drift and keeps every flight; the price
-        is that a gentle ramp never counts.
+        is that a gentle ramp never counts. Used only with ``floor_storeys`` off: the storeys hold the heights
+        on floors already.
+    floor_storeys : bool
+        Keep the height on discrete storeys where the stairs say so (``floors``): flights counted in risers,
+        a landing set to the storey estimate only when the riser count and the climbed height agree, and to
+        the height of a level visited before when it is within half a riser. On by default; False = the
+        filter's heights as they are.
+    floor_riser_min_m, floor_riser_max_m : float, m
+        Range of a riser's height: 0.15–0.20 m (issue 24; building codes allow about 0.14–0.20 m).
     reference : str or None
         Reference for the accuracy metrics (``reference_path``): a file, an inline JSON object, or ``"truth"``
         (a simulated recording's ``/truth``).
@@ -148,12 +156,15 @@ class ProcessSettings:
     floor_height_m: float = 3.0
     floor_hysteresis_m: float = 0.5
     floor_stair_min_dz_m: float | None = 0.1
+    floor_storeys: bool = True
+    floor_riser_min_m: float = 0.15
+    floor_riser_max_m: float = 0.20
     reference: str | None = None
 
     def validate(self) -> None:
         """Raise InputError naming the first bad setting (before any work is done)."""
         checks = [
-            ("floor_height_m / floor_hysteresis_m", lambda: self.floor_settings()),
+            ("floor_height_m / floor_hysteresis_m / floor_riser_*", lambda: self.floor_settings()),
             ("calibration (latitude_deg, height_m, gravity_mps2)", self._check_gravity),
             ("filter", lambda: getattr(self.filter, "validate", lambda: None)()),
             ("crop_s", self._check_crop),
@@ -170,7 +181,8 @@ class ProcessSettings:
         """The floor-counting settings as ``strides.FloorSettings`` (validates them)."""
         from .strides import FloorSettings
 
-        return FloorSettings(self.floor_height_m, self.floor_hysteresis_m, self.floor_stair_min_dz_m)
+        return FloorSettings(self.floor_height_m, self.floor_hysteresis_m, self.floor_stair_min_dz_m, self.floor_storeys,
+                             self.floor_riser_min_m, self.floor_riser_max_m)
 
     def _check_gravity(self):
         g = self.calibration.gravity()

@@ -22,6 +22,18 @@ goes up when ``z > (L + ½)·h + hyst`` and down when ``z < (L − ½)·h − hy
 landing halfway or a few centimetres of vertical drift never toggle the count. Floors climbed = number of
 up transitions, descended = number of down transitions.
 
+Every stride row also carries (``footprint_strides``):
+
+* ``floor``: the integer floor level of its footprint (the rule above, on the footprint heights relative to
+  the first footprint), so a stride's floor is known when it is written (the same rule runs live);
+* ``ellipse_major_m``, ``ellipse_minor_m``, ``ellipse_orientation_rad`` (when the path carries its position
+  covariance): the horizontal 1-σ error ellipse of the footprint (``ellipse``): semi-axes in m, orientation
+  of the major axis in rad counter-clockwise from x (east), ENU, in (−π/2, π/2] (the convention of
+  ``yaw_enu_rad``). The covariance is the filter's at the last sample of the stance phase: the segment
+  smoother ends every segment there on the filtered estimate (``ins/smoother.py``), so there the smoothed
+  covariance equals the filtered one. The 2σ ellipse is twice as large (86.5 % of a consistent 2-D
+  Gaussian inside, 39.3 % inside 1σ).
+
 Optional stair gating (``stair_min_dz_m``): the height signal is then the running sum of only those stride
 height changes with |Δz| ≥ ``stair_min_dz_m``. A stair stride climbs two risers (≈ 0.3 m), while the
 vertical drift of a ZUPT INS adds millimetres per flat stride; gating removes hours of slow drift from the
@@ -30,13 +42,28 @@ floor count. The price: a gentle ramp (|Δz| per stride below the gate) never co
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from bootnav.core.runs import runs
 
 STEP_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad")
+FLOOR_COLUMN = "floor"
+ELLIPSE_COLUMNS = ("ellipse_major_m", "ellipse_minor_m", "ellipse_orientation_rad")
+
+
+def ellipse(cov_ee, cov_nn, cov_en) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Horizontal 1-σ error ellipse of 2×2 covariances [[P_EE, P_EN], [P_EN, P_NN]] (m², arrays of any shape).
+
+    Returns the semi-major and semi-minor axes (m; the square roots of the eigenvalues
+    λ = (P_EE + P_NN)/2 ± √(((P_EE − P_NN)/2)² + P_EN²)) and the orientation of the major axis, rad
+    counter-clockwise from east (ENU), θ = ½ atan2(2 P_EN, P_EE − P_NN) in (−π/2, π/2] (0 for a circle).
+    """
+    a, b, c = (np.asarray(v, float) for v in (cov_ee, cov_nn, cov_en))
+    mean, half = 0.5 * (a + b), np.hypot(0.5 * (a - b), c)
+    return (np.sqrt(np.maximum(mean + half, 0.0)), np.sqrt(np.maximum(mean - half, 0.0)),
+            0.5 * np.arctan2(2.0 * c, a - b))
 
 
 def footprints(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -125,8 +152,15 @@ def stride_footprints(fp: np.ndarray, min_stride_m: float) -> np.ndarray:
     return np.asarray(keep, dtype=np.int64)
 
 
+def phase_ends(stance: np.ndarray) -> np.ndarray:
+    """Index of the last sample of every stance phase (run of True), in order."""
+    return runs(stance)[1] - 1
+
+
 def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_stride_m: float = 0.0,
-                    flags: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                    flags: np.ndarray | None = None, floors: FloorSettings | None = None,
+                    pos_sigma_n: np.ndarray | None = None, pos_cov_en: np.ndarray | None = None,
+                    floor_z: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One row per stride (dict of equal-length arrays, keys ``STEP_COLUMNS``, plus ``quality_flags`` when
     ``flags`` is given).
 
@@ -139,14 +173,30 @@ def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_
     flags
         Optional per-raw-stride flag words (one per pair of consecutive stance phases,
         ``selftune.stride_quality``); a kept stride carries the OR of the raw strides it spans.
+    floors
+        Floor counting (module docstring): adds the ``floor`` column; None = FloorSettings().
+    pos_sigma_n, pos_cov_en
+        Optional per-sample position 1-σ (N, 3) and east-north covariance P_EN (N,), m and m²: add the
+        ellipse columns (``ELLIPSE_COLUMNS``) from their values at the last sample of each stance phase.
+    floor_z
+        Optional (K,) height per stance phase to count floors from instead of the footprint heights (the
+        storeys' climbed height, ``floors.StoreyResult.climbed_fp``).
     """
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
-    return footprint_strides(t_mid, fp, min_stride_m, flags)
+    cov = None
+    if pos_sigma_n is not None and pos_cov_en is not None:
+        end = phase_ends(np.asarray(stance, bool))
+        sig = np.asarray(pos_sigma_n, float)[end]
+        cov = np.column_stack((sig[:, 0] ** 2, sig[:, 1] ** 2, np.asarray(pos_cov_en, float)[end]))
+    return footprint_strides(t_mid, fp, min_stride_m, flags, floors, cov, floor_z)
 
 
 def footprint_strides(t_mid: np.ndarray, fp: np.ndarray, min_stride_m: float = 0.0,
-                      flags: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """``segment_strides`` from the stance phases' mid times (K,) and footprints (K, 3)."""
+                      flags: np.ndarray | None = None, floors: FloorSettings | None = None,
+                      cov_h: np.ndarray | None = None, floor_z: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """``segment_strides`` from the stance phases' mid times (K,) and footprints (K, 3); ``cov_h`` (K, 3):
+    each footprint's horizontal covariance (P_EE, P_NN, P_EN), m², for the ellipse columns; ``floor_z`` (K,):
+    the height to count floors from (default: the footprints')."""
     keep = stride_footprints(fp, min_stride_m)
     t_k, fp_k = t_mid[keep], fp[keep]
     d = np.diff(fp_k, axis=0)
@@ -159,6 +209,15 @@ def footprint_strides(t_mid: np.ndarray, fp: np.ndarray, min_stride_m: float = 0
         "dz_m": d[:, 2],
         "yaw_enu_rad": np.arctan2(d[:, 1], d[:, 0]),
     }
+    fs = floors or FloorSettings()
+    if floor_z is not None:
+        out[FLOOR_COLUMN] = floor_levels(np.asarray(floor_z, float)[keep] - float(floor_z[0]), fs)[1:]
+    else:
+        z_rel = fp_k[:, 2] - fp[0, 2] if len(fp) else fp_k[:, 2]
+        out[FLOOR_COLUMN] = floor_levels(floor_signal(z_rel, fs), fs)[1:]
+    if cov_h is not None:
+        c = np.asarray(cov_h, float)[keep[1:]].reshape(-1, 3)
+        out.update(zip(ELLIPSE_COLUMNS, ellipse(c[:, 0], c[:, 1], c[:, 2])))
     if flags is not None:
         flags = np.asarray(flags)
         if len(keep) >= 2 and len(flags) == len(fp) - 1:
@@ -174,19 +233,29 @@ class FloorSettings:
 
     floor_height_m: storey height h (m); the paper's building is unknown, 3 m is a typical storey.
     stair_min_dz_m: None = count floors from the footprint height; a value (m) = from stair strides only
-        (|Δz| >= this), see the module docstring.
+        (|Δz| >= this), see the module docstring; used only with ``storeys`` off (``floor_signal``).
     hysteresis_m: extra height beyond the half-storey boundary before a level change counts (m).
+    storeys: keep the height on discrete storeys where the stairs say so (``floors``).
+    riser_min_m, riser_max_m: range of a riser's height (m).
     """
 
     floor_height_m: float = 3.0
     hysteresis_m: float = 0.5
     stair_min_dz_m: float | None = None
+    storeys: bool = False
+    riser_min_m: float = 0.15
+    riser_max_m: float = 0.20
 
     def __post_init__(self):
         if not self.floor_height_m > 0:
             raise ValueError(f"floor_height_m must be > 0, got {self.floor_height_m}")
         if self.stair_min_dz_m is not None and not 0 < self.stair_min_dz_m < self.floor_height_m:
             raise ValueError(f"stair_min_dz_m must be None or in (0, floor_height_m), got {self.stair_min_dz_m}")
+        if not 0 < self.riser_min_m < self.riser_max_m < self.floor_height_m:
+            raise ValueError(f"riser_min_m, riser_max_m must satisfy 0 < min < max < floor_height_m, got "
+                             f"{self.riser_min_m}, {self.riser_max_m}")
+        if not isinstance(self.storeys, bool):
+            raise ValueError(f"storeys must be true or false, got {self.storeys!r}")
         if not 0 <= self.hysteresis_m < self.floor_height_m / 2:
             raise ValueError(
                 f"hysteresis_m must be in [0, floor_height_m/2) = [0, {self.floor_height_m / 2}), got {self.hysteresis_m}"
@@ -195,9 +264,11 @@ class FloorSettings:
 
 def floor_signal(z_rel_m: np.ndarray, settings: FloorSettings) -> np.ndarray:
     """Height (m, relative to the first footprint) used for counting floors: the footprint height, or the
-    running sum of stair-stride height changes when ``stair_min_dz_m`` is set."""
+    running sum of stair-stride height changes when ``stair_min_dz_m`` is set and the storeys are off (with
+    ``storeys`` the heights are already held on floors and landings, ``floors``: the gate's job is done, and
+    it would count a kneel (a 0.1 m drop of the sensor) without the stand-up that follows in smaller moves)."""
     z = np.asarray(z_rel_m, float)
-    if settings.stair_min_dz_m is None or len(z) < 2:
+    if settings.stair_min_dz_m is None or settings.storeys or len(z) < 2:
         return z
     dz = np.diff(z)
     return np.concatenate(([0.0], np.cumsum(np.where(np.abs(dz) >= settings.stair_min_dz_m, dz, 0.0))))
@@ -233,7 +304,7 @@ def count_floors(z_rel_m: np.ndarray, settings: FloorSettings) -> dict:
 
 
 def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors: FloorSettings,
-                 min_stride_m: float = 0.0) -> dict:
+                 min_stride_m: float = 0.0, floor_z: np.ndarray | None = None) -> dict:
     """Distance, closure, height and floors from stance phases (all in metres; see module docstring).
 
     Strides and distance count only moves of at least ``min_stride_m`` (``stride_footprints``); closure and
@@ -241,10 +312,11 @@ def path_summary(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, floors:
     starts, stops = runs(stance)
     _, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
     walked = float(t_s[starts[-1]] - t_s[stops[0] - 1]) if starts.size else 0.0
-    return footprint_summary(fp, floors, min_stride_m, walked)
+    return footprint_summary(fp, floors, min_stride_m, walked, floor_z)
 
 
-def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float, walked_s: float) -> dict:
+def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float, walked_s: float,
+                      floor_z: np.ndarray | None = None) -> dict:
     """``path_summary`` from the footprints (K, 3) and the time from the end of the first stance phase to the
     start of the last one (``walked_s``, s): what a chunked run keeps of the path (``FootprintAccumulator``)."""
     keep = stride_footprints(fp, min_stride_m)
@@ -271,5 +343,8 @@ def footprint_summary(fp: np.ndarray, floors: FloorSettings, min_stride_m: float
         mean_stride_length_m=float(np.hypot(d[:, 0], d[:, 1]).mean()),
         duration_walked_s=walked_s,
     )
-    out.update(count_floors(z_rel, floors))
+    if floor_z is None:
+        out.update(count_floors(z_rel, floors))
+    else:  # the storeys' climbed height: already free of drift, counted as it is
+        out.update(count_floors(np.asarray(floor_z, float) - float(floor_z[0]), replace(floors, stair_min_dz_m=None)))
     return out

@@ -23,8 +23,8 @@ from bootnav.core.conventions import CONVENTIONS, SOFTWARE
 from bootnav.core.jsonio import to_jsonable
 
 #: path figures repeated at the top level of the summary
-HEADLINE_KEYS = ("distance_m", "closure_3d_m", "closure_pct", "floors_climbed", "floors_descended", "strides",
-                 "confidence")
+HEADLINE_KEYS = ("distance_m", "closure_3d_m", "closure_pct", "floors_climbed", "floors_descended", "final_floor",
+                 "strides", "confidence")
 
 
 def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> dict:
@@ -93,6 +93,7 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
     for key in HEADLINE_KEYS:
         if key in path_stats:
             summary[key] = path_stats[key]
+    summary["uncertainty"] = final_uncertainty(getattr(result, "steps", None) or {})
     if summary["navigation"] is not None:
         summary["confidence"] = summary["navigation"]["confidence"]
     summary["closed_loop"] = is_closed_loop(result.reference)
@@ -101,6 +102,19 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
     if not summary["mount"]["looks_like_foot"]:
         result.warnings.append(summary["mount"]["message"])
     return summary
+
+
+def final_uncertainty(steps: dict) -> dict | None:
+    """The last stride's horizontal 1-σ ellipse (``strides.ellipse``) and floor, or None without strides."""
+    if "ellipse_major_m" not in steps or not len(steps["ellipse_major_m"]):
+        return None
+    return {"final_ellipse_major_m": float(steps["ellipse_major_m"][-1]),
+            "final_ellipse_minor_m": float(steps["ellipse_minor_m"][-1]),
+            "final_ellipse_orientation_rad": float(steps["ellipse_orientation_rad"][-1]),
+            "max_ellipse_major_m": float(np.max(steps["ellipse_major_m"])),
+            "convention": ("horizontal 1-sigma ellipse of the footprint (filter covariance at the end of its stance "
+                           "phase): semi-axes in m, major-axis orientation in rad counter-clockwise from east (ENU), "
+                           "in (-pi/2, pi/2]; 2-sigma is twice as large")}
 
 
 def endpoint_label(summary: dict) -> str:

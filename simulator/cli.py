@@ -13,7 +13,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--sensor-profile", default="mpu6050-16g-2000dps", help="sensor model (see --list)")
     parser.add_argument("--rate", type=float, default=200.0, help="output sample rate, Hz (default 200)")
     parser.add_argument("--duration", type=float, default=None,
-                        help="length in s (mixed-30min, running, long, fast-corridor, shuffle only)")
+                        help="length in s (mixed-30min, running, long, fast-corridor, shuffle only; default: the "
+                             "scenario's own)")
     parser.add_argument("--mount", default="right_boot", help="sensor mount on the boot (see --list)")
     parser.add_argument("--format", choices=("h5", "sd-txt"), default=None,
                         help="output format (default: from the file extension, .txt -> sd-txt, else h5)")
@@ -35,7 +36,8 @@ def add_arguments(parser) -> None:
     dev.add_argument("--ambient-degc", type=float, metavar="C",
                      help="ambient temperature at power-on, C (default 25; needs --device)")
     dev.add_argument("--ambient-ramp-degc-per-min", type=float, metavar="R",
-                     help="ambient ramp, C per minute (e.g. a boot carried into a hot building; needs --device)")
+                     help="ambient ramp, C per minute (e.g. a boot carried into a hot building; default 0: none; "
+                          "needs --device)")
     dev.add_argument("--ambient-ramp-start-s", type=float, metavar="S", help="start of the ramp, s (default 0)")
     dev.add_argument("--ambient-ramp-duration-s", type=float, metavar="S",
                      help="length of the ramp, s (default: to the end)")
@@ -87,12 +89,12 @@ def _list() -> int:
 
 
 def run(args) -> int:
-    from bootnav.errors import InputError
+    from bootnav.errors import InputError, UsageError
 
     if args.list:
         return _list()
     if not args.scenario or not args.out:
-        raise InputError("give --scenario NAME and --out FILE (or --list)")
+        raise UsageError("give --scenario NAME and --out FILE (or --list)")
     from bootnav.simulator.imu_synth import MOUNTS
     from bootnav.simulator.simulate import simulate
     from bootnav.simulator.writers import write_h5, write_sd_txt
@@ -118,11 +120,11 @@ def run(args) -> int:
         from bootnav.simulator.twoboots import run_cli
 
         if dev_kw:
-            raise InputError("--device is not available with --two-boots (two boots are two units); simulate "
+            raise UsageError("--device is not available with --two-boots (two boots are two units); simulate "
                              "each boot with its own --device instead")
         return run_cli(args)
     if args.mount not in MOUNTS:
-        raise InputError(f"unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
+        raise UsageError(f"--mount: unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
     t0 = time.perf_counter()
     from bootnav.core import atomic
     from bootnav.core.progress import Progress
@@ -135,8 +137,8 @@ def run(args) -> int:
     try:
         res = simulate(args.scenario, seed=args.seed, profile=args.sensor_profile, rate_hz=args.rate,
                        duration_s=args.duration, mount=args.mount, progress=progress, **dev_kw)
-    except ValueError as exc:
-        raise InputError(str(exc)) from exc
+    except ValueError as exc:  # an option's value: unknown scenario or profile, rate, duration, device
+        raise UsageError(str(exc)) from exc
     shown.done()
     path = Path(args.out)
     if fmt == "sd-txt":

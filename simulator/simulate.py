@@ -172,6 +172,10 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     truth["pos_n_m"] -= truth["pos_n_m"][0].copy()
     truth["acc_bias_b_mps2"] = bias_a
     truth["gyro_bias_b_radps"] = bias_g
+    plan_truth = getattr(builder, "plan_truth", None)  # a scenario's own truth (building: storey per sample)
+    plan_arrays, plan_attrs = (plan_truth(np.arange(n_out) / rate_hz, truth["foot_pos_n_m"], builder.step_table())
+                               if plan_truth else ({}, {}))
+    truth.update(plan_arrays)
 
     t_true, t_us = timestamps(n_out, rate_hz, prof, rng, None if unit is None else unit.clock_error)
     keep = drop_mask(n_out, rate_hz, prof, rng)
@@ -234,6 +238,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         "step_kind_codes": json.dumps(GAIT_CODES),
         "gait_parameters": json.dumps(builder.gait_list()),
         **describe_mount(mnt),
+        **plan_attrs,
         **(builder.describe() if hasattr(builder, "describe") else {}),
     }
     if unit is not None:

@@ -68,7 +68,7 @@ def test_dataframes_and_a_clear_error_without_pandas(rec, monkeypatch):
     pd = pytest.importorskip("pandas")
     r = bootnav.process(rec, crop_s=(0.0, 20.0))
     df = r.to_dataframe()
-    assert list(df.columns) == ["t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance"]
+    assert df.index.name == "t_s" and list(df.columns)[:7] == ["x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance"]
     assert len(df) == len(r.t_s) and np.array_equal(df["z_m"].to_numpy(), r.pos_n_m[:, 2])
     assert isinstance(r.steps_dataframe(), pd.DataFrame) and len(r.steps_dataframe()) == r.summary["strides"]
     monkeypatch.setitem(sys.modules, "pandas", None)  # as if not installed
@@ -81,7 +81,7 @@ def test_pdr_from_arrays_and_from_a_file(rec):
     b = bootnav.pdr(BUNDLED, heading="gyro")
     assert a.heading_source == "gyro" and len(a.t_s) >= 10
     assert np.array_equal(a.length_m, b.length_m)
-    assert list(a.to_dataframe().columns) == ["t_s", "length_m", "yaw_enu_rad", "heading_deg_cw_from_north",
+    assert list(a.to_dataframe().reset_index().columns) == ["t_s", "length_m", "yaw_enu_rad", "heading_deg_cw_from_north",
                                               "x_m", "y_m"]
 
 

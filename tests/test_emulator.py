@@ -81,3 +81,29 @@ def test_si_source_is_quantised_with_its_declared_ranges(tmp_path):
     assert src.acc[0].tolist() == [0, 0, 4096]  # 1 g at 4096 LSB/g
     assert src.acc[10, 0] == 32767
     assert np.all(src.gyro == 6550)  # 100 °/s at 65.5 LSB/(°/s)
+
+
+def test_a_recorded_board_id_is_sent_in_the_header_frames(tmp_path):
+    """A recording of board 0x0000002A replays as board 0x0000002A (the calibration store is keyed by it)."""
+    from bootnav.logger.emulator import Emulator, EmulatorSettings
+
+    n = 20
+    t = np.arange(n) / 100.0
+    acc = np.tile([0.0, 0.0, 9.80665], (n, 1))
+    gyro = np.zeros((n, 3))
+    path = tmp_path / "board.h5"
+    write_recording(path, t, acc, gyro, acc_channel=si_channel("acc"), gyro_channel=si_channel("gyro"),
+                    meta={"accel_range_g": 16, "gyro_range_dps": 2000, "rate_nominal_hz": 100,
+                          "device_id": "0x0000002A"})
+    src = load_source(path)
+    assert src.device_id == 0x2A
+    emu = Emulator(EmulatorSettings(out_link=str(tmp_path / "tty"), source=str(path)), signal=src)
+    assert emu.header(0, 0).device_id == 0x2A
+    # No id recorded: the emulator's own default board id.
+    path2 = tmp_path / "noid.h5"
+    write_recording(path2, t, acc, gyro, acc_channel=si_channel("acc"), gyro_channel=si_channel("gyro"),
+                    meta={"accel_range_g": 16, "gyro_range_dps": 2000, "rate_nominal_hz": 100})
+    src2 = load_source(path2)
+    assert src2.device_id is None
+    emu2 = Emulator(EmulatorSettings(out_link=str(tmp_path / "tty2"), source=str(path2)), signal=src2)
+    assert emu2.header(0, 0).device_id == EmulatorSettings.device_id

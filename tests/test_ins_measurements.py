@@ -130,11 +130,12 @@ def test_registry_ids_order_and_activation():
     assert [e.kind for e in KERNEL_REGISTRY] == list(range(N_KINDS))
     assert len({type(e) for e in KERNEL_REGISTRY}) == N_KINDS  # one type each: unrolled per model in numba
     names = lambda s: [m.name for m in active_measurements(s, PRM)]  # noqa: E731
-    assert names(FilterSettings()) == ["zupt", "zaru"]
-    assert names(FilterSettings(n_states=9)) == ["zupt"]
-    assert names(FilterSettings(zaru=False, heading_aid="dominant_directions")) == ["zupt", "heading_aid"]
+    assert names(FilterSettings()) == ["zupt", "zaru", "level_height"]
+    assert names(FilterSettings(n_states=9)) == ["zupt", "level_height"]
+    assert names(FilterSettings(zaru=False, heading_aid="dominant_directions", level_height=False)) == [
+        "zupt", "heading_aid"]
     assert names(FilterSettings(mode="riccati")) == []  # the paper's constant gain applies the ZUPT itself
-    assert active_flags(FilterSettings()).tolist() == [True, True, False]
+    assert active_flags(FilterSettings()).tolist() == [True, True, False, True]
 
 
 def test_kernel_params_are_the_settings_variances_as_floats():

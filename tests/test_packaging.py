@@ -42,6 +42,21 @@ def test_every_package_folder_is_declared():
     assert set(_declared_packages()) == _package_folders()
 
 
+def test_package_data_lives_in_declared_packages():
+    """setuptools prints a 40-line warning at every install for a package-data file in a folder Python can
+    import but ``packages`` does not list (issue 26: ``bootnav.postproc.live.static``)."""
+    cfg = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    declared = set(cfg["packages"])
+    for pkg, patterns in cfg["package-data"].items():
+        for pattern in patterns:
+            folder = pattern.rsplit("/", 1)[0] if "/" in pattern else ""
+            if folder and pkg != "*":
+                assert f"{pkg}.{folder.replace('/', '.')}" in declared, (pkg, pattern)
+    static = REPO / "postproc" / "live" / "static"
+    assert {p.name for p in static.iterdir() if p.suffix in (".html", ".js", ".css")} == {
+        "index.html", "live.js", "live.css"}
+
+
 @pytest.mark.parametrize("name", ["logger", "postproc", "simulator"])
 def test_old_top_level_names_do_not_import(name, tmp_path):
     # from the repository root (where the folders are on sys.path) and from elsewhere
@@ -68,6 +83,7 @@ def test_wheel_installs_into_a_fresh_venv_and_processes(tmp_path):
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
                             "-w", str(dist), str(REPO)], capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert build.returncode == 0, build.stderr
+    assert "absent from the `packages` configuration" not in build.stdout + build.stderr
     wheels = list(dist.glob("bootnav-*.whl"))
     assert len(wheels) == 1
     top = {n.split("/")[0] for n in zipfile.ZipFile(wheels[0]).namelist() if not n.startswith("bootnav-")}

@@ -44,13 +44,15 @@ def cli_run(tmp_path_factory):
 def test_every_output_file_with_documented_columns(cli_run):
     src, out, proc = cli_run
     header, traj = read_csv(out / "trajectory.csv")
-    assert header == ["t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance"]
+    assert header == ["t_s", "x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "stance", "qw", "qx", "qy", "qz",
+                      "sensor_yaw_enu_rad", "sensor_heading_deg_cw_from_north"]
     n_input = sum(1 for _ in __import__("gzip").open(src, "rt")) - 1
     assert len(traj) == n_input  # one row per input sample, nothing dropped
     assert np.all(np.diff(traj[:, 0]) >= 0) and set(np.unique(traj[:, 7])) == {0.0, 1.0}
     header, steps = read_csv(out / "steps.csv")
     assert header == ["t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad",
-                      "heading_deg_cw_from_north", "quality_flags"]
+                      "heading_deg_cw_from_north", "quality_flags", "floor", "ellipse_major_m", "ellipse_minor_m",
+                      "ellipse_orientation_rad"]
     assert len(steps) >= 12
     # quality flags: a bitmask of the implausibility flags (summary "navigation.stride_flag_bits"); kept strides
     # are never "tiny" (bit 16)

@@ -287,9 +287,10 @@ def test_cli_lists_scenarios_and_writes_files(tmp_path):
     assert rec.meta["accel_range_g"] == 8 and rec.meta["smplrt_div"] == 9
     assert rec.rate_hz == pytest.approx(100.0, rel=5e-3)
     bad = run("--scenario", "nowhere", "--out", str(tmp_path / "x.h5"))
-    assert bad.returncode == 1 and "unknown scenario 'nowhere'" in bad.stderr
+    # an option's bad value is a usage error: exit 2, as argparse gives for its own (issue 26)
+    assert bad.returncode == 2 and "unknown scenario 'nowhere'" in bad.stderr
     bad = run("--scenario", "paper-straight", "--duration", "100", "--out", str(tmp_path / "x.h5"))
-    assert bad.returncode == 1 and "fixed path" in bad.stderr
+    assert bad.returncode == 2 and "fixed path" in bad.stderr
     assert not (tmp_path / "x.h5").exists()
 
 

@@ -31,6 +31,8 @@ one ``saturation`` event per run of consecutive saturated samples per axis.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from bootnav.core.runs import runs
@@ -44,6 +46,59 @@ MIN_DYNAMIC_S = 1.0  # dynamic time needed before the gyro is judged (a few stri
 GYRO_MOVING_MIN_RADPS = 0.6  # p99 |rate| while accelerating: a walking foot, waist or hand turns faster
 GYRO_UNIT_ERROR_RADPS = 0.3  # below it with deg/s declared: rad/s read as deg/s (15 rad/s -> 0.26)
 SI_MARGIN = 0.005
+TIME_STEP_MAX_S = 0.5  # a median time step above this is no IMU in seconds (< 2 Hz): ms or us
+
+
+@dataclass(frozen=True)
+class Words:
+    """How a unit check names the remedy: ``bootnav import``'s flags (``CLI_WORDS``) or the Python API's keywords
+    (``API_WORDS``, ``bootnav.api``). The physics and thresholds are the same for both; only the words differ.
+    ``acc``/``gyro``/``time`` format a unit name; ``acc_counts`` a range (None: counts are not offered);
+    ``trust`` is the way to keep the data as declared; ``data`` names where the values come from; ``acc_check``
+    what to check when gravity is borderline."""
+
+    acc: str
+    gyro: str
+    time: str
+    acc_counts: str | None
+    gyro_range: str
+    trust: str
+    data: str
+    acc_check: str
+
+
+CLI_WORDS = Words(acc="--acc-unit {}", gyro="--gyro-unit {}", time="--time-unit {}",
+                  acc_counts="--acc-unit counts --acc-range {}", gyro_range="check --gyro-range",
+                  trust="--trust-units", data="in the file",
+                  acc_check="--acc-unit and --acc-range")
+API_WORDS = Words(acc='acc_unit="{}"', gyro='gyro_unit="{}"', time='time_unit="{}"', acc_counts=None,
+                  gyro_range='gyro_unit="dps"', trust="check_units=False", data="in the array",
+                  acc_check="the accelerometer's unit (acc_unit)")
+
+
+def guess_time_unit(t_raw: np.ndarray) -> tuple[str, float]:
+    """The time unit of a clock column from its median positive step: ``"s"`` when the step is below
+    ``TIME_STEP_MAX_S`` or fractional, else ``"ms"`` (step < 100) or ``"us"``. Returns (unit, median step)."""
+    t_raw = np.asarray(t_raw, dtype=np.float64)
+    d = np.diff(t_raw)
+    med = float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
+    integral = bool(np.all(t_raw == np.round(t_raw)))
+    return ("s" if med < TIME_STEP_MAX_S or not integral else ("ms" if med < 100 else "us")), med
+
+
+def time_unit_problem(t_s: np.ndarray, words: Words = API_WORDS) -> str | None:
+    """None if times declared in seconds step like an IMU's (median step < ``TIME_STEP_MAX_S``), else a
+    message naming the unit the steps fit (ms or us: the step's size, fractional or not)."""
+    d = np.diff(np.asarray(t_s, dtype=np.float64))
+    d = d[np.isfinite(d) & (d > 0)]
+    if d.size == 0:
+        return None
+    med = float(np.median(d))
+    if med < TIME_STEP_MAX_S:
+        return None
+    unit = "ms" if med < 100 else "us"
+    return (f"time check failed: the median time step {words.data} is {med:.4g}, i.e. a sample rate of "
+            f"{1 / med:.3g} Hz if in seconds, slower than any IMU; it fits {unit}: use {words.time.format(unit)}")
 
 
 def quietest_second(acc_si: np.ndarray, rate_hz: float) -> tuple[float, int]:
@@ -69,24 +124,26 @@ def quietest_magnitude(mag: np.ndarray, rate_hz: float) -> tuple[float, int]:
 
 
 def acc_unit_problem(acc_raw: np.ndarray | None, scale_to_si: float, declared: str, rate_hz: float, *,
-                     quiet: tuple[float, int] | None = None) -> str | None:
+                     quiet: tuple[float, int] | None = None, words: Words = CLI_WORDS) -> str | None:
     """None if the gravity magnitude fits the declared unit, else a message with a suggestion (``quiet``:
-    ``quietest_second`` of ``acc_raw`` when already known)."""
+    ``quietest_second`` of ``acc_raw`` when already known; ``words``: the remedy's vocabulary)."""
     raw_mag, i0 = quiet or quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
     if not np.isfinite(raw_mag):
         return None
     si = raw_mag * scale_to_si
     if abs(si / STANDARD_GRAVITY - 1.0) <= ACC_TOLERANCE:
         return None
-    candidates = [("--acc-unit g", 1.0), ("--acc-unit mps2", STANDARD_GRAVITY)]
-    candidates += [(f"--acc-unit counts --acc-range {r}", 32768.0 / r) for r in (2, 4, 8, 16)]
+    candidates = [(words.acc.format("g"), 1.0), (words.acc.format("mps2"), STANDARD_GRAVITY)]
+    if words.acc_counts:
+        candidates += [(words.acc_counts.format(r), 32768.0 / r) for r in (2, 4, 8, 16)]
     fits = [flag for flag, ref in candidates if abs(raw_mag / ref - 1.0) <= ACC_TOLERANCE]
     hint = f"; it fits {fits[0]}" if fits else "; no unit fits (is gravity removed, i.e. linear acceleration?)"
     return (f"gravity check failed: at rest (quietest second, from sample {i0}) the median |acc| is {raw_mag:.4g} "
-            f"in the file = {si:.4g} m/s^2 with the declared unit {declared!r}, expected 9.81 m/s^2 +-25%{hint}")
+            f"{words.data} = {si:.4g} m/s^2 with the declared unit {declared!r}, expected 9.81 m/s^2 +-25%{hint}")
 
 
-def gyro_unit_problem(gyro_si: np.ndarray | None, declared: str, *, mag: np.ndarray | None = None) -> str | None:
+def gyro_unit_problem(gyro_si: np.ndarray | None, declared: str, *, mag: np.ndarray | None = None,
+                      words: Words = CLI_WORDS) -> str | None:
     """None if the gyro's 99.9th percentile |rate| is physically possible, else a message (module docstring);
     ``mag``: the row norms of ``gyro_si`` when already known."""
     if mag is None:
@@ -98,13 +155,13 @@ def gyro_unit_problem(gyro_si: np.ndarray | None, declared: str, *, mag: np.ndar
     p = float(np.percentile(mag, 99.9))
     if p <= GYRO_ABSURD_RADPS:
         return None
-    hint = "--gyro-unit dps" if declared == "radps" else "--gyro-unit radps or check --gyro-range"
+    hint = words.gyro.format("dps") if declared == "radps" else f"{words.gyro.format('radps')} or {words.gyro_range}"
     return (f"gyro check failed: 99.9th percentile of |rate| is {p:.4g} rad/s with the declared unit {declared!r}, "
             f"more than any foot or MEMS gyro reaches ({GYRO_ABSURD_RADPS} rad/s = 2000 deg/s); try {hint}")
 
 
 def acc_borderline(acc_raw: np.ndarray | None, scale_to_si: float, rate_hz: float, *,
-                   quiet: tuple[float, int] | None = None) -> str | None:
+                   quiet: tuple[float, int] | None = None, words: Words = CLI_WORDS) -> str | None:
     """A warning when the quietest second's |f| passes the gravity check but is 10-25 % off g (module docstring;
     ``quiet`` as in ``acc_unit_problem``)."""
     raw_mag, i0 = quiet or quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
@@ -112,11 +169,11 @@ def acc_borderline(acc_raw: np.ndarray | None, scale_to_si: float, rate_hz: floa
     if not np.isfinite(si) or abs(si / STANDARD_GRAVITY - 1.0) <= ACC_BORDERLINE:
         return None
     return (f"gravity borderline: at rest (quietest second, from sample {i0}) |acc| is {si:.4g} m/s^2, "
-            f"{100 * (si / STANDARD_GRAVITY - 1):+.0f} % off g; check --acc-unit and --acc-range")
+            f"{100 * (si / STANDARD_GRAVITY - 1):+.0f} % off g; check {words.acc_check}")
 
 
 def gyro_unit_too_small(acc_si: np.ndarray, gyro_si: np.ndarray, t_s: np.ndarray,
-                        declared: str) -> tuple[str | None, str | None]:
+                        declared: str, words: Words = CLI_WORDS) -> tuple[str | None, str | None]:
     """Is the gyro far too small for the motion the accelerometer shows? (module docstring)
 
     Parameters
@@ -127,6 +184,8 @@ def gyro_unit_too_small(acc_si: np.ndarray, gyro_si: np.ndarray, t_s: np.ndarray
         Time of each sample, s (the dynamic duration is summed from its intervals).
     declared : str
         The declared gyro unit (``dps``, ``radps``, ``counts``).
+    words : Words
+        The remedy's vocabulary (``CLI_WORDS`` or ``API_WORDS``).
 
     Returns
     -------
@@ -155,10 +214,11 @@ def gyro_unit_too_small(acc_si: np.ndarray, gyro_si: np.ndarray, t_s: np.ndarray
                 f"the 99th percentile of |rate| is only {p:.3g} rad/s with the declared unit {declared!r}, "
                 f"where a moving foot, waist or hand turns at > {GYRO_MOVING_MIN_RADPS:g} rad/s")
     if p < GYRO_UNIT_ERROR_RADPS:
-        return (f"gyro check failed: {evidence}; the file is in rad/s: use --gyro-unit radps "
-                "(or --trust-units if the sensor really barely turned)"), None
+        return (f"gyro check failed: {evidence}; the data is in rad/s: use {words.gyro.format('radps')} "
+                f"(or {words.trust} if the sensor really barely turned)"), None
     if p < GYRO_MOVING_MIN_RADPS:
-        return None, f"gyro suspiciously small: {evidence}; if the file is in rad/s, use --gyro-unit radps"
+        return None, (f"gyro suspiciously small: {evidence}; if the data is in rad/s, use "
+                      f"{words.gyro.format('radps')}")
     return None, None
 
 

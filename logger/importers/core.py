@@ -491,10 +491,7 @@ def _build_time(src: _Source) -> tuple[np.ndarray, str]:
             if src.time_text_kind == "utc_datetime" and n:
                 meta["start_utc"] = _dt.datetime.fromtimestamp(t_raw[0], _dt.timezone.utc).isoformat()
         if time_unit is None:
-            d = np.diff(t_raw)
-            med = float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
-            integral = bool(np.all(t_raw == np.round(t_raw)))
-            time_unit = "s" if med < 0.5 or not integral else ("ms" if med < 100 else "us")
+            time_unit, med = checks.guess_time_unit(t_raw)
             src.messages.append(f"time unit: not declared, guessed {time_unit!r} from the median step {med:g} "
                                 f"(override with --time-unit)")
             meta["time_unit_source"] = "guessed from the median time step"

@@ -175,7 +175,8 @@ def smooth_segments(closed, n, rows, bufs):
 
 
 @njit(cache=True, nogil=True)
-def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, bufs, seg, closed, batch_rows, applied,
+def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, pos_cen, bufs, seg, closed, batch_rows,
+                 applied,
                  counters):
     """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
     Returns the input row to resume at: k1, or earlier when the smoother's closed segments are due
@@ -192,7 +193,8 @@ def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, buf
     returns after a close when the closed segments reach ``batch_rows`` buffer rows, when ``closed`` is full,
     or when the next segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest
     buffer row not smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on.
-    ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
+    ``pos_sig`` gets the filter's position 1-σ per axis, ``pos_cen`` the east-north covariance P_EN (m²; the
+horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
     (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
     smoother's bookkeeping.
     """
@@ -304,6 +306,7 @@ def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, buf
             ba[r, i] = st[iba + i]
             bg[r, i] = st[ibg + i]
             pos_sig[r, i] = math.sqrt(max(P[DP + i, DP + i], 0.0))
+        pos_cen[r] = P[DP, DP + 1]
         for i in range(4):
             q[r, i] = st[iq + i]
         if prm.smooth:
@@ -407,6 +410,6 @@ def _compile(nav) -> None:
         inp = KernelInputs(np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1))
         rows = PathRows(none3, none3.copy(), none4, none3.copy(), none3.copy())
         filter_chunk(1, 1, inp, 0, nav.prm, nav._active, n, nav._ric, nav._st.copy(), nav._P.copy(), rows,
-                     none3.copy(), nav._bufs, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
+                     none3.copy(), np.zeros(0), nav._bufs, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
         close_segment(seg, closed, counters, 0)
         smooth_segments(closed[:0], n, rows, nav._bufs)

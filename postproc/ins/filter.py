@@ -42,7 +42,8 @@ import numpy as np
 
 from bootnav.core.runs import runs
 from bootnav.core.timebase import GAP_FACTOR, time_base
-from bootnav.postproc.ins.measurements import HEADING_AID, ZUPT, ZaruMeasurement
+from bootnav.postproc.ins.measurements import (HEADING_AID, LEVEL_HEIGHT, ZUPT, LevelHeightMeasurement,
+                                               ZaruMeasurement)
 from bootnav.postproc.ins.mechanization import validate_imu
 from bootnav.postproc.ins.prepare import FilterSetup, initial_covariance, prepare_filter, saturation_variance
 from bootnav.postproc.ins.settings import FilterSettings
@@ -63,6 +64,7 @@ class NavSolution:
     gyro_bias_b: np.ndarray | None
     pos_sigma_n: np.ndarray
     info: dict = field(default_factory=dict)  # JSON-serialisable: mode, engine, riccati report, timings, ...
+    pos_cov_en: np.ndarray | None = None  # (N,) the filter's east-north position covariance P_EN, m² (ellipses)
 
 
 def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_fraction: float) -> np.ndarray:
@@ -196,6 +198,8 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "zaru": ZaruMeasurement.active(settings),
         "heading_aid": settings.heading_aid,
         "heading_aid_updates": int(einfo["applied"][HEADING_AID]),
+        "level_height": LevelHeightMeasurement.active(settings),
+        "level_height_updates": int(einfo["applied"][LEVEL_HEIGHT]),
         "saturated_samples_inflated": 0 if extra_var is None else int((extra_var > 0).any(axis=1).sum()),
         # 1-σ of every error state at the last sample (δp, δv, δθ[, δb_a, δb_g]), filter (not smoothed)
         "final_state_sigma": np.sqrt(np.maximum(np.diag(einfo["final_P"]), 0.0)).tolist(),
@@ -211,6 +215,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         gyro_bias_b=out["gyro_bias_b"] if biases else None,
         pos_sigma_n=out["pos_sigma_n"],
         info=info,
+        pos_cov_en=out.get("pos_cov_en"),
     )
 
 

@@ -22,14 +22,14 @@ from filterpy.kalman import KalmanFilter
 from bootnav.errors import InputError
 from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, POS, QUAT, VEL,
                                          initial_nominal_state)
-from bootnav.postproc.ins.measurements import HEADING_AID, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
+from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
 from bootnav.postproc.ins.mechanization import strapdown_step
 from bootnav.postproc.ins.prepare import FilterSetup, saturation_variance
 from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
 from bootnav.postproc.ins.smoother import apply_smoothed_correction, error_dynamics, rts_backward_numpy
 from bootnav.postproc.ins.stream import NavRows
 
-_ROWS = ("t_s", "pos_n", "vel_n", "q_nb", "acc_bias_b", "gyro_bias_b", "pos_sigma_n", "zupt")  # NavRows' order
+_ROWS = ("t_s", "pos_n", "vel_n", "q_nb", "acc_bias_b", "gyro_bias_b", "pos_sigma_n", "pos_cov_en", "zupt")  # NavRows' order
 
 
 def process_noise(prm, dt: float, dt_nom: float, n: int, f_b=None, omega_b=None, extra=None,
@@ -96,9 +96,11 @@ class ReferenceNavigator:
         self._H_zupt = np.zeros((3, n))
         self._H_zupt[:, ERR_V] = np.eye(3)
         self._R_zupt = np.eye(3) * prm.var_zupt
-        self.st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
+        self.st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b,
+                                        settings.heading_aid_reference_rad)
         self._out = {k: np.empty((0, 4 if k == "q_nb" else 3)) for k in _ROWS[1:-1]}
         self._out["t_s"] = np.empty(0)
+        self._out["pos_cov_en"] = np.empty(0)
         self._out["zupt"] = np.empty(0, dtype=bool)
         self._k = 0  # samples filtered
         self._t_last = None
@@ -135,7 +137,8 @@ class ReferenceNavigator:
     def info(self) -> dict:
         """Counters of the run so far (JSON-serialisable)."""
         return {"engine": "reference", "n_filtered": self._k, "n_updates": int(self.applied[ZUPT]),
-                "heading_aid_updates": int(self.applied[HEADING_AID]), "external_updates": self.n_external,
+                "heading_aid_updates": int(self.applied[HEADING_AID]),
+                "level_height_updates": int(self.applied[LEVEL_HEIGHT]), "external_updates": self.n_external,
                 "smoother_segments": self.segments, "run_s": self.run_s}
 
     def push(self, t_s, acc_b, gyro_b, zupt, saturated=None) -> NavRows:
@@ -236,6 +239,7 @@ class ReferenceNavigator:
         o["pos_n"][k], o["vel_n"][k], o["q_nb"][k] = st[POS], st[VEL], st[QUAT]
         o["acc_bias_b"][k], o["gyro_bias_b"][k] = st[BIAS_ACC], st[BIAS_GYRO]
         o["pos_sigma_n"][k] = np.sqrt(np.maximum(np.diag(self.kf.P)[ERR_P], 0.0))
+        o["pos_cov_en"][k] = self.kf.P[ERR_P.start, ERR_P.start + 1]
 
     def _close_segment(self) -> None:
         _smooth_segment(self._seg, self._seg_start, self.n, self._out)

@@ -39,12 +39,13 @@ import numpy as np
 from numba import njit
 
 from bootnav.postproc.ins.layout import (BIAS_GYRO, DBG, DP, DV, HDE_HAVE_PREV, HDE_PREV_X, HDE_PREV_Y,
-                                         HDE_REF_HEADING, POS, VEL, YAW)
+                                         HDE_REF_HEADING, HEIGHT, LVL_HAVE_REF, LVL_LAST_X, LVL_LAST_Y, LVL_PENDING,
+                                         LVL_REF_Z, POS, VEL, YAW)
 from bootnav.postproc.ins.params import KernelParams
 from bootnav.postproc.ins.settings import FilterSettings
 
 # registry ids = position in REGISTRY (also the index of each model's active flag and update counter)
-ZUPT, ZARU, HEADING_AID = 0, 1, 2
+ZUPT, ZARU, HEADING_AID, LEVEL_HEIGHT = 0, 1, 2, 3
 MAX_ROWS = 3  # size of the z buffer the engines pass
 
 
@@ -115,13 +116,64 @@ def heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z):
 
 
 @njit(cache=True, inline="always")
+def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
+    """Height hold on a level stride, at stance onsets: z = h_ref − ĥ = δp_U + ν, H selects δp_U, R = σ_level².
+
+    h_ref is the height of the floor the foot stood on (``LVL_REF_Z``, layout.py); ĥ the height now, after the
+    earlier updates of this sample (the ZUPT). A stride is *level* when its estimated height change
+    |ĥ − h_ref| is below ``level_max_dz_m`` (half the lowest riser): the foot's own motion tells a flat
+    stride from a stair stride [MunozDiaz2018], and the drift of one stride is far below a riser. Then the
+    walker is on the same floor, and the height change since the last footfall is zero up to the floor's
+    flatness; the reference is kept (a level walk never random-walks the floor's height). Any other stride
+    (stairs, a ramp) gets no measurement, and the new reference is the height where the foot settles: it
+    follows the foot through the rest of that stance phase (``LVL_PENDING``; the ZUPTs after the onset still
+    move the height by millimetres to a centimetre after a stair swing). The first stance phase sets the
+    first reference the same way. After a stair stride, a move shorter than ``level_min_stride_m``
+    horizontally is not a stride but the foot rolling onto its heel (stairs down land toe-first), which
+    changes the sensor's height by centimetres: no measurement, and the reference goes on following the foot
+    to where it settles. On a floor, short moves (crawling, turning on the spot) are held like strides.
+
+    Why R = σ_level² alone: h_ref is the filter's own earlier estimate, so its error is the same accumulated
+    height error δh the current state carries (fully correlated), and z = h_ref − ĥ measures only the height
+    change of this stride (the error it added since the last footfall), whose physical spread is the floor's
+    flatness. Counting the reference's variance P_zz in R as if it were independent would halve every update
+    and still collapse P_zz; the honest price of the exact (cloned-state) form is a vertical σ that reports
+    the last stride's uncertainty, not the mission's: ``docs/floors.md``. Horizontal states are touched only
+    through their (small) correlation with δp_U.
+    """
+    if not stance[k]:
+        return 0, HEIGHT, 0.0
+    px, py = st[POS.start] + dx[DP], st[POS.start + 1] + dx[DP + 1]
+    h = st[POS.start + 2] + dx[HEIGHT]
+    if k > 0 and stance[k - 1]:  # within a stance phase: the reference follows the foot after a non-level stride
+        if st[LVL_PENDING] > 0.5:
+            st[LVL_REF_Z] = h
+        st[LVL_LAST_X], st[LVL_LAST_Y] = px, py
+        return 0, HEIGHT, 0.0
+    sx, sy = px - st[LVL_LAST_X], py - st[LVL_LAST_Y]
+    st[LVL_LAST_X], st[LVL_LAST_Y] = px, py
+    m = 0
+    if st[LVL_PENDING] > 0.5 and sx * sx + sy * sy < prm.level_min_stride_m * prm.level_min_stride_m:
+        pass  # a heel or toe roll after a stair stride: no measurement, the reference still follows the foot
+    elif st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m:
+        z[0] = st[LVL_REF_Z] - h
+        m = 1
+        st[LVL_PENDING] = 0.0
+    else:
+        st[LVL_REF_Z], st[LVL_HAVE_REF], st[LVL_PENDING] = h, 1.0, 1.0
+    return m, HEIGHT, prm.var_level
+
+
+@njit(cache=True, inline="always")
 def measure(kind, st, dx, acc_b, gyro_b, stance, k, prm, z):
     """Evaluate the model with registry id ``kind`` (module docstring): returns (m, first, r), fills z[:m]."""
     if kind == ZUPT:
         return zupt(st, dx, acc_b, gyro_b, stance, k, prm, z)
     if kind == ZARU:
         return zaru(st, dx, acc_b, gyro_b, stance, k, prm, z)
-    return heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z)
+    if kind == HEADING_AID:
+        return heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z)
+    return level_height(st, dx, acc_b, gyro_b, stance, k, prm, z)
 
 
 class Measurement:
@@ -201,8 +253,19 @@ class HeadingAidMeasurement(Measurement):
         return settings.heading_aid == "dominant_directions"
 
 
-# application order within a sample: ZUPT, then ZARU, then the heading aid
-REGISTRY: tuple[type[Measurement], ...] = (ZuptMeasurement, ZaruMeasurement, HeadingAidMeasurement)
+class LevelHeightMeasurement(Measurement):
+    """Zero height change of a level stride at stance onsets (``level_height``), on by default."""
+
+    kind, name = LEVEL_HEIGHT, "level_height"
+
+    @staticmethod
+    def active(settings: FilterSettings) -> bool:
+        return bool(settings.level_height and settings.mode == "time_varying")
+
+
+# application order within a sample: ZUPT, then ZARU, then the heading aid, then the height hold
+REGISTRY: tuple[type[Measurement], ...] = (ZuptMeasurement, ZaruMeasurement, HeadingAidMeasurement,
+                                           LevelHeightMeasurement)
 
 
 def active_measurements(settings: FilterSettings, params: KernelParams) -> list[Measurement]:

@@ -32,6 +32,9 @@ class KernelParams(NamedTuple):
     var_hde: float  # σ_hde², rad²
     hde_threshold_rad: float  # heading-aid gate |e| < threshold, rad
     hde_min_stride_m: float  # shortest stride that gives a heading-aid measurement, m
+    var_level: float  # σ_level², m²: height change of a level stride (floor flatness)
+    level_max_dz_m: float  # a stride whose height changes less than this is level, m
+    level_min_stride_m: float  # a move shorter than this (horizontal) is a heel/toe roll, not a stride, m
     riccati: bool  # paper mode: constant Riccati ZUPT gain instead of the Kalman gain
     smooth: bool  # run the segment RTS smoother
     max_segment: int  # longest smoother segment, samples
@@ -68,6 +71,9 @@ def kernel_params(settings: FilterSettings, gravity: float, nominal_dt_s: float,
         var_hde=float(settings.sigma_hde_rad**2),
         hde_threshold_rad=float(settings.hde_threshold_rad),
         hde_min_stride_m=float(settings.hde_min_stride_m),
+        var_level=float(settings.sigma_level_m**2),
+        level_max_dz_m=float(settings.level_max_dz_m),
+        level_min_stride_m=float(settings.level_min_stride_m),
         riccati=bool(riccati),
         smooth=bool(smooth),
         max_segment=int(max_segment),

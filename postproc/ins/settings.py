@@ -90,14 +90,68 @@ class FilterSettings:
         Longest buffered smoother segment, s: bounds memory (longer swings or stances are smoothed in pieces).
         5 s.
     heading_aid : str
-        "none" or "dominant_directions": the heuristic heading aid of ``measurements.heading_aid``
-        [Borenstein2009]; assumes a building with rectilinear floor plans, so off by default.
+        "none", "dominant_directions" or "auto": the heuristic heading aid of ``measurements.heading_aid``
+        [Borenstein2009] assumes a building with rectilinear floor plans; "auto" switches it on per recording
+        when the strides of the unaided path show such a grid (``postproc.building.directions``; ``bootnav
+        live``: from the strides seen so far).
+    heading_aid_reference_rad : float or None
+        Grid direction of the aid in the path frame, rad; None: the first stride of at least
+        ``hde_min_stride_m`` sets it ("auto" sets it from the strides it decided on).
+    hde_auto_window : int
+        "auto": straight strides per window (each window has its own grid direction, so the unaided path's
+        heading drift within one window must stay below the tolerance: ~1 min of walking). 40.
+    hde_auto_min_strides : int
+        "auto": fewest straight strides to decide on (a shorter walk keeps the aid off). 10.
+    hde_auto_tolerance_rad : float
+        "auto": a straight stride is on the grid within this angle, rad: σ_hde, how straight a corridor walk
+        is. 5° (strides in random directions: 11 % on the grid).
+    hde_auto_min_share : float
+        "auto": share of the straight strides on the grid for the aid to switch on. 0.5.
+    hde_auto_min_cross : float
+        "auto": share of the aligned strides on the axis at right angles to the main one (a corridor at right
+        angles walked; an out-and-back walk has none, as its turns are not straight strides). 0.02: one
+        straight stride in 50 (in a building most straight strides run along the long corridors).
+    revisits : str
+        "none", "entry", "stairs" or "entry+stairs": correct the smoothed path by a pose graph over strides
+        where the walker comes back to a place already visited (``postproc.building.revisits``). Off: see
+        docs/building.md for what it does.
+    revisit_entry_gate : float
+        "entry": the last footprint is tied to the first when they are closer than this share of the distance
+        walked: 0.01, the drift of a foot INS (~1 % of the distance). A larger gap comes from scale or heading
+        errors, which a position graph cannot undo (it bends the path: docs/tuning-log.md).
+    revisit_stair_gate_m : float
+        "stairs": two parallel flights are the same (or stacked) when both ends are this close, m. 3 m (the
+        drift between two visits; flights of one stairwell in the same direction are stacked exactly).
+    revisit_riser_m : float
+        "stairs": a stair stride climbs or descends at least this, m (half the lowest riser, 0.15 m). 0.075.
+    revisit_sigma_m : float
+        Std of a revisit edge, m (where a foot lands at a door or on a step). 0.3 m.
+    revisit_step_sigma_m : float
+        Least std of one stride's odometry edge, m (the filter's covariance misses unmodelled errors). 0.05 m.
     hde_threshold_rad : float
         The aid acts only on strides within this angle of a dominant direction, rad. 10°.
     sigma_hde_rad : float
         Its measurement std, rad: how straight a corridor walk is. 5°.
     hde_min_stride_m : float
         Shortest stride that counts, m (shuffling and turning on the spot give no heading). 0.3 m.
+    level_height : bool
+        Height hold on level strides (``measurements.level_height``): at each stance onset, a stride whose
+        estimated height change is below ``level_max_dz_m`` gets the pseudo-measurement "no height change since
+        the previous footfall" [MunozDiaz2018]. On by default (``docs/floors.md``); False = height integrated
+        freely.
+    level_max_dz_m : float
+        A stride is level when |Δh| < this, m. 0.075 m: half the lowest riser (0.15 m): a stride on stairs
+        changes the height by at least one riser, while the vertical drift of a level stride is millimetres to a
+        centimetre or two (0.2–0.9 % of the distance walked). Physics, not tuned; a ramp steeper than 0.075 m
+        per stride (5 % at 1.4 m strides) is not flattened, a gentler one is.
+    level_min_stride_m : float
+        After a stair stride, a move shorter than this (horizontal, m) is not a stride but the foot rolling
+        onto its heel (stairs down land toe-first): the sensor's height changes by centimetres with the foot's
+        pitch, so it is not held, and the reference moves on to where the foot settles. 0.10 m: a roll moves a sensor within 0.15 m of the pivot by at most r·θ ≈ 0.08 m
+        horizontally (θ ≤ 35°, a steep toe-off).
+    sigma_level_m : float
+        Std of the height change of a level stride, m: floor flatness, 4 mm over 1 m and 10 mm over 4 m for
+        finished floors [DIN18202], plus the foot not landing on exactly the same sole point. 5 mm.
     """
 
     n_states: int = 15
@@ -127,9 +181,25 @@ class FilterSettings:
     smoother: str = "rts"
     smoother_max_segment_s: float = 5.0
     heading_aid: str = "none"
+    heading_aid_reference_rad: float | None = None
+    hde_auto_window: int = 40
+    hde_auto_min_strides: int = 10
+    hde_auto_tolerance_rad: float = 5.0 * DEG
+    hde_auto_min_share: float = 0.5
+    hde_auto_min_cross: float = 0.02
+    revisits: str = "none"
+    revisit_entry_gate: float = 0.01
+    revisit_stair_gate_m: float = 3.0
+    revisit_riser_m: float = 0.075
+    revisit_sigma_m: float = 0.3
+    revisit_step_sigma_m: float = 0.05
     hde_threshold_rad: float = 10.0 * DEG
     sigma_hde_rad: float = 5.0 * DEG
     hde_min_stride_m: float = 0.3
+    level_height: bool = True
+    level_max_dz_m: float = 0.075
+    level_min_stride_m: float = 0.10
+    sigma_level_m: float = 0.005
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
@@ -141,20 +211,40 @@ class FilterSettings:
             raise ValueError(f"FilterSettings.engine must be 'fast' or 'reference', got {self.engine!r}")
         if self.smoother not in ("rts", "none"):
             raise ValueError(f"FilterSettings.smoother must be 'rts' or 'none', got {self.smoother!r}")
-        if self.heading_aid not in ("none", "dominant_directions"):
-            raise ValueError(
-                f"FilterSettings.heading_aid must be 'none' or 'dominant_directions', got {self.heading_aid!r}"
-            )
+        if self.heading_aid not in ("none", "dominant_directions", "auto"):
+            raise ValueError(f"FilterSettings.heading_aid must be 'none', 'dominant_directions' or 'auto', got "
+                             f"{self.heading_aid!r}")
+        ref = self.heading_aid_reference_rad
+        if ref is not None and not (isinstance(ref, (int, float)) and math.isfinite(ref)):
+            raise ValueError(f"FilterSettings.heading_aid_reference_rad must be None or a finite angle, got {ref!r}")
+        for name in ("hde_auto_window", "hde_auto_min_strides"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 3):
+                raise ValueError(f"FilterSettings.{name} must be an integer >= 3, got {v!r}")
+        if self.revisits not in ("none", "entry", "stairs", "entry+stairs"):
+            raise ValueError(f"FilterSettings.revisits must be 'none', 'entry', 'stairs' or 'entry+stairs', got "
+                             f"{self.revisits!r}")
+        for name in ("revisit_entry_gate", "revisit_stair_gate_m", "revisit_riser_m", "revisit_sigma_m",
+                     "revisit_step_sigma_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"FilterSettings.{name} must be a finite number > 0, got {v!r}")
+        for name in ("hde_auto_min_share", "hde_auto_min_cross"):
+            if not 0 <= getattr(self, name) <= 1:
+                raise ValueError(f"FilterSettings.{name} must be in [0, 1], got {getattr(self, name)!r}")
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
+        if not isinstance(self.level_height, bool):
+            raise ValueError(f"FilterSettings.level_height must be true or false, got {self.level_height!r}")
         for f in fields(self):
             if f.name in ("zupt_lever_arm_m", "zaru_rate_factor", "acc_scale_noise", "gyro_scale_noise", "zupt_onset_delay_s",
-                          "zupt_onset_max_fraction") or f.name.startswith("sat_"):
+                          "zupt_onset_max_fraction", "hde_auto_min_cross") or f.name.startswith("sat_"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number >= 0, got {v!r}")
                 continue
-            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name == "smoother_max_segment_s":
+            if f.name.startswith(("sigma_", "init_", "hde_")) or f.name in ("smoother_max_segment_s", "level_max_dz_m",
+                                                                                          "level_min_stride_m"):
                 v = getattr(self, f.name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                     raise ValueError(f"FilterSettings.{f.name} must be a finite number > 0, got {v!r}")

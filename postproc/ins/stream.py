@@ -76,9 +76,9 @@ from bootnav.core.runs import runs
 from bootnav.core.timebase import GAP_FACTOR
 from bootnav.errors import InputError
 from bootnav.postproc.ins import fast
-from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, POS, QUAT, VEL,
-                                         initial_nominal_state)
-from bootnav.postproc.ins.measurements import HEADING_AID, N_KINDS, ZUPT, active_flags
+from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_HAVE_PREV,
+                                         HDE_REF_HEADING, POS, QUAT, VEL, initial_nominal_state)
+from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, active_flags
 from bootnav.postproc.ins.prepare import FilterSetup, prepare_filter, saturation_variance
 from bootnav.postproc.ins.settings import FilterSettings
 
@@ -133,6 +133,7 @@ class NavRows:
     acc_bias_b: np.ndarray  # (m, 3)
     gyro_bias_b: np.ndarray  # (m, 3)
     pos_sigma_n: np.ndarray  # (m, 3), the filter's (not smoothed) 1-σ
+    pos_cov_en: np.ndarray  # (m,), the filter's east-north position covariance P_EN, m²
     stance: np.ndarray  # (m,) bool
     zupt: np.ndarray  # (m,) bool
 
@@ -160,7 +161,7 @@ class NavRows:
 def _empty_rows(start: int) -> NavRows:
     z3 = np.zeros((0, 3))
     return NavRows(start, np.zeros(0), z3, z3.copy(), np.zeros((0, 4)), z3.copy(), z3.copy(), z3.copy(),
-                   np.zeros(0, bool), np.zeros(0, bool))
+                   np.zeros(0), np.zeros(0, bool), np.zeros(0, bool))
 
 
 class StreamNavigator:
@@ -203,7 +204,8 @@ class StreamNavigator:
                          np.ascontiguousarray(zg.T, dtype=np.float64))
         else:
             self._ric = fast.RiccatiGain(np.eye(3), np.zeros(3), np.zeros((6, 3)))
-        self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b)
+        self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b,
+                                         settings.heading_aid_reference_rad)
         self._P = np.array(setup.P0, dtype=np.float64, order="C", copy=True)
         nb = _RING_CAPS * prm.max_segment if prm.smooth else 1
         self._buf_post = np.empty((nb, n, n))
@@ -365,6 +367,7 @@ class StreamNavigator:
             "n_filtered": self._n_done,
             "n_updates": int(self._applied[ZUPT]),
             "heading_aid_updates": int(self._applied[HEADING_AID]),
+            "level_height_updates": int(self._applied[LEVEL_HEIGHT]),
             "external_updates": self._n_external,
             "smoother_segments": int(self._counters[fast.SMOOTHER_SEGMENTS]),
             "smoother_skipped_steps": int(self._counters[fast.SMOOTHER_SKIPPED]),
@@ -420,6 +423,14 @@ class StreamNavigator:
         rows = self._advance(final=True)
         self._finished = True
         return rows
+
+    def enable_heading_aid(self, reference_rad: float) -> None:
+        """Switch the dominant-direction heading aid on from the next filtered sample, on the grid at
+        ``reference_rad`` (path frame): ``heading_aid = "auto"`` decided causally (``bootnav live``,
+        ``building.directions.CausalDirections``)."""
+        self._active[HEADING_AID] = True
+        self._st[HDE_REF_HEADING] = float(reference_rad)
+        self._st[HDE_HAVE_PREV] = 0.0
 
     def apply_measurement(self, z, H, R) -> None:
         """Kalman update of the error state at the last filtered sample with z = H δx + ν, ν ~ N(0, R).
@@ -477,6 +488,7 @@ class StreamNavigator:
         o["pos_n"][r], o["vel_n"][r], o["q_nb"][r] = st[POS], st[VEL], st[QUAT]
         o["acc_bias_b"][r], o["gyro_bias_b"][r] = st[BIAS_ACC], st[BIAS_GYRO]
         o["pos_sigma_n"][r] = np.sqrt(np.maximum(np.diag(P)[ERR_P], 0.0))
+        o["pos_cov_en"][r] = P[ERR_P.start, ERR_P.start + 1]
         self._n_external += 1
 
     # ------------------------------------------------------------------------------------------ smoothing
@@ -653,6 +665,7 @@ class StreamNavigator:
         out = {name: np.empty((n_open + L, 3)) for name in _ROWS3}
         out["q_nb"] = np.empty((n_open + L, 4))
         out["t_s"] = np.empty(n_open + L)
+        out["pos_cov_en"] = np.empty(n_open + L)
         out["stance"] = np.empty(n_open + L, dtype=bool)
         out["zupt"] = np.empty(n_open + L, dtype=bool)
         if n_open:
@@ -670,8 +683,8 @@ class StreamNavigator:
         try:
             while k <= L:
                 k = fast.filter_chunk(k, L + 1, inp, n_open - 1, self.prm, self._active, self.n, self._ric, self._st,
-                                      self._P, rows_out, out["pos_sigma_n"], self._bufs, self._seg, self._closed,
-                                      self._batch_rows, self._applied, self._counters)
+                                      self._P, rows_out, out["pos_sigma_n"], out["pos_cov_en"], self._bufs, self._seg,
+                                      self._closed, self._batch_rows, self._applied, self._counters)
                 if k <= L:  # closed segments due: smooth them in another thread while the filter goes on
                     self._hand_on(rows_out)
             if final and self.prm.smooth and filled:
@@ -692,7 +705,8 @@ class StreamNavigator:
             self._q_stance, self._q_xvar = self._q_stance[L:], self._q_xvar[L:]
         rows = NavRows(self._out_start, out["t_s"][:n_final], out["pos_n"][:n_final], out["vel_n"][:n_final],
                        out["q_nb"][:n_final], out["acc_bias_b"][:n_final], out["gyro_bias_b"][:n_final],
-                       out["pos_sigma_n"][:n_final], out["stance"][:n_final], out["zupt"][:n_final])
+                       out["pos_sigma_n"][:n_final], out["pos_cov_en"][:n_final], out["stance"][:n_final],
+                       out["zupt"][:n_final])
         self._out, self._out_from, self._out_filled = out, n_final, filled
         self._out_start += n_final
         return rows
@@ -705,12 +719,13 @@ def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progr
 
     Returns
     -------
-    (arrays dict pos_n, vel_n, q_nb, acc_bias_b, gyro_bias_b, pos_sigma_n; info dict)
+    (arrays dict pos_n, vel_n, q_nb, acc_bias_b, gyro_bias_b, pos_sigma_n, pos_cov_en; info dict)
     """
     N = t_s.shape[0]
     nav = StreamNavigator(settings, setup, tb.nominal_dt_s, apply_onset_delay=False)
     out = {name: np.empty((N, 3)) for name in ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")}
     out["q_nb"] = np.empty((N, 4))
+    out["pos_cov_en"] = np.empty(N)
     stance = np.ascontiguousarray(stance, dtype=np.bool_)
     xvar = None if extra_var is None else np.ascontiguousarray(extra_var, dtype=np.float64) * tb.nominal_dt_s
     # a few pushes for the progress callback, each at most _PUSH_MAX samples (bounded temporaries)

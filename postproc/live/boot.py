@@ -10,14 +10,27 @@ foot leaves the ground again. From the final rows the view builds what ``process
 * strides: moves of at least ``selftune.min_stride_m`` between footprints (``strides.stride_footprints``);
 * floor: the level of each footprint's height above the first one (``strides.floor_signal`` and
   ``strides.floor_levels``, continued from the last level: both are shift-invariant by one storey);
-* distance: the sum of the horizontal stride lengths.
+* distance: the sum of the horizontal stride lengths;
+* uncertainty: each stride row ends with the footprint's horizontal 1-σ ellipse (``strides.ellipse``:
+  semi-major, semi-minor in m, orientation in rad counter-clockwise from east) from the forward filter's
+  covariance at the last sample of its stance phase, where the fixed-lag smoother ends every segment on the
+  filtered estimate (as ``process``'s ``steps.csv``).
 
 Provisional strides (``provisional``): as soon as a low-latency cue says the foot has stopped, the view
 draws a provisional footprint at the navigator's filtered position propagated to that stance start; the final
 stride replaces it when its rows are final (``provisional`` module docstring).
 
 Time since the last motion is read from the stance decisions, which come a detector window after the
-samples (long before the rows are final): the foot counts as moving while it is not in stance.
+samples (long before the rows are final): the foot counts as moving while it is not in stance. A boot that
+stops sending is no safer than one that stands still: while its link is not ``ok`` (stale, disconnected, never
+heard) the wall time without samples adds to the time without motion, so the same alarm fires after
+``no_motion_s``, marked ``signal lost`` (``status``).
+
+A stream that breaks off (a ``disconnect`` event: cable pulled, emulator ended) ends the boot's segment as the
+end of a record does: the filter is flushed and the open stance phase closed, so its last stride is final on
+the page as in ``live.json``. Samples after a reconnect start a new segment, aligned on its own initial rest and
+continued from the last footprint (the heading is re-aligned: the turn made while the link was down is
+unknown; a note says so).
 
 What ``process`` does on the whole record and a stream cannot (``ins.stream``): the stance fallback
 (``selftune.select_stance``) and the per-recording vertical timing calibration; the live view uses the
@@ -26,12 +39,15 @@ configured detector and no timing offset.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from bootnav.errors import InputError
-from bootnav.postproc.strides import FootprintAccumulator, floor_levels, floor_signal, stride_footprints
+from bootnav.postproc.strides import FootprintAccumulator, ellipse, floor_levels, floor_signal, stride_footprints
+
+ROW_COLUMNS = ["t_s", "x_m", "y_m", "z_m", "floor", "ellipse_major_m", "ellipse_minor_m", "ellipse_orientation_rad"]
 
 from .link import LinkStatus
 from .provisional import RecentSamples, propagate_position
@@ -111,7 +127,9 @@ class BootView:
         self._nav = None
         self._ahead = np.zeros(0, bool)  # stance decisions of the pushed samples not yet final
         self._pending: list = []  # chunks waiting for the navigator to start (its initial still period)
-        self._rows: list[list[float]] = []  # [t_s, x_m, y_m, z_m, floor] per kept footprint, the start first
+        self._rows: list[list[float]] = []  # ROW_COLUMNS per kept footprint, the start first
+        self._ends_cov: list[tuple[float, float, float]] = []  # (P_EE, P_NN, P_EN) at each stance phase's end
+        self._in_stance = False  # the last final row was in stance (its phase may go on in the next rows)
         self._last_kept: np.ndarray | None = None
         self._z0: float | None = None  # height of the first footprint
         self._fp_last_z = 0.0  # height (relative) and floor signal of the last footprint
@@ -124,23 +142,59 @@ class BootView:
         self._stopped = False  # the filter refused the samples: no more path for this boot
         self._prov: list[list[float]] = []  # provisional rows [t_s, x_m, y_m, z_m, floor] after the final ones
         self._covered_t = -np.inf  # provisional rows up to this time are superseded by final rows
+        self._offset_n = np.zeros(3)  # position of this segment's origin (the last footprint of the previous one)
+        self._segment_ended = False  # the stream broke off: the next samples start a new segment
+        self._segment_note: str | None = None
+        self._wall0: float | None = None  # wall time of the first status (a boot never heard is silent since)
+        # heading_aid "auto": the rule of building.directions on the strides seen so far (causal)
+        self._dirs = None
+        if settings.filter.heading_aid == "auto":
+            from bootnav.postproc.building.directions import CausalDirections
+
+            self._dirs = CausalDirections(settings.filter)
 
     # ------------------------------------------------------------------ samples in
     def push(self, chunk, wall_s: float) -> list[list[float]]:
         """Account for a chunk (``sources.Chunk``); return the stride rows it completed."""
         self.link.update(chunk.t_s, chunk.saturated, chunk.events, wall_s)
-        if len(chunk.t_s) == 0 or self._stopped:
-            return []
-        if self._t_start is None:
-            self._t_start = float(chunk.t_s[0])
-        return self._guarded(chunk)
+        rows: list[list[float]] = []
+        if len(chunk.t_s) and not self._stopped:
+            if self._t_start is None:
+                self._t_start = float(chunk.t_s[0])
+            if self._segment_ended:
+                self._new_segment()
+            rows = self._guarded(chunk)
+        broke_off = len(chunk.events) and bool((chunk.events["kind"] == b"disconnect").any())
+        if broke_off:
+            rows += self.finish()  # the stream broke off: its last stride is final now, not at the next sample
+        return rows
 
     def finish(self) -> list[list[float]]:
-        """The end of the record: flush the filter and close the last stance phase."""
+        """The end of the record (or of the stream, at a disconnect): flush the filter and close the last
+        stance phase; a second call returns nothing."""
+        if self._segment_ended:
+            return []
+        self._segment_ended = True
         rows = [] if self._stopped else self._guarded(None)
         self._fp.finish()
         self._prov = []
         return rows + self._add_footprints(*self._new_footprints())
+
+    def _new_segment(self) -> None:
+        """Samples after a broken-off stream: a new navigator (aligned on the next rest) whose origin is the last
+        footprint, so the path continues from where the boot was last seen (module docstring)."""
+        self._nav = None
+        self._pending = []
+        self._ahead = np.zeros(0, bool)
+        self._fp = FootprintAccumulator()
+        self._n_fp = 0
+        self._prov = []
+        self._covered_t = -np.inf
+        self._segment_ended = False
+        if self._last_kept is not None:
+            self._offset_n = np.asarray(self._last_kept, float).copy()  # heights stay relative to the first start
+            self._segment_note = "signal back after a loss: path continued from the last footprint, heading re-aligned"
+            self.note = self._segment_note
 
     @property
     def cue_lookahead_s(self) -> float | None:
@@ -197,7 +251,22 @@ class BootView:
 
         rows = NavRows.concatenate(parts)
         self._ahead = self._ahead[len(rows):]
+        self._phase_end_covariances(rows)
         return rows.t_s, rows.pos_n, rows.stance
+
+    def _phase_end_covariances(self, rows) -> None:
+        """Keep the horizontal covariance at the last row of every stance phase (one entry per phase, in the
+        order the footprint accumulator closes them; a phase still open at the end of ``rows`` is updated by
+        the next rows)."""
+        st = np.asarray(rows.stance, bool)
+        if not len(st):
+            return
+        ends = np.flatnonzero(st & np.append(~st[1:], True))
+        if self._in_stance and st[0] and len(ends) and self._ends_cov:
+            self._ends_cov.pop()  # the open phase goes on: its end moves
+        sig, cen = rows.pos_sigma_n, rows.pos_cov_en
+        self._ends_cov.extend((float(sig[i, 0] ** 2), float(sig[i, 1] ** 2), float(cen[i])) for i in ends.tolist())
+        self._in_stance = bool(st[-1])
 
     def _start(self) -> bool:
         """Start the navigator once the initial rest is complete (as ``process`` aligns on it).
@@ -256,7 +325,7 @@ class BootView:
         self._bias = (self._nav.setup.acc_bias0_b, self._nav.setup.gyro_bias0_b)
         cal = self.settings.calibration
         self._acc_cal = load_accel_calibration(cal.accel_calibration_file) if cal.accel_calibration_file else None
-        self.note = None
+        self.note = self._segment_note  # None, or what a new segment after a lost signal must say
         self._pending = got + ([None] if final else [])
         return True
 
@@ -293,6 +362,7 @@ class BootView:
             pos = propagate_position(nav.position_n, nav.velocity_n, nav.q_nb, ba, bg, float(nav.last_t_s), t, acc,
                                      gyro, still, nav.gravity)
             t_k = float(t[-1])
+        pos = np.asarray(pos, float) + self._offset_n
         if not (np.isfinite(t_k) and t_k > self._covered_t):
             return
         ref = np.asarray(self._prov[-1][1:4], float) if self._prov else self._last_kept
@@ -330,8 +400,13 @@ class BootView:
         """Floors of every footprint; rows for those that end a stride (``strides.stride_footprints``)."""
         if len(fp) == 0:
             return []
+        fp = fp + self._offset_n
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
+        if self._dirs is not None and not self._dirs.on and self._dirs.push(fp[:, :2]) and self._nav is not None:
+            self._nav.enable_heading_aid(self._dirs.reference_rad)
+            self.note = (f"heading aid on from stride {self._dirs.decided_at_stride}: the strides follow a building's "
+                         f"axes ({math.degrees(self._dirs.reference_rad):.0f} deg)")
         z_rel = fp[:, 2] - self._z0
         seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
         signal = seg[1:] - seg[0] + self._signal_last
@@ -343,11 +418,15 @@ class BootView:
         else:
             keep = stride_footprints(np.vstack((self._last_kept, fp)), self.min_stride_m)[1:] - 1
         rows = []
+        k0 = self._n_fp - len(fp)  # index of fp[0] among all footprints
         for k in keep.tolist():
             if self._last_kept is not None:
                 self._distance_m += float(np.hypot(*(fp[k, :2] - self._last_kept[:2])))
             self._last_kept = fp[k]
-            rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k])])
+            a = b = o = None  # (no covariance: cannot happen while rows and phases stay in step)
+            if k0 + k < len(self._ends_cov):
+                a, b, o = (float(v) for v in ellipse(*self._ends_cov[k0 + k]))
+            rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k]), a, b, o])
         self._rows.extend(rows)
         return rows
 
@@ -356,14 +435,26 @@ class BootView:
         """What the boot's panel shows (JSON-ready)."""
         since = self._t_motion if self._t_motion is not None else self._t_start
         still = float(self._t_latest - since) if since is not None and np.isfinite(self._t_latest) else 0.0
+        if self._wall0 is None:
+            self._wall0 = wall_s
+        link = self.link.as_dict(wall_s, ended)
+        # a silent boot: the wall time without samples adds to the time without (known) motion (module docstring)
+        lost = not ended and link["state"] in ("waiting", "stale", "disconnected")
+        silent = (link["age_s"] if link["age_s"] is not None else wall_s - self._wall0) if lost else 0.0
+        still = max(still, 0.0) + silent
+        alarm = bool(still >= self.live.no_motion_s)
+        last = self._rows[-1] if self._rows else None
         return {"floor": self._level, "height_m": self._fp_last_z, "distance_m": self._distance_m,
-                "strides": max(len(self._rows) - 1, 0), "still_s": max(still, 0.0),
-                "alarm": bool(still >= self.live.no_motion_s), "t_s": self._t_latest if np.isfinite(self._t_latest)
-                else 0.0, "link": self.link.as_dict(wall_s, ended), "note": self.note}
+                "uncertainty_m": [last[5], last[6]] if last and last[5] is not None else None,
+                "strides": max(len(self._rows) - 1, 0), "still_s": still, "alarm": alarm,
+                "alarm_reason": ("signal lost" if lost else "no motion") if alarm else None,
+                "t_s": self._t_latest if np.isfinite(self._t_latest) else 0.0, "link": link, "note": self.note}
 
     def result(self) -> dict:
         """The final stride rows and figures (``live.json``)."""
-        return {"columns": ["t_s", "x_m", "y_m", "z_m", "floor"], "rows": self._rows,
+        return {"columns": list(ROW_COLUMNS), "rows": self._rows,
                 "distance_m": self._distance_m, "strides": max(len(self._rows) - 1, 0), "final_floor": self._level,
                 "height_m": self._fp_last_z, "note": self.note,
+                "heading_aid_from_stride": None if self._dirs is None or not self._dirs.on else
+                self._dirs.decided_at_stride,
                 "link": {k: v for k, v in self.link.as_dict(0.0, True).items() if k != "age_s"}}

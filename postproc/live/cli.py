@@ -39,13 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="ProcessSettings as JSON (detector, filter, floors), as for `bootnav process`")
     parser.add_argument("--detector", metavar="NAME",
                         help="stance detector (default: the settings'; streamable: adaptive, shoe, ared, mv, mag, "
-                             "shoe-literal with a threshold). The view shows a stride a detector look-ahead after its "
-                             "stance phase: 1.4 s for adaptive, 0.07 s for shoe; with either, a provisional (hollow) "
-                             "marker about 0.2 s after the foot stopped")
+                             "shoe-literal with a threshold). The final stride is drawn a median 1.8-2.0 s after its "
+                             "stance phase began with adaptive, 0.63 s with shoe; with either, a provisional (hollow) "
+                             "marker a median 0.27-0.31 s after it (benchmarks/bench_live.py, docs/live.md)")
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to serve on (default 127.0.0.1; any other needs --token)")
     parser.add_argument("--http-port", type=int, default=8017, metavar="N",
-                        help="TCP port of the page (default 8017; 0 picks a free one)")
+                        help="TCP port number of the page (default 8017; 0 picks a free one)")
     parser.add_argument("--token", metavar="T",
                         help="access token every request must carry; 'auto' generates one (printed in the URL)")
 
@@ -107,9 +107,10 @@ def run(args) -> int:
     token = new_token() if args.token == "auto" else args.token
     helpers = []  # demo emulators
     out_dir = Path(args.out) if args.out else None
+    offsets = None
     if args.demo:
         out_dir = out_dir or Path(tempfile.mkdtemp(prefix="bootnav-live-demo-"))
-        ports, labels = _start_demo(out_dir, helpers, progress)
+        ports, labels, offsets = _start_demo(out_dir, helpers, progress)
     elif args.port:
         ports, labels = args.port, labels_for(args.port, args.label)
     feeds = []
@@ -128,7 +129,7 @@ def run(args) -> int:
                 rec = start_recorder(port, path, log, live.flush_interval_s, args.baud, label, args.force)
                 feeds.append(Feed(str(i), label, GrowingRecording(path), BootView(label, settings, live), rec, log))
         hub = Hub(hello(feeds, "replay" if args.replay else "live", args.speed, live.no_motion_s,
-                        settings.floor_height_m))
+                        settings.floor_height_m, offsets))
         server = LiveServer(hub, args.host, args.http_port, token).start()
         threading.Thread(target=_quietly, args=(warm_up, settings), name="bootnav-live-warm-up", daemon=True).start()
         print(f"bootnav live: open {server.url}", flush=True)
@@ -207,26 +208,49 @@ def _write_summary(out_dir, feeds, settings, live):
     return atomic.write_text(out_dir / "live.json", text)
 
 
+#: gap between the demo walks as drawn, m (two walkers' paths side by side, not on top of each other)
+DEMO_GAP_M = 3.0
+
+
+def demo_offsets(radii_m: list[float]) -> list[tuple[float, float]]:
+    """East shifts that draw walks side by side, whatever their heading: walk k's start is placed so that the
+    discs around each start holding its whole walk (``radii_m``: the largest horizontal distance from its own
+    start, m) are ``DEMO_GAP_M`` apart."""
+    out, x = [], 0.0
+    for k, r in enumerate(radii_m):
+        if k:
+            x += radii_m[k - 1] + DEMO_GAP_M + r
+        out.append((x, 0.0))
+    return out
+
+
 def _start_demo(out_dir, helpers: list, progress):
-    """Simulate two walks into ``out_dir`` and serve each on an emulated boot; return (ports, labels)."""
+    """Simulate two walks into ``out_dir`` and serve each on an emulated boot; return (ports, labels, the
+    drawing offsets that put the walks side by side)."""
     import subprocess
 
+    import numpy as np
+
+    from bootnav.logger.recording import load
     from bootnav.simulator import simulate, write_h5
 
     from bootnav.errors import BootnavError
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    ports, labels = [], []
+    ports, labels, radii = [], [], []
     for scenario, seed in (("three-floors", 0), ("rectangle", 1)):
         progress.update(f"demo: simulating the {scenario} walk", force=True)
         sim = out_dir / f"sim-{scenario}.h5"
         if sim.exists():
             raise BootnavError(f"{sim} exists; give --demo a new --out directory")
-        write_h5(simulate(scenario, seed=seed, profile="mpu6050-16g-2000dps", rate_hz=200.0), sim)
+        walk = simulate(scenario, seed=seed, profile="mpu6050-16g-2000dps", rate_hz=200.0)
+        write_h5(walk, sim)
+        pos = load(sim).truth["pos_n_m"]
+        radii.append(float(np.hypot(*(pos[:, :2] - pos[0, :2]).T).max()))
         link = out_dir / f"boot-{scenario}"
         helpers.append(subprocess.Popen(
             [sys.executable, "-m", "bootnav.cli", "emulate", "--out-link", str(link), "--source", str(sim), "--quiet"],
             stdin=subprocess.DEVNULL))
         ports.append(str(link))
         labels.append(scenario)
-    return ports, labels
+    return ports, labels, demo_offsets(radii)

@@ -146,14 +146,17 @@ class Session:
         self.hub.set_status({f.boot_id: f.view.status(time.monotonic(), True) for f in self.feeds})
 
 
-def hello(feeds: list[Feed], mode: str, speed: float, no_motion_s: float, floor_height_m: float) -> dict:
-    """The first message of every page stream."""
+def hello(feeds: list[Feed], mode: str, speed: float, no_motion_s: float, floor_height_m: float,
+          offsets_m: list | None = None) -> dict:
+    """The first message of every page stream; ``offsets_m``: per boot an (east, north) shift of its drawing,
+    m (the demo's walks, which both start at their own origin, are drawn side by side)."""
     from bootnav.postproc.plots import FLOOR_COLORS
 
+    offsets_m = offsets_m or [(0.0, 0.0)] * len(feeds)
     return {"mode": mode, "speed": speed, "no_motion_s": no_motion_s, "floor_height_m": floor_height_m,
             "floor_colors": list(FLOOR_COLORS),
-            "boots": [{"id": f.boot_id, "label": f.label, "color": BOOT_COLORS[i % len(BOOT_COLORS)]}
-                      for i, f in enumerate(feeds)]}
+            "boots": [{"id": f.boot_id, "label": f.label, "color": BOOT_COLORS[i % len(BOOT_COLORS)],
+                       "offset_m": [float(v) for v in offsets_m[i]]} for i, f in enumerate(feeds)]}
 
 
 def labels_for(names: list[str], given: list[str] | None) -> list[str]:

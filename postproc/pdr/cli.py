@@ -40,9 +40,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--length-param", action="append", default=[], metavar="NAME=VALUE",
                         help="a step-length model parameter (repeatable), e.g. k=0.55")
     parser.add_argument("--weinberg-k", type=float, default=None, metavar="K",
-                        help="= --length weinberg --length-param k=K (0.95 code / 0.55 text of NKUA2009)")
+                        help="= --length weinberg --length-param k=K, dimensionless (0.95 code / 0.55 text of "
+                             "NKUA2009; default: the model's own)")
     parser.add_argument("--step-length", type=float, default=None, metavar="M",
-                        help="= --length constant --length-param length_m=M")
+                        help="= --length constant --length-param length_m=M, m (default: the model's own)")
     parser.add_argument("--calibrate-length", action="append", default=[], metavar="FILE=METRES",
                         help="fit the length model on a walk of known distance (repeatable: NKUA2009 5.4 uses "
                              "20 m at normal, slow and fast pace)")
@@ -51,7 +52,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--heading0", type=float, default=None, metavar="DEG",
                         help="start bearing, deg clockwise from north (gyro / none)")
     parser.add_argument("--forward-axis", default=None, metavar="X,Y,Z", help="body axis pointing forward (default 0,1,0)")
-    parser.add_argument("--complementary-tau", type=float, default=None, metavar="S", help="gyro/mag crossover, s")
+    parser.add_argument("--complementary-tau", type=float, default=None, metavar="S", help="gyro/mag crossover, s (default 10 s)")
     parser.add_argument("--mag-tilt", default=None, choices=MAG_TILT_NAMES,
                         help="levelling of the magnetometer: gravity (default), weights (NKUA2009 4.2), none "
                              "(level device, Lazarevskiy2021 eq. 3.2)")
@@ -63,7 +64,7 @@ def add_arguments(parser) -> None:
                         help="percentiles of the percentile calibrations (default 5,95 as NKUA2009 4.3)")
     parser.add_argument("--gyro-signed-magnitude", action="store_true",
                         help="integrate sgn(w_v)|w| instead of the vertical rate (Lazarevskiy2021 eqs. 2.7-2.8)")
-    parser.add_argument("--declination", type=float, default=None, metavar="DEG", help="east positive")
+    parser.add_argument("--declination", type=float, default=None, metavar="DEG", help="magnetic declination, deg, east positive (default 0)")
     parser.add_argument("--start", default=None, metavar="LAT,LON", help="start point for the lat/lon path")
     parser.add_argument("--no-gps", action="store_true", help="ignore GPS columns of the input")
     parser.add_argument("--checkpoints", default=None, metavar="FILE.csv",
@@ -71,9 +72,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="set_fields",
                         help="any other PdrSettings field (repeatable), e.g. compass_window_s=0.4 or "
                              "tilt_weight_window_s=0.4; values read as JSON")
-    parser.add_argument("--no-plots", action="store_true")
+    parser.add_argument("--no-plots", action="store_true", help="write no charts (only the CSV and JSON files)")
     parser.add_argument("--force", action="store_true", help="overwrite existing output files (never an input)")
-    parser.add_argument("--out", required=True, metavar="DIR")
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="output directory (created): steps.csv, summary.json and the charts")
 
 
 def _parse_start(text):

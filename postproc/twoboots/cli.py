@@ -22,7 +22,7 @@ def add_arguments(p) -> None:
     g.add_argument("--clock", choices=("recording", "gait"),
                    help="recording: the t_s of both feet are one clock (default); gait: shift the right foot "
                         "by the gait-symmetry estimate (two files without a common clock)")
-    g.add_argument("--right-offset-s", type=float, metavar="S", help="add S seconds to the right foot's t_s")
+    g.add_argument("--right-offset-s", type=float, metavar="S", help="add S seconds to the right foot's t_s (default 0: a common clock)")
 
 
 def is_multi_boot(path: str) -> bool:

@@ -26,6 +26,14 @@ def _datasets(path: Path) -> list[str]:
     names = []
     with h5py.File(path, "r") as f:
         f.visititems(lambda name, obj: names.append("/" + name) if isinstance(obj, h5py.Dataset) else None)
+        for key in f:  # results.h5 links its recording's groups (HDF5 external links), which h5dump follows
+            if not isinstance(f.get(key, getlink=True), h5py.ExternalLink):
+                continue
+            if isinstance(f[key], h5py.Dataset):
+                names.append(f"/{key}")
+            else:
+                f[key].visititems(lambda name, obj, key=key: names.append(f"/{key}/{name}")
+                                  if isinstance(obj, h5py.Dataset) else None)
     return names
 
 

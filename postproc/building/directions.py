@@ -1,0 +1,230 @@
+"""Does this walk follow a building's axes? A truth-free decision for the dominant-direction heading aid.
+
+In most buildings corridors are parallel or at right angles, so the headings of the strides of a walk
+inside them cluster around four directions 90° apart [Borenstein2009; Borenstein2010 (HDE)]; in complex
+buildings only some parts do, so the aid should act where the strides show it [Jimenez2011 (iHDE)]. The
+heading aid (``ins.measurements.heading_aid``) pulls every stride that lies within a gate of that grid onto
+it: right in a rectilinear building, wrong in a mocap room, an open hall or a free walk. This module decides
+from the strides of a path computed WITHOUT the aid whether to switch it on.
+
+Rule (every number in ``FilterSettings``):
+
+1. Strides: footprint to footprint (``strides.footprints``), at least ``hde_min_stride_m`` long (the aid's own
+   rule: shuffling and turning on the spot give no heading); heading ψ_k = atan2(Δy, Δx).
+2. Straight strides: |ψ_k − ψ_{k−1}| and |ψ_{k+1} − ψ_k| both below ``hde_threshold_rad`` (the aid's gate):
+   the stride is inside a straight leg, not in a turn.
+3. Windows of ``hde_auto_window`` to twice as many consecutive straight strides (the heading drift of the
+   unaided path over a window is small: ~1 min of walking; a recording with fewer straight strides is one
+   window, if it has at least ``hde_auto_min_strides``: with 10 strides in random directions, a share of
+   50 % on a fitted grid has a chance of about 1 %). In each window the grid direction is the 90°-periodic circular mean
+   θ = arg(Σ exp(4iψ)) / 4; the window's **share** is the fraction of its strides within
+   ``hde_auto_tolerance_rad`` of θ + m·90°, its **cross share** the fraction of those aligned strides on the
+   axis at right angles to the one that carries most (a corridor at right angles walked at least once).
+   For headings with no preferred direction the share is near 4 · 2 tol / 360° (11 % at 5°).
+4. The aid is on when, over all windows together, the share is at least ``hde_auto_min_share`` AND the cross
+   share at least ``hde_auto_min_cross``. An out-and-back walk lies on one axis (cross share 0): off. Its reference grid direction is that of the earliest ``EARLY_STRIDES`` aligned
+   strides of the first window that passes (the unaided path's heading drifts: the earliest strides are the
+   least rotated).
+
+Per segment: every window's share, cross share and direction are reported (``HeadingDecision.windows``);
+the aid itself applies to the whole recording or not at all (the filter's gate then keeps it off the strides
+that are not along the grid, such as the 45° and curved parts).
+
+Causal form (``CausalDirections``, ``bootnav live``): windows of ``hde_auto_window`` straight strides as they
+come; after every straight stride (once the open window holds ``hde_auto_min_strides``) the full windows and
+the open one are pooled; the aid switches on at the first moment they pass, and stays on. Its reference is
+the direction of the earliest aligned strides of the open window.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+QUARTER = 0.5 * math.pi
+EARLY_STRIDES = 10  # the reference grid direction: mean of this many earliest aligned strides (noise / sqrt(10))
+
+
+def wrap(a):
+    """Angle(s) wrapped to (−π, π]."""
+    return np.arctan2(np.sin(a), np.cos(a))
+
+
+def grid_error(psi, theta):
+    """Heading(s) minus the nearest of theta + m·90°, in [−45°, 45°)."""
+    e = wrap(np.asarray(psi) - theta)
+    return e - np.floor(e / QUARTER + 0.5) * QUARTER
+
+
+def stride_headings(fp_xy: np.ndarray, min_stride_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Headings (rad) and end-footprint indices of the strides between footprints at least ``min_stride_m``
+    apart (``strides.stride_footprints``, horizontal)."""
+    from bootnav.postproc.strides import stride_footprints
+
+    fp_xy = np.asarray(fp_xy, float).reshape(-1, 2)
+    if len(fp_xy) < 2:
+        return np.zeros(0), np.zeros(0, int)
+    keep = stride_footprints(fp_xy, min_stride_m)
+    d = np.diff(fp_xy[keep], axis=0)
+    return np.arctan2(d[:, 1], d[:, 0]), keep[1:]
+
+
+def straight_mask(psi: np.ndarray, max_turn_rad: float) -> np.ndarray:
+    """Strides whose heading differs from both neighbours' by less than ``max_turn_rad``."""
+    if len(psi) < 3:
+        return np.zeros(len(psi), bool)
+    turn = np.abs(wrap(np.diff(psi)))
+    ok = np.zeros(len(psi), bool)
+    ok[1:-1] = (turn[:-1] < max_turn_rad) & (turn[1:] < max_turn_rad)
+    return ok
+
+
+@dataclass
+class Window:
+    first: int  # index of its first straight stride among all strides
+    last: int
+    theta_rad: float  # grid direction
+    share: float  # fraction within tolerance of the grid
+    cross: float  # fraction of the aligned strides on the minor axis
+    n_aligned: int
+    n_cross: int
+
+
+def window_stats(psi: np.ndarray, tol_rad: float) -> tuple[float, float, int, int]:
+    """(θ, share, n_aligned, n_cross) of one window of straight-stride headings."""
+    theta = float(np.angle(np.exp(4j * psi).sum()) / 4.0)
+    aligned = np.abs(grid_error(psi, theta)) < tol_rad
+    axis = np.abs(wrap(2.0 * (psi[aligned] - theta))) > QUARTER  # on the axis at right angles to theta
+    n_a, n_b = int(aligned.sum()), int(axis.sum())
+    return theta, float(aligned.mean()), n_a, min(n_b, n_a - n_b)
+
+
+@dataclass
+class HeadingDecision:
+    """What the rule decided and why (JSON-ready with ``as_dict``)."""
+
+    on: bool
+    reason: str
+    reference_rad: float = float("nan")  # grid direction the aid uses (path frame)
+    share: float = float("nan")
+    cross: float = float("nan")
+    n_strides: int = 0
+    n_straight: int = 0
+    windows: list = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["reference_deg"] = math.degrees(self.reference_rad) if math.isfinite(self.reference_rad) else None
+        d["windows"] = [{"first_stride": w.first, "last_stride": w.last, "direction_deg": math.degrees(w.theta_rad),
+                         "share": w.share, "cross": w.cross} for w in self.windows]
+        return d
+
+
+def decide(fp_xy: np.ndarray, settings) -> HeadingDecision:
+    """The rule of the module docstring on footprints (K, ≥2) of a path computed without the aid.
+
+    ``settings``: a ``FilterSettings`` (``hde_*`` fields)."""
+    psi, _ = stride_headings(fp_xy, settings.hde_min_stride_m)
+    straight = np.flatnonzero(straight_mask(psi, settings.hde_threshold_rad))
+    W, n_min = int(settings.hde_auto_window), int(settings.hde_auto_min_strides)
+    windows = []
+    if len(straight) >= n_min:
+        for idx in np.array_split(straight, max(1, len(straight) // W)):  # W to 2W - 1 strides each
+            theta, share, n_a, n_c = window_stats(psi[idx], settings.hde_auto_tolerance_rad)
+            windows.append(Window(int(idx[0]), int(idx[-1]), theta, share, n_c / max(n_a, 1), n_a, n_c))
+    base = dict(n_strides=len(psi), n_straight=len(straight), windows=windows)
+    if not windows:
+        return HeadingDecision(False, f"too few straight strides ({len(straight)} < {n_min}) to see a building's "
+                               "axes", **base)
+    n_a = sum(w.n_aligned for w in windows)
+    share = n_a / len(straight)
+    cross = sum(w.n_cross for w in windows) / max(n_a, 1)
+    ok_share, ok_cross = share >= settings.hde_auto_min_share, cross >= settings.hde_auto_min_cross
+    first = next((w for w in windows if w.share >= settings.hde_auto_min_share), windows[0])
+    # the reference: the earliest aligned strides of that window (the unaided heading drifts with time)
+    idx = straight[(straight >= first.first) & (straight <= first.last)]
+    early = idx[np.abs(grid_error(psi[idx], first.theta_rad)) < settings.hde_auto_tolerance_rad][:EARLY_STRIDES]
+    reference = float(np.angle(np.exp(4j * psi[early]).sum()) / 4.0) if early.size else first.theta_rad
+    tol = math.degrees(settings.hde_auto_tolerance_rad)
+    why = (f"{share:.0%} of {len(straight)} straight strides within {tol:.0f} deg of a 90-deg grid (need "
+           f"{settings.hde_auto_min_share:.0%}), {cross:.0%} of them at right angles to the main axis (need "
+           f"{settings.hde_auto_min_cross:.0%})")
+    on = bool(ok_share and ok_cross)
+    reason = ("on: " if on else "off: ") + why
+    return HeadingDecision(on, reason, reference if on else float("nan"), share, cross, **base)
+
+
+class CausalDirections:
+    """The rule on the strides seen so far (``bootnav live``): push footprints as they become final; ``on``
+    turns True (and stays) the first time the pooled windows pass; ``reference_rad`` is then the direction of
+    the latest window (the current frame of the path, whatever it drifted before)."""
+
+    def __init__(self, settings):
+        self.s = settings
+        self._last_xy = None  # last kept footprint
+        self._psi: list[float] = []  # headings of the kept strides
+        self._straight_idx: list[int] = []
+        self._n_aligned = self._n_cross = self._n_windows = 0
+        self.on = False
+        self.reference_rad = float("nan")
+        self.decided_at_stride = -1
+
+    def push(self, fp_xy: np.ndarray) -> bool:
+        """Add footprints (K, 2); returns True when this call switched the aid on (it then stays on)."""
+        if self.on:
+            return False
+        s, W = self.s, int(self.s.hde_auto_window)
+        for xy in np.asarray(fp_xy, float).reshape(-1, 2):
+            if self._last_xy is None:
+                self._last_xy = xy
+                continue
+            d = xy - self._last_xy
+            if math.hypot(*d) < s.hde_min_stride_m:
+                continue
+            self._last_xy = xy
+            self._psi.append(math.atan2(d[1], d[0]))
+            p = self._psi
+            if len(p) >= 3 and abs(wrap(p[-2] - p[-3])) < s.hde_threshold_rad and \
+                    abs(wrap(p[-1] - p[-2])) < s.hde_threshold_rad:
+                self._straight_idx.append(len(p) - 2)
+                n = len(self._straight_idx)
+                cur = n - W * self._n_windows  # strides in the open window
+                if cur < s.hde_auto_min_strides:
+                    continue
+                win = np.asarray(p)[self._straight_idx[W * self._n_windows:]]
+                theta, _, n_a, n_c = window_stats(win, s.hde_auto_tolerance_rad)
+                if self._pass(self._n_aligned + n_a, self._n_cross + n_c, n):
+                    early = win[np.abs(grid_error(win, theta)) < s.hde_auto_tolerance_rad][:EARLY_STRIDES]
+                    self.on, self.decided_at_stride = True, len(p)
+                    self.reference_rad = float(np.angle(np.exp(4j * early).sum()) / 4.0) if early.size else theta
+                    return True
+                if cur == W:  # the window is full: its figures join the pooled ones
+                    self._n_aligned += n_a
+                    self._n_cross += n_c
+                    self._n_windows += 1
+        return False
+
+    def _pass(self, n_aligned: int, n_cross: int, n_straight: int) -> bool:
+        s = self.s
+        return (n_aligned / n_straight >= s.hde_auto_min_share
+                and n_cross / max(n_aligned, 1) >= s.hde_auto_min_cross)
+
+
+def auto_heading(nav, t_s: np.ndarray, stance: np.ndarray, settings, rerun):
+    """``heading_aid = "auto"`` in ``process``: decide on the unaided path ``nav`` (a ``NavSolution``) and,
+    when the rule says on, return ``rerun(settings)`` with the aid on at the decided grid direction.
+
+    The decision (``HeadingDecision.as_dict``) goes into ``nav.info["heading_decision"]`` (the summary's
+    ``filter`` section)."""
+    from dataclasses import replace
+
+    from bootnav.postproc.strides import footprints
+
+    _, fp = footprints(t_s, np.asarray(nav.pos_n), np.asarray(stance, bool))
+    dec = decide(fp[:, :2], settings)
+    if dec.on:
+        nav = rerun(replace(settings, heading_aid="dominant_directions", heading_aid_reference_rad=dec.reference_rad))
+    nav.info["heading_decision"] = dec.as_dict()
+    return nav
