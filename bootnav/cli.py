@@ -241,9 +241,9 @@ def main(argv: list[str] | None = None) -> int:
         restore_signals(previous)
         _UNWOUND.set()
         _STOPPING.clear()
-    if argv is None and (code > 128 or code != 0 and hdf5_left_open()):
-        # a stopped run may leave worker threads blocked (a stop signal inside a library's lock), and a file whose
-        # write failed cannot be closed (HDF5 retries at exit and may crash after the clean message): leave now,
+    if argv is None and (code > 128 or code != 0 and "h5py" in sys.modules):
+        # a stopped run may leave worker threads blocked (a stop signal inside a library's lock), and after a failed
+        # write HDF5 may crash in its exit handler (seen under ulimit -f, after the clean message): leave now,
         # without the interpreter's teardown (the program's own exit only, never when main() is called from Python)
         for stream in (sys.stdout, sys.stderr):
             try:
