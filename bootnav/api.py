@@ -422,7 +422,7 @@ class PathResult:
             return write_outputs(self.raw, out_dir, into_recording, force)
 
 
-def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
+def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None, calibration=None,
             progress: Callable[[str, float], None] | None = None, acc_unit: str = "mps2", gyro_unit: str = "radps",
             time_unit: str = "s", check_units: bool = True, **overrides) -> PathResult:
     """Reconstruct the walked 3-D path of a foot-mounted IMU (the ``bootnav process`` pipeline; writes nothing).
@@ -437,6 +437,10 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
         Specific force (m/s², gravity included) and angular rate (rad/s), body frame, for the arrays form.
     settings
         ``ProcessSettings``, a dict of it, or a JSON file; defaults when None.
+    calibration
+        The sensor calibration: a calibration file (``bootnav calibrate``), a
+        ``bootnav.core.sensorcal.SensorCalibration``, or False for none; None (default) = the settings' choice
+        (the stored calibration of the recording's device id, if any). ``summary["calibration"]`` says which ran.
     progress
         ``progress(stage, fraction)`` at stage boundaries.
     acc_unit, gyro_unit, time_unit
@@ -468,16 +472,41 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None,
     notes: list = []
     units = dict(acc_unit=acc_unit, gyro_unit=gyro_unit, time_unit=time_unit, check_units=check_units)
     with _ApiWords():
-        chosen = _settings(ProcessSettings, settings, overrides)  # a bad setting first, before any data is read
+        chosen, given = _calibration_choice(_settings(ProcessSettings, settings, overrides), calibration)
         arrays = _source_and_units(source, acc_mps2, gyro_radps, True, units)
         if arrays is not None:
             source = _recording_of_arrays(*arrays[:3], notes=notes, **arrays[3])
         else:
             _check_source(source, "process(source)", "acc_mps2 and gyro_radps")
-        res = _path_result(run(source, chosen, progress))
+        res = _path_result(run(source, chosen, progress, calibration=given))
     res.warnings[:0] = notes
     _warn(res.warnings)
     return res
+
+
+def _calibration_choice(settings, calibration):
+    """(settings, calibration object or None) for ``pipeline.process``: a path goes into the settings (saved with
+    the results), False disables, an object is passed through (settings say "given")."""
+    from bootnav.errors import InputError
+
+    if calibration is None:
+        return settings, None
+    settings = type(settings).from_dict(settings.to_dict())  # never change the caller's settings object
+    cal = settings.calibration
+    cal.accel_calibration_file = None
+    if calibration is False:
+        cal.sensor_calibration = "none"
+        return settings, None
+    if isinstance(calibration, (str, Path)):
+        cal.sensor_calibration = str(calibration)
+        return settings, None
+    from bootnav.core.sensorcal import SensorCalibration
+
+    if not isinstance(calibration, SensorCalibration):
+        raise InputError(f"calibration must be a file path, a SensorCalibration or False; got "
+                         f"{type(calibration).__name__}")
+    cal.sensor_calibration = "given"
+    return settings, calibration
 
 
 def _path_result(r) -> PathResult:
@@ -762,13 +791,17 @@ def pdr(source, acc_mps2=None, gyro_radps=None, /, *, mag_b=None, settings=None,
                                  f"acc_mps2, got {mag_b.shape}")
         extra["mag_b"] = mag_b
     elif isinstance(source, Recording):
-        t, acc, gyro = source.t_s, source.acc_mps2, source.gyro_radps
+        from bootnav.postproc.pdr.io import PdrInput, calibrated
+
+        inp, _ = calibrated(PdrInput(source.t_s, source.acc_mps2, source.gyro_radps, None, "recording", "recording",
+                                     device_id=source.meta.get("device_id"), temp_degc=source.temp_degc),
+                            s.sensor_calibration)
+        t, acc, gyro = inp.t_s, inp.acc_b, inp.gyro_b
     else:
-        from bootnav.postproc.pdr.io import load_input
+        from bootnav.postproc.pdr.io import calibrated, load_input
 
         _check_source(source, "pdr(source)", "acc_mps2")
-
-        inp = load_input(source)
+        inp, _ = calibrated(load_input(source), s.sensor_calibration)
         t, acc, gyro = inp.t_s, inp.acc_b, inp.gyro_b
         extra = {"mag_b": inp.mag_b, "compass_deg": inp.compass_deg, "gps": inp.gps}
     with _ApiWords():

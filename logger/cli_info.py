@@ -158,6 +158,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         "events": count_of,
         "device": meta.get("device", ""),
         "device_id": meta.get("device_id", ""),
+        "calibration": calibration_line(meta.get("device_id")),
         "firmware_version": meta.get("firmware_version", ""),
         "mount": meta.get("mount", ""),
         "start_utc": meta.get("start_utc", ""),
@@ -333,6 +334,27 @@ def _boot_labels(path) -> list[str]:
         return []
 
 
+def calibration_line(device_id) -> str:
+    """Whether a stored sensor calibration applies to this device when it is processed (what `bootnav process`
+    resolves by default; ``bootnav.core.sensorcal.find_calibration``)."""
+    from bootnav.core.sensorcal import find_calibration, normalize_device_id, store_dir
+    from bootnav.errors import InputError
+
+    try:
+        dev = normalize_device_id(device_id)
+    except (ValueError, TypeError):
+        dev = None
+    if dev is None:
+        return "none applies: the recording has no device id (process --calibration FILE to give one)"
+    try:
+        cal = find_calibration(dev)
+    except InputError as exc:
+        return f"none applies: the stored calibration of {dev} is unreadable ({exc})"
+    if cal is None:
+        return f"none stored for device {dev} in {store_dir()} (run `bootnav calibrate`)"
+    return f"{cal.source} applies (device {dev}, created {cal.created_utc or '?'})"
+
+
 def _lines(s: dict) -> list[str]:
     """The text ``bootnav info`` prints for one recording (or one boot)."""
     sat = ", ".join(f"{a} {c}" for a, c in s["saturated_samples"].items() if c) or "none"
@@ -351,6 +373,8 @@ def _lines(s: dict) -> list[str]:
         f"  saturation  {sat}",
         f"  events      {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}",
     ]
+    if s.get("calibration"):
+        lines.append(f"  calibration {s['calibration']}")
     for w in s["data_warnings"] + s.get("unit_warnings", []):
         lines.append(f"  WARNING     {w}")
     if not s["complete"]:

@@ -24,12 +24,20 @@ Gyro bias: b_g = mean ω_b over the still period's quiet core (``quiet_core``: w
 within ``still_quiet_ratio`` of the quietest; a small motion inside the period is not bias). The true rate
 at rest is Earth rotation, < 7.3e-5 rad/s, below MEMS bias stability, so it is absorbed into the bias.
 
-Accelerometer calibration (optional JSON file ``{"bias_mps2": [bx, by, bz], "matrix": [[...3x3...]]}``)::
+Sensor calibration (issue 23; the model and file format are ``bootnav.core.sensorcal``)::
 
-    f_corrected = M (f_raw − b)
+    x̂ = C (y − b − k (T − T_ref))          for the accelerometer and the gyroscope
 
-M holds scale factors on its diagonal and misalignment / cross-axis terms off it (e.g. from a six-position
-test: the model of [IEEE1293], inverted).
+C holds scale factors on its diagonal and misalignment / cross-axis terms off it, b the bias, k its
+temperature coefficient (``bootnav calibrate``: multi-position fit [Skog2006], rotations between poses
+[Tedaldi2014]). It is applied here, to the raw samples and before anything else reads them (stance
+detection, alignment, filter), with the recording's temperature channel when it has one. Which calibration
+applies is decided by ``resolve_calibration`` and nothing else: ``--calibration FILE`` (setting
+``sensor_calibration``) > the store's newest calibration of the recording's device id > none;
+``--no-calibration`` (``sensor_calibration = "none"``) disables it. The older accelerometer file
+(``{"bias_mps2": [bx, by, bz], "matrix": [[...3x3...]]}``, f = M (f_raw − b), e.g. from a six-position test,
+the model of [IEEE1293] inverted) is the same model with C = M, k = 0 and no gyroscope part; it is read by the
+same function (``accel_calibration_file``, ``--accel-calibration``).
 """
 
 from __future__ import annotations
@@ -90,7 +98,12 @@ class CalibrationSettings:
         foot passes the still thresholds), and the mean rate of a motion is not bias. 2 = std within √2 of
         the quietest window (``quiet_core``); 1.5-3 perform alike (pre-LODO; docs/tuning-log.md). 0 = off.
     use_gyro_bias: subtract the still-period gyro mean as the initial gyro bias.
-    accel_calibration_file: JSON file with bias_mps2 and matrix (see module docstring), or None.
+    sensor_calibration: which sensor calibration is applied (``resolve_calibration``): "auto" = the stored
+        calibration of the recording's device id, if there is one; "none" = no calibration; anything else is
+        a calibration file (``bootnav calibrate``'s JSON, or the accelerometer file). "given" marks a
+        calibration object passed by the API (its provenance is in the summary).
+    accel_calibration_file: the older accelerometer-only file (module docstring), or None; a calibration file
+        like ``sensor_calibration`` (setting both is an error).
     latitude_deg, height_m: for WGS-84 normal gravity.
     gravity_mps2: explicit gravity; None -> normal_gravity(latitude_deg, height_m).
     """
@@ -105,6 +118,7 @@ class CalibrationSettings:
     max_still_s: float = 30.0
     still_quiet_ratio: float = 2.0
     use_gyro_bias: bool = True
+    sensor_calibration: str = "auto"
     accel_calibration_file: str | None = None
     latitude_deg: float = 45.0
     height_m: float = 0.0
@@ -240,32 +254,175 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
                         warnings=warnings, roll_rad=roll, pitch_rad=pitch)
 
 
+def stance_reference(init: InitialState, gravity: float) -> tuple[np.ndarray, float]:
+    """What the stance detector compares the samples with: (gyro bias, rad/s; gravity, m/s²) as THIS sensor
+    read them at the initial rest, i.e. ``init.gyro_bias_b`` and ``|init.acc_mean_b|``.
+
+    A zero-velocity detector tests "the rate is zero and the specific force is gravity" [Skog2010]. Given the
+    raw rate of an uncalibrated MEMS gyro, a turn-on bias of 0.1-0.4 rad/s (MPU6050: ±20 °/s) is read as
+    motion: the adaptive detector's noise floor rose by three decades, its floor rule then took slow foot
+    motion (shuffling, stair descent) for stance, and a simulated 30-minute mission lost 2.5 % of its distance
+    (docs/tuning-log.md, 2026-12-02). Likewise a scale or bias error makes ``|f|`` at rest differ from the true
+    gravity by 0.1-1 m/s² (50-80 mg turn-on offsets), which the accelerometer term reads as motion. Both are
+    what the initial alignment measured at rest; without a still period: (init's zero bias, ``gravity``).
+    """
+    bias = np.asarray(init.gyro_bias_b, dtype=np.float64)
+    if init.still is None:
+        return bias, float(gravity)
+    g_rest = float(np.linalg.norm(init.acc_mean_b))
+    return bias, (g_rest if np.isfinite(g_rest) and g_rest > 0 else float(gravity))
+
+
 def load_accel_calibration(path: str | Path) -> AccelCalibration:
-    """Read ``{"bias_mps2": [3 numbers], "matrix": [[3x3 numbers]]}``; clear error naming the file otherwise."""
+    """Read the accelerometer part of a calibration file (either format, ``SensorCalibration.load``);
+    one-line InputError naming the file otherwise."""
+    from bootnav.core.sensorcal import SensorCalibration
     from bootnav.errors import InputError
 
-    from bootnav.core.jsonio import read_json_file
-
-    path = Path(path)
-    doc = read_json_file(path, "accelerometer calibration file")
-    try:
-        bias = np.asarray(doc["bias_mps2"], dtype=np.float64)
-        mat = np.asarray(doc["matrix"], dtype=np.float64)
-    except (KeyError, TypeError, ValueError) as e:
-        raise InputError(f"{path}: needs keys 'bias_mps2' (3 numbers) and 'matrix' (3x3 numbers): {e}") from None
-    if bias.shape != (3,) or mat.shape != (3, 3) or not (np.all(np.isfinite(bias)) and np.all(np.isfinite(mat))):
-        raise InputError(f"{path}: 'bias_mps2' must be 3 finite numbers and 'matrix' 3x3 finite numbers; "
-                         f"got shapes {bias.shape} and {mat.shape}")
-    if abs(np.linalg.det(mat)) < 1e-6:
-        raise InputError(f"{path}: 'matrix' is singular (det {np.linalg.det(mat):.3g})")
-    return AccelCalibration(bias_mps2=bias, matrix=mat, source=str(path))
+    cal = SensorCalibration.load(path)
+    if cal.acc is None:
+        raise InputError(f"{path}: has no accelerometer calibration")
+    return AccelCalibration(bias_mps2=np.array(cal.acc.bias), matrix=np.array(cal.acc.matrix), source=str(path))
 
 
 def apply_accel_calibration(acc_b, calib: AccelCalibration | dict | str | Path) -> np.ndarray:
-    """f_corrected = M (f_raw − b), row-wise for (N, 3) ``acc_b``. ``calib`` may be a file path or a dict."""
+    """f_corrected = M (f_raw − b), row-wise for (N, 3) ``acc_b``. ``calib`` may be a file path or a dict.
+
+    The accelerometer part of ``SensorCalibration.apply`` (the one implementation of the correction)."""
+    from bootnav.core.sensorcal import TriadCalibration
+
     if isinstance(calib, (str, Path)):
         calib = load_accel_calibration(calib)
     elif isinstance(calib, dict):
         calib = AccelCalibration(np.asarray(calib["bias_mps2"], float), np.asarray(calib["matrix"], float))
-    acc_b = np.asarray(acc_b, dtype=np.float64)
-    return np.ascontiguousarray((acc_b - calib.bias_mps2) @ calib.matrix.T)
+    return TriadCalibration(calib.matrix, calib.bias_mps2).apply(acc_b)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Sensor calibration: which one applies, and applying it (module docstring)
+
+
+@dataclass
+class AppliedCalibration:
+    """Which sensor calibration a run used (``resolve_calibration``) and what applying it said.
+
+    calibration: the ``bootnav.core.sensorcal.SensorCalibration`` applied, or None.
+    provenance: JSON-able dict for summary.json / results.h5: ``status`` ("applied" or "none"), ``how``
+        (file / store / given) or ``reason`` (why none), and the calibration's own provenance (file, device id,
+        date, residuals, temperature range).
+    warnings: e.g. the recording's temperature leaves the calibrated range, or the file is another device's.
+    """
+
+    calibration: object | None
+    provenance: dict
+    warnings: list[str] = field(default_factory=list)
+
+
+NO_CALIBRATION = ("none", "off", "false", "")
+
+
+def resolve_calibration(settings: CalibrationSettings | None = None, device_id=None,
+                        given=None) -> AppliedCalibration:
+    """The sensor calibration that applies to a recording (module docstring: file > store > none).
+
+    Parameters
+    ----------
+    settings
+        ``sensor_calibration`` ("auto", "none" or a file) and the older ``accel_calibration_file``.
+    device_id
+        The recording's device id (its ``/meta`` ``device_id``), any form ``normalize_device_id`` reads; None
+        when the recording has none (an imported file).
+    given
+        A ``SensorCalibration`` object (the Python API's ``calibration=``): used as it is; False disables.
+
+    Returns
+    -------
+    AppliedCalibration
+        Without samples applied yet (``apply_calibration`` adds the temperature warning).
+
+    Raises
+    ------
+    InputError
+        An unreadable calibration file (also a corrupt newest file in the store), or both settings set.
+    """
+    from bootnav.core.sensorcal import find_calibration, normalize_device_id, store_dir
+    from bootnav.errors import InputError
+
+    s = settings or CalibrationSettings()
+    try:
+        dev = normalize_device_id(device_id)
+    except (ValueError, TypeError):
+        dev = None
+    choice = str(s.sensor_calibration if s.sensor_calibration is not None else "auto").strip()
+    if s.accel_calibration_file:
+        if choice.lower() not in ("auto",) + NO_CALIBRATION and choice != s.accel_calibration_file:
+            raise InputError(f"settings calibration: both sensor_calibration ({choice}) and accel_calibration_file "
+                             f"({s.accel_calibration_file}) are set; give one calibration file")
+        choice = str(s.accel_calibration_file)
+    warnings: list[str] = []
+    if given is False:
+        return AppliedCalibration(None, {"status": "none", "reason": "disabled (calibration=False)"})
+    if given is not None:
+        cal, how = given, "given"
+    elif choice.lower() in NO_CALIBRATION:
+        return AppliedCalibration(None, {"status": "none", "reason": "disabled (--no-calibration)"})
+    elif choice.lower() == "given":
+        raise InputError("settings calibration.sensor_calibration 'given' needs a calibration object "
+                         "(bootnav.process(..., calibration=...)); use a file, 'auto' or 'none'")
+    elif choice.lower() == "auto":
+        if dev is None:
+            return AppliedCalibration(None, {"status": "none", "reason": "the recording has no device id"})
+        cal, how = find_calibration(dev), "store"
+        if cal is None:
+            return AppliedCalibration(None, {"status": "none", "device_id": dev,
+                                             "reason": f"no calibration of device {dev} in {store_dir()}"})
+    else:
+        from bootnav.core.sensorcal import SensorCalibration
+
+        cal, how = SensorCalibration.load(choice), "file"
+    if how != "store" and dev is not None and cal.device_id and cal.device_id != dev:
+        warnings.append(f"calibration {cal.source or ''} is of device {cal.device_id}, the recording of device "
+                        f"{dev}: check that it belongs to this boot")
+    prov = {"status": "applied", "how": how, **cal.provenance()}
+    if dev is not None:
+        prov["recording_device_id"] = dev
+    return AppliedCalibration(cal, prov, warnings)
+
+
+def apply_calibration(applied: AppliedCalibration, acc_b, gyro_b, temp_degc=None):
+    """``(acc_b, gyro_b)`` corrected by ``applied.calibration`` (the inputs themselves when there is none).
+
+    ``temp_degc``: the recording's sensor temperature per sample (°C) or None; the bias temperature term is
+    applied with it, and a temperature outside the calibrated range adds a warning to ``applied``.
+    """
+    cal = applied.calibration
+    if cal is None:
+        return acc_b, gyro_b
+    from bootnav.core.sensorcal import temperature_warning
+
+    acc, gyro = cal.apply(acc_b, gyro_b, temp_degc)
+    if temp_degc is not None:
+        w = temperature_warning(cal, temp_degc)
+        if w and w not in applied.warnings:
+            applied.warnings.append(w)
+        t = np.asarray(temp_degc, dtype=np.float64)
+        t = t[np.isfinite(t)]
+        if t.size:
+            applied.provenance["recording_temp_range_degc"] = [float(t.min()), float(t.max())]
+    applied.provenance["temperature_applied"] = temp_degc is not None
+    return acc, gyro
+
+
+def calibrate_recording(recording, index: slice, acc_b, gyro_b, settings: CalibrationSettings | None = None,
+                        given=None):
+    """Resolve (``resolve_calibration``, the recording's ``/meta`` device id) and apply
+    (``apply_calibration``, its temperature channel over ``index``) the calibration of one recording.
+
+    Returns ``(acc_b, gyro_b, AppliedCalibration)``.
+    """
+    meta = getattr(recording, "meta", None) or {}
+    applied = resolve_calibration(settings, meta.get("device_id"), given)
+    temp = getattr(recording, "temp_degc", None)
+    temp = None if temp is None else np.asarray(temp)[index]
+    acc, gyro = apply_calibration(applied, acc_b, gyro_b, temp)
+    return acc, gyro, applied

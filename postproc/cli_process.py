@@ -103,7 +103,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--height", type=float, metavar="M", help="ellipsoidal height for normal gravity, m (default 0)")
     g.add_argument("--gravity", type=float, metavar="MPS2", help="gravity in m/s^2 (overrides latitude/height; default: WGS-84 "
                                                                    "normal gravity there)")
-    g.add_argument("--accel-calibration", metavar="FILE.json", help="accelerometer bias + 3x3 matrix (JSON)")
+    add_calibration_arguments(g)
     w = p.add_argument_group("data and outputs")
     w.add_argument("--crop", nargs=2, type=float, metavar=("T0", "T1"), help="process only T0..T1 s of the recording's clock (default: all)")
     w.add_argument("--floor-height", type=float, metavar="M", help="storey height for floor counting, m (default 3)")
@@ -125,6 +125,29 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from bootnav.postproc.twoboots.cli import add_arguments as add_two_boot_arguments
 
     add_two_boot_arguments(p)
+
+
+def add_calibration_arguments(g) -> None:
+    """``--calibration FILE`` / ``--no-calibration`` / ``--accel-calibration FILE`` (every command that reads a
+    recording; ``calibration.resolve_calibration`` decides what applies)."""
+    c = g.add_mutually_exclusive_group()
+    c.add_argument("--calibration", metavar="FILE.json",
+                   help="sensor calibration file (`bootnav calibrate`); default: the stored calibration of the "
+                        "recording's device id, if any (store: $BOOTNAV_CALIBRATION_DIR or "
+                        "~/.local/share/bootnav/calibrations)")
+    c.add_argument("--no-calibration", action="store_true", help="apply no sensor calibration, not even a stored one")
+    c.add_argument("--accel-calibration", metavar="FILE.json",
+                   help="older accelerometer-only file: bias + 3x3 matrix (JSON); same as --calibration")
+
+
+def apply_calibration_arguments(args, cal) -> None:
+    """Put the calibration flags into ``CalibrationSettings`` ``cal`` (the choice is saved with the results)."""
+    if getattr(args, "no_calibration", False):
+        cal.sensor_calibration, cal.accel_calibration_file = "none", None
+    elif getattr(args, "calibration", None):
+        cal.sensor_calibration, cal.accel_calibration_file = args.calibration, None
+    elif getattr(args, "accel_calibration", None):
+        cal.accel_calibration_file = args.accel_calibration
 
 
 def build_settings(args):
@@ -154,8 +177,7 @@ def build_settings(args):
         s.calibration.height_m = args.height
     if args.gravity is not None:
         s.calibration.gravity_mps2 = args.gravity
-    if args.accel_calibration:
-        s.calibration.accel_calibration_file = args.accel_calibration
+    apply_calibration_arguments(args, s.calibration)
     if args.crop:
         s.crop_s = tuple(args.crop)
     if args.floor_height is not None:
@@ -395,8 +417,7 @@ def _auto_chunk_s(args, settings) -> float | None:
     if args.memory_limit is not None and not args.memory_limit > 0:
         raise InputError(f"--memory-limit must be a positive number of MB, got {args.memory_limit}")
     path = Path(args.input[0])
-    if (args.into_recording or settings.crop_s or settings.reference or settings.calibration.accel_calibration_file
-            or not path.is_file() or not is_hdf5(path)):
+    if (args.into_recording or settings.crop_s or settings.reference or not path.is_file() or not is_hdf5(path)):
         return None
     limit = (args.memory_limit * 1e6 if args.memory_limit is not None else 0.5 * available_memory_bytes())
     try:
@@ -430,7 +451,8 @@ def run(args) -> int:
     if two_boots.wanted(args):
         return two_boots.run(args, settings, StageProgress(quiet=args.quiet))
     outs = [args.out] if len(args.input) == 1 else [str(Path(args.out) / n) for n in output_names(args.input)]
-    others = [settings.reference if _is_file(settings.reference) else None, args.settings, args.accel_calibration]
+    others = [settings.reference if _is_file(settings.reference) else None, args.settings, args.accel_calibration,
+              args.calibration]
     if len(args.input) > 1 and Path(args.out).exists() and not Path(args.out).is_dir():
         raise InputError(f"--out {args.out} is an existing file, not a directory")
     for i, o in zip(args.input, outs):  # every refusal before any work (module docstring)

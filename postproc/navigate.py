@@ -76,10 +76,12 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
         No candidate finds a zero-velocity phase (no motion, no gait: not a walking foot), or the configured
         detector fails while ``selftune.fallback`` is off.
     """
+    from .calibration import stance_reference
     from .detectors import detect_stance
 
     st = settings.selftune
-    configured = detect_stance(t_s, acc_b, gyro_b, settings.detector, gravity, saturated=saturated)
+    bias_det, gravity_det = stance_reference(init, gravity)  # the rest as this sensor reads it
+    configured = detect_stance(t_s, acc_b, gyro_b - bias_det, settings.detector, gravity_det, saturated=saturated)
     stance = np.asarray(configured.stance, dtype=bool)
     warnings = [str(w) for w in (configured.info or {}).get("warnings", [])]
     findings = stance_findings(t_s, stance, settings.checks, configured.method, gyro_b)

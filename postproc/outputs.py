@@ -572,6 +572,7 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
             "sample_index_start": int(result.index.start or 0),  # row 0 here is /imu row sample_index_start
             "stance_method": str(result.summary["stance"]["method"]),
             "stance_threshold": json.dumps(result.summary["stance"]["threshold"]),
+            "calibration": json.dumps(result.summary.get("calibration"), default=str),  # which one ran, or why none
             **{f"convention_{k}": v for k, v in CONVENTIONS.items()},
         }
         write_group(tmp, group, {}, attrs, replace=False)

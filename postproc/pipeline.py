@@ -70,7 +70,7 @@ class ProcessResult:
     warnings: list[str]
     saturated: np.ndarray  # (N,) bool, any axis at full scale
     acc_b: np.ndarray  # (N, 3) specific force used (calibrated), m/s^2
-    gyro_b: np.ndarray  # (N, 3) rad/s (raw; the filter's bias estimate is in ``nav``)
+    gyro_b: np.ndarray  # (N, 3) rad/s (calibrated; the filter's bias estimate is in ``nav``)
     gravity_mps2: float = 9.80665
     stance_result: Any = None  # detectors.StanceResult
     nav: Any = None  # ins.NavSolution
@@ -83,6 +83,7 @@ class ProcessResult:
     metrics: dict | None = None  # reference metrics [Heidari2019, Table 1] when a reference was given
     reference: Any = None  # reference_path.Reference
     navigation: Any = None  # navigate.Navigation: stance choice, timing offset, confidence, stride flags
+    sensor_calibration: Any = None  # calibration.AppliedCalibration: which calibration ran (or none, and why)
 
 
 def _call_progress(progress: Progress | None, stage: str, fraction: float) -> None:
@@ -106,7 +107,7 @@ class _StageClock:
 
 
 def process(source: str | Path | Recording, settings: ProcessSettings | None = None,
-            progress: Progress | None = None) -> ProcessResult:
+            progress: Progress | None = None, calibration=None) -> ProcessResult:
     """Run every stage (module docstring) on one input and return the result; writes nothing.
 
     Parameters
@@ -118,6 +119,9 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         Every tunable (defaults when None); validated before any work.
     progress
         ``progress(stage, fraction)`` is called at stage boundaries and, for the filter, while it runs.
+    calibration
+        A ``bootnav.core.sensorcal.SensorCalibration`` to apply instead of the one the settings choose
+        (``calibration.resolve_calibration``), or False for none.
 
     Returns
     -------
@@ -132,7 +136,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         (``checks.check_samples``), a recording that cannot be a walking foot (``navigate``), or a diverged
         filter.
     """
-    from .calibration import apply_accel_calibration, initial_alignment
+    from .calibration import calibrate_recording, initial_alignment
     from .reference_path import compute_metrics, load_reference, truth_reference
 
     settings = settings or ProcessSettings()
@@ -161,9 +165,9 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     lap("checks")
 
     cal = settings.calibration
-    acc_b = samples.acc_b
-    if cal.accel_calibration_file:
-        acc_b = apply_accel_calibration(acc_b, cal.accel_calibration_file)
+    acc_b, gyro_b, sensor_cal = calibrate_recording(src.recording, samples.index, samples.acc_b, gyro_b, cal,
+                                                    calibration)
+    warnings += sensor_cal.warnings
     gravity = cal.gravity()
     init = initial_alignment(t_s, acc_b, gyro_b, cal, gravity)
     warnings += list(init.warnings)
@@ -205,7 +209,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         steps=steps, summary={}, settings=settings, warnings=warnings, saturated=sat_bits.astype(bool),
         acc_b=acc_b, gyro_b=gyro_b, gravity_mps2=float(gravity), stance_result=navi.configured, nav=nav, init=init,
         recording=src.recording, source=src.path, source_is_hdf5=src.is_hdf5, index=samples.index,
-        saturation_intervals=sat_iv, metrics=metrics, reference=ref, navigation=navi,
+        saturation_intervals=sat_iv, metrics=metrics, reference=ref, navigation=navi, sensor_calibration=sensor_cal,
     )
     result.summary = build_summary(result, path_stats, timings)
     return result
@@ -236,8 +240,8 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     ``max_still_s``); the nominal period is the median step of the first 65 536 samples. Not done in chunks
     (refused, or left out with a warning): the plausibility checks of the stance mask, the truth-free
     fallback and its confidence figure (the configured detector is always used), the per-stride quality
-    flags, the detector statistic in ``results.h5``, crop, reference, accelerometer calibration file,
-    non-HDF5 inputs. Charts 1-7 and path.html are drawn from the decimated stream of the final pass
+    flags, the detector statistic in ``results.h5``, crop, reference, non-HDF5 inputs. The sensor calibration
+    (``calibration.resolve_calibration``) is applied to every block as it is read, with its temperature. Charts 1-7 and path.html are drawn from the decimated stream of the final pass
     (``plots.ChartStream``: bounded memory), as the whole run draws them. F is a histogram quantile (1e-3
     decade bins): the stance mask can differ from the whole-array run's in samples where F + δ decides (none on the test walks).
 
@@ -278,8 +282,7 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     name = str(path)
     if not (chunk_s > 0 and np.isfinite(chunk_s)):
         raise InputError(f"--chunk-s must be a positive number of seconds, got {chunk_s}")
-    for what, bad in (("--crop", settings.crop_s), ("--reference/--closed-loop", settings.reference),
-                      ("--accel-calibration", settings.calibration.accel_calibration_file)):
+    for what, bad in (("--crop", settings.crop_s), ("--reference/--closed-loop", settings.reference)):
         if bad:
             raise InputError(f"{name}: {what} is not available with --chunk-s; run without --chunk-s")
     if not path.exists():
@@ -331,7 +334,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group
 
     from . import selftune
-    from .calibration import initial_alignment
+    from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
     from .detectors.stream import StreamStance
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
@@ -345,6 +348,8 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
             raise InputError(f"{path}: no /imu group; not a bootnav recording")
         imu = f["imu"]
         device = f["meta"].attrs.get("device") if "meta" in f else None
+        sensor_cal = resolve_calibration(settings.calibration, f["meta"].attrs.get("device_id") if "meta" in f else None)
+        warnings += sensor_cal.warnings
         n = min(imu[k].shape[0] for k in ("t_s", "acc", "gyro"))
         t_all = imu["t_s"]
         if n < 3:
@@ -366,6 +371,10 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
             sat = np.asarray(imu["saturated"][i0:i1] if "saturated" in imu else np.zeros(i1 - i0), np.uint8)
             t, acc, gyro = imu["t_s"][i0:i1].astype(np.float64), si("acc"), si("gyro")
+            if sensor_cal.calibration is not None:
+                temp = si("temp") if "temp" in imu else None
+                acc, gyro = apply_calibration(sensor_cal, acc, gyro, temp)
+                warnings.extend(w for w in sensor_cal.warnings if w not in warnings)
             if rails is not None and rails.rail_pos is not None:
                 sat = sat | rails.bits(acc, gyro)
             return t, acc, gyro, sat
@@ -394,10 +403,11 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         del t0_, a0_, g0_
         lap("load")
         rate = 1.0 / dt0
+        bias_det, gravity_det = stance_reference(init, gravity)  # as ``navigate`` gives the detector
 
         floor = None
         if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
-            probe = StreamStance(settings.detector, rate, gravity)
+            probe = StreamStance(settings.detector, rate, gravity_det, gyro_bias_b=bias_det)
             for i0, i1 in blocks:
                 probe.push(*read(i0, i1))
             probe.finish()
@@ -406,7 +416,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
         def stance_stream():
             """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking)."""
-            det = StreamStance(settings.detector, rate, gravity, noise_floor_log10=floor)
+            det = StreamStance(settings.detector, rate, gravity_det, noise_floor_log10=floor, gyro_bias_b=bias_det)
             for i0, i1 in blocks:
                 yield from det.push(*read(i0, i1))
             yield from det.finish()
@@ -501,6 +511,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
                           "duration_s": float(t_all[n - 1] - t_all[0]), "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
+                "calibration": to_jsonable(sensor_cal.provenance),
                 "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                            "phases": int(len(fp)), "noise_floor_log10": floor},
@@ -525,6 +536,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
                          "summary": json.dumps(to_jsonable(summary)), "sample_index_start": 0,
                          "stance_method": settings.detector.method,
+                         "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
                          **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
                 write_group(tmp, group, {}, attrs, replace=False)
                 step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",

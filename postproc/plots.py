@@ -445,7 +445,8 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
         if len(fp_n):
             z_fp = fp_n[:, 2] - z0
             stair = floor_signal(z_fp, floors)
-            if floors.stair_min_dz_m is not None and np.any(stair != 0):  # a level walk has no stair to draw
+            # a level walk has no stair to draw (with storeys on, the signal is the held footprint height itself)
+            if floors.stair_min_dz_m is not None and np.any(np.abs(np.diff(z_fp)) >= floors.stair_min_dz_m):
                 ax.plot(t_fp, stair, color="tab:purple", lw=1, ls="--",
                         label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
             ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",

@@ -430,16 +430,19 @@ def select_stance(t_s, acc_b, gyro_b, init, gravity: float, detector_settings, f
     ``SelfTuneResult``: stance mask, the candidate chosen, a confidence in [0, 1], the gait period, the
     per-stride quality flags of the chosen mask, every candidate's criterion and warnings.
     """
+    from bootnav.postproc.calibration import stance_reference
     from bootnav.postproc.detectors import detect_stance
 
     s = settings or SelfTuneSettings()
     t_s = np.asarray(t_s, float)
+    bias_det, g_det = stance_reference(init, gravity)  # the detectors see the rest as this sensor reads it
+    gyro_det = np.asarray(gyro_b, float) - bias_det
     period = gait_period(t_s, gyro_b) if period_s is None else period_s
     warnings = []
     if not np.isfinite(period):
         warnings.append("no periodic gait found (autocorrelation of |ω| below 0.2 at 0.4-3 s)")
     if configured is None:
-        configured = detect_stance(t_s, acc_b, gyro_b, detector_settings, gravity, saturated=saturated)
+        configured = detect_stance(t_s, acc_b, gyro_det, detector_settings, g_det, saturated=saturated)
     name0 = f"configured ({configured.method})"
     masks: dict[str, np.ndarray] = {name0: np.asarray(configured.stance, bool)}
     rows = [_row(name0, masks[name0], t_s, acc_b, gyro_b, init, gravity, filter_settings, saturated, period, s)]
@@ -453,17 +456,17 @@ def select_stance(t_s, acc_b, gyro_b, init, gravity: float, detector_settings, f
     if failed:  # only then are the other candidates worth their filter runs
         for a in s.alphas:
             ds = detector_settings.with_method("adaptive", alpha=a)
-            masks[f"adaptive alpha={a:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_b, ds, gravity,
+            masks[f"adaptive alpha={a:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_det, ds, g_det,
                                                                       saturated=saturated).stance, bool)
         if s.shoe_threshold:
             ds = detector_settings.with_method("shoe", threshold=s.shoe_threshold)
-            masks[f"shoe {s.shoe_threshold:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_b, ds, gravity,
+            masks[f"shoe {s.shoe_threshold:g}"] = np.asarray(detect_stance(t_s, acc_b, gyro_det, ds, g_det,
                                                                            saturated=saturated).stance, bool)
         bad = np.zeros(len(t_s), bool)
         if saturated is not None:
             sat = np.asarray(saturated)
             bad = sat.astype(bool) if sat.ndim == 1 else sat.any(axis=1)
-        cyc = cycle_minimum_stance(t_s, acc_b, gyro_b, gravity, period, detector_settings, s, bad)
+        cyc = cycle_minimum_stance(t_s, acc_b, gyro_det, g_det, period, detector_settings, s, bad)
         cyc = _uncovered(cyc, masks[name0], t_s, 0.5 * period)
         if cyc.any():
             masks["cycle minimum"] = masks[name0] | cyc

@@ -2,6 +2,7 @@
 
 The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: this one,
 ``pipeline.process_chunked``, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
+``calibration`` (which sensor calibration ran: file, device id, date, residuals; or "none" and why),
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``
 (``strides.path_summary``), ``metrics`` (reference metrics or null), ``saturation_intervals``, ``warnings``,
 ``timings_s``, ``settings`` (everything needed to reproduce the run), and the headline numbers repeated at the
@@ -66,6 +67,8 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
             "crop_s": list(result.settings.crop_s) if result.settings.crop_s else None,
             "device": result.recording.meta.get("device"),
         },
+        "calibration": to_jsonable(getattr(result.sensor_calibration, "provenance", None)
+                                   or {"status": "none", "reason": "not resolved"}),
         "alignment": {
             "gravity_mps2": float(result.gravity_mps2),
             "roll_deg": float(np.degrees(getattr(init, "roll_rad", 0.0))),

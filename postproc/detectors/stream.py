@@ -86,6 +86,9 @@ class StreamStance:
         Local gravity, m/s².
     noise_floor_log10 : float, optional
         ``adaptive`` only: a fixed noise floor F (log10 of the statistic) instead of the running one.
+    gyro_bias_b : (3,) array, optional
+        Subtracted from the rate the detector sees (not from the samples it returns), rad/s: the initial rest's
+        rate (``calibration.stance_reference``, as ``process`` does); pass its gravity as ``gravity``.
 
     Raises
     ------
@@ -93,7 +96,8 @@ class StreamStance:
         A detector that needs the whole record, or a bad rate.
     """
 
-    def __init__(self, settings, rate_hz: float, gravity: float = 9.80665, *, noise_floor_log10: float | None = None):
+    def __init__(self, settings, rate_hz: float, gravity: float = 9.80665, *, noise_floor_log10: float | None = None,
+                 gyro_bias_b=None):
         if not (np.isfinite(rate_hz) and rate_hz > 0):
             raise InputError(f"rate_hz must be the device's positive sample rate in Hz, got {rate_hz!r}")
         det = settings.build(gravity)
@@ -102,6 +106,7 @@ class StreamStance:
             raise InputError(f"stance detector '{det.name}' cannot run on a stream: {why}; choose one of "
                              f"{', '.join(streamable_detectors())} (bootnav process --detector NAME)")
         self.detector = det
+        self._gyro_bias = None if gyro_bias_b is None else np.asarray(gyro_bias_b, dtype=np.float64).reshape(3)
         self.dt_s = dt = 1.0 / float(rate_hz)
         self._adaptive = det.name == "adaptive"
         self._floor = noise_floor_log10 if self._adaptive else None
@@ -189,7 +194,8 @@ class StreamStance:
         if end <= self._decided:
             return []
         t, acc, gyro, bad = self._t, self._acc, self._gyro, self._bad
-        stance = self._detect(t, acc, gyro, bad, self._decided - self._b0, end - self._b0)
+        gyro_det = gyro if self._gyro_bias is None else gyro - self._gyro_bias
+        stance = self._detect(t, acc, gyro_det, bad, self._decided - self._b0, end - self._b0)
         a, b = self._decided - self._b0, end - self._b0
         chunk = StanceChunk(self._decided, t[a:b], acc[a:b], gyro[a:b], stance[a:b], self._bits[a:b])
         self._decided = end

@@ -16,6 +16,9 @@ def add_arguments(parser):
     parser.add_argument("--sets", nargs="*", default=None, help="only these datasets")
     parser.add_argument("--trials", nargs="*", default=None, help="only these trial ids")
     parser.add_argument("--no-plots", action="store_true", help="skip the per-trial plots")
+    from bootnav.postproc.cli_process import add_calibration_arguments
+
+    add_calibration_arguments(parser)  # foot files: as `bootnav process` (the datasets carry no device id)
     parser.add_argument("--force", action="store_true",
                         help="reuse a non-empty --out: the files of the earlier `bootnav eval` there (listed in its "
                              "metrics.json) are removed first, nothing else")
@@ -106,7 +109,14 @@ def run(args) -> int:
         if done == total:
             shown.done()
 
-    results = evaluate_all(args.root, trials, jobs=args.jobs, progress=progress)
+    foot_settings = None
+    if args.calibration or args.no_calibration or args.accel_calibration:
+        from bootnav.postproc.cli_process import apply_calibration_arguments
+        from bootnav.postproc.settings import ProcessSettings
+
+        foot_settings = ProcessSettings()
+        apply_calibration_arguments(args, foot_settings.calibration)
+    results = evaluate_all(args.root, trials, jobs=args.jobs, foot_settings=foot_settings, progress=progress)
     elapsed = time.perf_counter() - t0
     written = []
     if not args.no_plots:

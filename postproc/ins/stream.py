@@ -28,8 +28,11 @@ duration) from the start of each stance phase, which is known once the phase has
   rotated by its τ (``selftune.rotate_specific_force`` is per sample, so it can be applied chunk-wise);
 * the stance fallback (another detector when the configured one fails on the record): use the configured
   detector (``bootnav.postproc.detectors.stream.StreamStance``);
-* the accelerometer calibration file and the saturation mask are per sample: ``from_still`` applies the
-  configured calibration to every pushed chunk; pass the saturation bits to ``push``.
+* the sensor calibration and the saturation mask are per sample: ``from_still`` applies the calibration file
+  the settings name (``calibration.resolve_calibration``; a stream has no device id, so no store match, and
+  no temperature: the bias at the reference temperature) to every pushed chunk; a user who has the device id
+  and the temperature calibrates the chunks with ``calibration.apply_calibration`` and gives settings with
+  ``sensor_calibration = "none"`` (as the live view does); pass the saturation bits to ``push``.
 
 **Aiding from outside** (two-boot fusion): ``position_n`` / ``position_cov_n`` are the estimate and its 3×3
 covariance at the last filtered sample (``last_index``); ``apply_measurement(z, H, R)`` is a Kalman update of
@@ -47,13 +50,15 @@ API-STABLE
 
 Usage (a stream user; ``source`` yields chunks of every sample from the first, the initial rest included)::
 
+    from bootnav.postproc.calibration import stance_reference
     from bootnav.postproc.detectors.stream import StreamStance
     from bootnav.postproc.ins.stream import StreamNavigator
     from bootnav.postproc.settings import ProcessSettings
 
     settings = ProcessSettings()
     nav = StreamNavigator.from_still(settings, rate_hz, t_still, acc_still, gyro_still)  # the first seconds
-    stance = StreamStance(settings.detector, rate_hz, gravity=nav.gravity)
+    bias, g_rest = stance_reference(nav.init_state, nav.gravity)  # the rest as the sensor read it
+    stance = StreamStance(settings.detector, rate_hz, gravity=g_rest, gyro_bias_b=bias)
     feed = lambda chunks: [nav.push(c.t_s, c.acc_b, c.gyro_b, c.stance, c.saturated) for c in chunks]
     for t, acc, gyr, sat in source:
         for rows in feed(stance.push(t, acc, gyr, sat)):
@@ -182,8 +187,8 @@ class StreamNavigator:
     apply_onset_delay : bool
         True: the pushed ``stance`` is a detector's mask and the ZUPT onset delay is applied here (as
         ``run_filter`` does); False: it is already the ZUPT mask.
-    acc_calibration : calibration.AccelCalibration, optional
-        Applied to every pushed specific force (``calibration.apply_accel_calibration``).
+    acc_calibration : bootnav.core.sensorcal.SensorCalibration or calibration.AccelCalibration, optional
+        Applied to every pushed chunk (specific force, and the rate for a sensor calibration).
     """
 
     def __init__(self, settings: FilterSettings, setup, nominal_dt_s: float, *, apply_onset_delay: bool = True,
@@ -268,8 +273,8 @@ class StreamNavigator:
             Nominal sample period, s (1 / the device's rate).
         settings : FilterSettings, optional
             Default ``FilterSettings()``.
-        acc_calibration : calibration.AccelCalibration, optional
-            Applied to every pushed specific force.
+        acc_calibration : bootnav.core.sensorcal.SensorCalibration or calibration.AccelCalibration, optional
+            Applied to every pushed chunk.
 
         Returns
         -------
@@ -298,16 +303,15 @@ class StreamNavigator:
         StreamNavigator
             ``init_state`` holds the alignment (``calibration.InitialState``, with its warnings).
         """
-        from bootnav.postproc.calibration import initial_alignment, load_accel_calibration, apply_accel_calibration
+        from bootnav.postproc.calibration import apply_calibration, initial_alignment, resolve_calibration
 
         if not (np.isfinite(rate_hz) and rate_hz > 0):
             raise InputError(f"rate_hz must be the device's positive sample rate in Hz, got {rate_hz!r}")
         settings.validate()
         cal = settings.calibration
-        acc_cal = load_accel_calibration(cal.accel_calibration_file) if cal.accel_calibration_file else None
-        acc_b = np.asarray(acc_b, dtype=np.float64)
-        if acc_cal is not None:
-            acc_b = apply_accel_calibration(acc_b, acc_cal)
+        applied = resolve_calibration(cal)  # no device id: an explicit file or none
+        acc_cal = applied.calibration
+        acc_b, gyro_b = apply_calibration(applied, np.asarray(acc_b, dtype=np.float64), np.asarray(gyro_b, np.float64))
         gravity = cal.gravity()
         try:
             init = initial_alignment(t_s, acc_b, gyro_b, cal, gravity)
@@ -411,9 +415,12 @@ class StreamNavigator:
         t_s, acc_b, gyro_b, stance = self._check(t_s, acc_b, gyro_b, stance)
         xvar = saturation_variance(saturated, t_s.shape[0], self.settings)
         if self._acc_cal is not None and t_s.shape[0]:
-            from bootnav.postproc.calibration import apply_accel_calibration
+            from bootnav.postproc.calibration import AccelCalibration, apply_accel_calibration
 
-            acc_b = apply_accel_calibration(acc_b, self._acc_cal)
+            if isinstance(self._acc_cal, AccelCalibration):
+                acc_b = apply_accel_calibration(acc_b, self._acc_cal)
+            else:
+                acc_b, gyro_b = self._acc_cal.apply(acc_b, gyro_b)
         return self._push_checked(t_s, acc_b, gyro_b, stance, None if xvar is None else xvar * self.nominal_dt_s)
 
     def finish(self) -> NavRows:

@@ -32,6 +32,10 @@ the page as in ``live.json``. Samples after a reconnect start a new segment, ali
 continued from the last footprint (the heading is re-aligned: the turn made while the link was down is
 unknown; a note says so).
 
+The sensor calibration is ``process``'s (``calibration.resolve_calibration`` with the recording's device id,
+``apply_calibration`` with its temperature): every chunk is calibrated as it arrives, before the detector,
+the cue and the navigator see it.
+
 What ``process`` does on the whole record and a stream cannot (``ins.stream``): the stance fallback
 (``selftune.select_stance``) and the per-recording vertical timing calibration; the live view uses the
 configured detector and no timing offset.
@@ -146,6 +150,10 @@ class BootView:
         self._segment_ended = False  # the stream broke off: the next samples start a new segment
         self._segment_note: str | None = None
         self._wall0: float | None = None  # wall time of the first status (a boot never heard is silent since)
+        self.calibration = None  # calibration.AppliedCalibration, resolved at the first chunk
+        # the navigator gets calibrated samples: its own settings must not calibrate them again
+        self._nav_settings = replace(settings, calibration=replace(settings.calibration, sensor_calibration="none",
+                                                                   accel_calibration_file=None))
         # heading_aid "auto": the rule of building.directions on the strides seen so far (causal)
         self._dirs = None
         if settings.filter.heading_aid == "auto":
@@ -163,11 +171,32 @@ class BootView:
                 self._t_start = float(chunk.t_s[0])
             if self._segment_ended:
                 self._new_segment()
+            try:
+                chunk = self._calibrated(chunk)
+            except InputError as exc:
+                self._stopped = True
+                self.note = f"path stopped: {exc}"
+                return rows
             rows = self._guarded(chunk)
         broke_off = len(chunk.events) and bool((chunk.events["kind"] == b"disconnect").any())
         if broke_off:
             rows += self.finish()  # the stream broke off: its last stride is final now, not at the next sample
         return rows
+
+    def _calibrated(self, chunk):
+        """The chunk with the sensor calibration applied (resolved once, from the first chunk's device id)."""
+        from bootnav.postproc.calibration import apply_calibration, resolve_calibration
+
+        if self.calibration is None:
+            self.calibration = resolve_calibration(self.settings.calibration, getattr(chunk, "device_id", None))
+        if self.calibration.calibration is None:
+            return chunk
+        n_warn = len(self.calibration.warnings)
+        acc, gyro = apply_calibration(self.calibration, chunk.acc_mps2, chunk.gyro_radps,
+                                      getattr(chunk, "temp_degc", None))
+        if len(self.calibration.warnings) > n_warn:
+            self.note = self.calibration.warnings[-1]
+        return replace(chunk, acc_mps2=acc, gyro_radps=gyro)
 
     def finish(self) -> list[list[float]]:
         """The end of the record (or of the stream, at a disconnect): flush the filter and close the last
@@ -276,7 +305,7 @@ class BootView:
         record. With no still period within ``still_search_s`` the oldest samples are dropped, so the view
         starts after the next rest.
         """
-        from bootnav.postproc.calibration import find_still_period, load_accel_calibration
+        from bootnav.postproc.calibration import find_still_period, stance_reference
         from bootnav.postproc.detectors.stream import StreamStance
         from bootnav.postproc.ins.stream import StreamNavigator
 
@@ -315,28 +344,22 @@ class BootView:
             self.note = "no still period to align on: no path"
             return False
         rate_hz = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else float("nan")
-        self._nav = StreamNavigator.from_still(self.settings, rate_hz, t, acc, gyro)
-        self._stance = StreamStance(self.settings.detector, rate_hz, gravity=self._nav.gravity)
+        self._nav = StreamNavigator.from_still(self._nav_settings, rate_hz, t, acc, gyro)
+        bias_det, gravity_det = stance_reference(self._nav.init_state, self._nav.gravity)  # as ``process``
+        self._stance = StreamStance(self.settings.detector, rate_hz, gravity=gravity_det, gyro_bias_b=bias_det)
         self._sat = np.zeros(0, np.uint8)
         cue = self.settings.detector.with_method("shoe", min_stance_s=self.live.cue_min_stance_s)
-        self._cue = StreamStance(cue, rate_hz, gravity=self._nav.gravity)
+        self._cue = StreamStance(cue, rate_hz, gravity=gravity_det, gyro_bias_b=bias_det)
         self._cue_prev = False  # the cue's decision at the sample before its newest chunk
         self._recent = RecentSamples()
         self._bias = (self._nav.setup.acc_bias0_b, self._nav.setup.gyro_bias0_b)
-        cal = self.settings.calibration
-        self._acc_cal = load_accel_calibration(cal.accel_calibration_file) if cal.accel_calibration_file else None
         self.note = self._segment_note  # None, or what a new segment after a lost signal must say
         self._pending = got + ([None] if final else [])
         return True
 
     def _cue_push(self, c) -> None:
         """Feed the low-latency cue; a stance start it decides becomes a provisional row."""
-        acc = c.acc_mps2
-        if self._acc_cal is not None and len(acc):
-            from bootnav.postproc.calibration import apply_accel_calibration
-
-            acc = apply_accel_calibration(acc, self._acc_cal)
-        self._recent.push(c.t_s, acc, c.gyro_radps)
+        self._recent.push(c.t_s, c.acc_mps2, c.gyro_radps)
         for d in self._cue.push(c.t_s, c.acc_mps2, c.gyro_radps, c.saturated):
             s = np.asarray(d.stance, bool)
             self._recent.mark(d.start, s)

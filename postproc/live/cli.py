@@ -42,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "shoe-literal with a threshold). The final stride is drawn a median 1.8-2.0 s after its "
                              "stance phase began with adaptive, 0.63 s with shoe; with either, a provisional (hollow) "
                              "marker a median 0.27-0.31 s after it (benchmarks/bench_live.py, docs/live.md)")
+    from bootnav.postproc.cli_process import add_calibration_arguments
+
+    add_calibration_arguments(parser)
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to serve on (default 127.0.0.1; any other needs --token)")
     parser.add_argument("--http-port", type=int, default=8017, metavar="N",
@@ -100,6 +103,9 @@ def run(args) -> int:
             settings.detector = settings.detector.with_method(args.detector)
         except ValueError as exc:
             raise BootnavError(f"--detector {args.detector}: {exc}") from None
+    from bootnav.postproc.cli_process import apply_calibration_arguments
+
+    apply_calibration_arguments(args, settings.calibration)
     settings.validate()
     StreamStance(settings.detector, 200.0)  # a detector that needs the whole record fails here, not mid-walk
     live = LiveSettings(no_motion_s=args.no_motion_s)
@@ -203,7 +209,9 @@ def _write_summary(out_dir, feeds, settings, live):
     from bootnav.core.jsonio import to_jsonable
 
     data = {"settings": settings.to_dict(), "live_settings": to_jsonable(live),
-            "boots": {f.label: f.view.result() for f in feeds}}
+            "boots": {f.label: {**f.view.result(), "calibration": (f.view.calibration.provenance if f.view.calibration
+                                                                     else {"status": "none", "reason": "no samples"})}
+                      for f in feeds}}
     text = json.dumps(to_jsonable(data, max_array_size=None), indent=1, allow_nan=False) + "\n"
     return atomic.write_text(out_dir / "live.json", text)
 

@@ -35,6 +35,8 @@ class Chunk:
     gyro_radps: np.ndarray
     saturated: np.ndarray  # uint8 bitmask (recording.SATURATION_BITS)
     events: np.ndarray = field(default_factory=lambda: np.zeros(0, EVENT_DTYPE))
+    temp_degc: np.ndarray | None = None  # sensor temperature per sample, when the recording has it
+    device_id: str | None = None  # the recording's /meta device_id (which calibration applies)
 
 
 def _empty_chunk() -> Chunk:
@@ -72,9 +74,10 @@ class GrowingRecording:
         self._f = f
         self.meta = {k: (v.decode() if isinstance(v, bytes) else v.item() if isinstance(v, np.generic) else v)
                      for k, v in f["meta"].attrs.items()} if "meta" in f else {}
-        for k in ("acc", "gyro"):
-            a = f["imu"][k].attrs
-            self._scale[k] = (float(a.get("scale_to_si", 1.0)), float(a.get("offset_to_si", 0.0)))
+        for k in ("acc", "gyro", "temp"):
+            if k in f["imu"]:
+                a = f["imu"][k].attrs
+                self._scale[k] = (float(a.get("scale_to_si", 1.0)), float(a.get("offset_to_si", 0.0)))
         return True
 
     def poll(self) -> Chunk | None:
@@ -89,8 +92,14 @@ class GrowingRecording:
         if n > self._n:
             sl = slice(self._n, n)
             si = {k: imu[k][sl].astype(np.float64) * self._scale[k][0] + self._scale[k][1] for k in ("acc", "gyro")}
-            chunk = Chunk(imu["t_s"][sl], si["acc"], si["gyro"], imu["saturated"][sl])
+            temp = None
+            if "temp" in self._scale and "temp" in imu:
+                imu["temp"].refresh()
+                if imu["temp"].shape[0] >= n:
+                    temp = imu["temp"][sl].astype(np.float64) * self._scale["temp"][0] + self._scale["temp"][1]
+            chunk = Chunk(imu["t_s"][sl], si["acc"], si["gyro"], imu["saturated"][sl], temp_degc=temp)
             self._n = n
+        chunk.device_id = self.meta.get("device_id")
         if "events" in self._f:
             ev = self._f["events"]
             ev.refresh()
@@ -148,7 +157,8 @@ class ReplayRecording:
         t_due = rec.t_s[0] + (now - self._start) * self.speed
         n = rec.n if not np.isfinite(t_due) else int(np.searchsorted(rec.t_s, t_due, side="right"))
         sl = slice(self._n, max(n, self._n))
-        chunk = Chunk(rec.t_s[sl], rec.acc_mps2[sl], rec.gyro_radps[sl], rec.saturated[sl])
+        chunk = Chunk(rec.t_s[sl], rec.acc_mps2[sl], rec.gyro_radps[sl], rec.saturated[sl],
+                      temp_degc=None if rec.temp_degc is None else rec.temp_degc[sl], device_id=rec.meta.get("device_id"))
         self._n = max(n, self._n)
         k = int(np.searchsorted(self._events["sample_index"], self._n, side="left"))
         if k > self._n_events:

@@ -30,6 +30,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("input", help="acc.csv.gz / imu.csv.gz, an HDF5 recording, or a file bootnav.logger.importers reads")
     parser.add_argument("--settings", metavar="FILE.json", help="PdrSettings as JSON (full or partial, or a summary.json)")
     parser.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
+    from bootnav.postproc.cli_process import add_calibration_arguments
+
+    add_calibration_arguments(parser)
     parser.add_argument("--detector", default=None, choices=DETECTOR_NAMES, help="step detector (default robust)")
     parser.add_argument("--detector-param", action="append", default=[], metavar="NAME=VALUE",
                         help="a detector parameter (repeatable), e.g. min_distance_s=0.3 or literal=false")
@@ -137,6 +140,10 @@ def build_settings(args):
     s = PdrSettings.from_file(args.settings) if args.settings else PdrSettings()
     for name, value in _params(args.set_fields, PdrSettings, "--set").items():
         setattr(s, name, value)
+    if getattr(args, "no_calibration", False):
+        s.sensor_calibration = "none"
+    elif getattr(args, "calibration", None) or getattr(args, "accel_calibration", None):
+        s.sensor_calibration = args.calibration or args.accel_calibration
     if args.detector and args.detector != s.detector:
         s.detector, s.detector_params = args.detector, {}
     if s.detector not in DETECTORS:
@@ -268,6 +275,9 @@ def run(args) -> int:
     if args.save_settings:
         settings.save(args.save_settings)
     inp = load_input(args.input)
+    from bootnav.postproc.pdr.io import calibrated
+
+    inp, sensor_cal = calibrated(inp, settings.sensor_calibration)
     _check_finite(args.input, inp.t_s, inp.acc_b, inp.gyro_b)
     try:
         res = run_pdr(inp.t_s, inp.acc_b, inp.gyro_b, settings, mag_b=inp.mag_b, compass_deg=inp.compass_deg,
@@ -291,7 +301,8 @@ def run(args) -> int:
             _csv(out / "gps.csv", {k: res.gps[k] for k in ("t_s", "gps_east_m", "gps_north_m", "pdr_east_m",
                                                            "pdr_north_m")})
         summary = res.summary()
-        summary.update({"input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
+        summary.setdefault("warnings", []).extend(sensor_cal.warnings)
+        summary.update({"calibration": sensor_cal.provenance, "input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
                         "has_gyro": inp.gyro_b is not None, "has_mag": inp.mag_b is not None,
                         "has_compass": inp.compass_deg is not None, "has_gps": inp.gps is not None,
                         "detector_params": make_detector(settings.detector, **settings.detector_params).to_dict(),

@@ -23,6 +23,23 @@ class PdrInput:
     kind: str
     compass_deg: np.ndarray | None = None
     gps: tuple | None = None  # (t_s, lat_deg, lon_deg) rows of the GPS columns (Physics Toolbox), unfiltered
+    device_id: str | None = None  # the recording's /meta device_id (which sensor calibration applies)
+    temp_degc: np.ndarray | None = None  # sensor temperature per sample, when recorded
+
+
+def calibrated(inp: PdrInput, sensor_calibration: str = "auto"):
+    """``(inp with calibrated acc/gyro, calibration.AppliedCalibration)``: the sensor calibration ``process``
+    would apply (``calibration.resolve_calibration`` / ``apply_calibration``)."""
+    from dataclasses import replace
+
+    from bootnav.postproc.calibration import CalibrationSettings, apply_calibration, resolve_calibration
+
+    applied = resolve_calibration(CalibrationSettings(sensor_calibration=sensor_calibration), inp.device_id)
+    if applied.calibration is None:
+        return inp, applied
+    gyro = inp.gyro_b if inp.gyro_b is not None else np.zeros_like(inp.acc_b)
+    acc, gyro = apply_calibration(applied, inp.acc_b, gyro, inp.temp_degc)
+    return replace(inp, acc_b=acc, gyro_b=gyro if inp.gyro_b is not None else None), applied
 
 
 def _mag_from_aux(aux: dict) -> np.ndarray | None:
@@ -74,7 +91,7 @@ def load_input(path) -> PdrInput:
         except ImportError:
             pass
         return PdrInput(rec.t_s, rec.acc_mps2, _gyro_or_none(rec.gyro_radps), _mag_from_aux(aux), str(path), "hdf5",
-                        _compass_from_aux(aux), _gps_from_aux(rec.t_s, aux))
+                        _compass_from_aux(aux), _gps_from_aux(rec.t_s, aux), rec.meta.get("device_id"), rec.temp_degc)
     if name.endswith((".csv.gz", ".csv")):
         with (__import__("gzip").open(path, "rt") if name.endswith(".gz") else open(path)) as f:
             header = f.readline()

@@ -82,6 +82,9 @@ class PdrSettings:
         Start of the geodetic path; None = the first GPS fix (if any).
     use_gps : bool
         Use the GPS fixes of the input (start point and comparison).
+    sensor_calibration : str
+        The IMU calibration applied to the input (``bootnav.postproc.calibration.resolve_calibration``): "auto"
+        = the stored calibration of the recording's device id, if any; "none"; or a calibration file.
     """
 
     detector: str = "robust"
@@ -104,6 +107,7 @@ class PdrSettings:
     mag_calibration_window_s: tuple[float, float] | None = None
     start_lat_lon: tuple[float, float] | None = None
     use_gps: bool = True
+    sensor_calibration: str = "auto"
 
     def to_dict(self) -> dict:
         """Plain JSON-able dict of every setting (tuples as lists)."""
