@@ -76,14 +76,21 @@ def load_source(source: str | Path | Recording) -> Source:
     if isinstance(source, Recording):
         path = Path(source.path) if source.path else None
         src = Source(source, path, bool(source.path) and is_hdf5(path))
+        if src.is_hdf5:  # a recording read from a file (bootnav.load): its units checked like a path's
+            from bootnav.logger.recording import check_recording_units
+
+            check_recording_units(source, path)
     else:
         path = Path(source)
         if not path.exists():
             raise InputError(f"{path}: no such file")
         if path.is_dir():
             raise InputError(f"{path}: is a directory; give a recording (.h5) or an IMU file (e.g. imu.csv.gz)")
-        if is_hdf5(path):
-            src = Source(load(path, with_truth=False), path, True)
+        from bootnav.core.paths import regular_input
+
+        regular_input(path, "recording (.h5) or IMU")  # a FIFO would block forever, a device never end
+        if is_hdf5(path):  # units checked as `import` checks them (acc in g, gyro in deg/s, raw counts)
+            src = Source(load(path, with_truth=False, check_units=True), path, True)
         else:
             src = Source(_import(path), path, False)
     if src.recording.n < 3:
