@@ -555,9 +555,9 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
             meta.setdefault("source_file", str(result.source) if result.source else "")
             imported = rec.raw.get("import_result")
             if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
-                from bootnav.logger.importers.core import write_result
+                from bootnav.logger.importers.core import write_result_into
 
-                write_result(imported, tmp)
+                write_result_into(imported, tmp)  # into the temporary itself: its commit is ours, below
             else:
                 write_recording(tmp, rec.t_s, rec.acc_mps2, rec.gyro_radps, events=rec.events, meta=meta,
                                 saturated=rec.saturated)

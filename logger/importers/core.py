@@ -758,15 +758,17 @@ def write_atomically(out, write) -> Path:
 
 def write_result(result: ImportResult, out) -> Path:
     """Write an ``ImportResult`` as a bootnav recording (``/aux`` holds the extra columns), crash-safe."""
+    return write_atomically(out, lambda tmp: write_result_into(result, tmp))
+
+
+def write_result_into(result: ImportResult, path) -> None:
+    """Write an ``ImportResult`` into ``path`` as it is (not crash-safe on its own: for a file that is itself a
+    temporary, e.g. the one ``results.h5`` is built in, whose rename is the caller's)."""
     events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
-
-    def write(tmp):
-        write_recording(tmp, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
-                        gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
-                        saturated=result.saturated, **result.optional)
-        write_aux(tmp, "aux", result)
-
-    return write_atomically(out, write)
+    write_recording(path, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
+                    gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
+                    saturated=result.saturated, **result.optional)
+    write_aux(path, "aux", result)
 
 
 def load_aux(path) -> dict[str, np.ndarray]:
