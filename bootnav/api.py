@@ -43,13 +43,20 @@ import numpy as np
 __all__ = ["load", "process", "process_two_boots", "pdr", "PathResult", "StepResult", "TwoBootPathResult"]
 
 
-def load(path: str | Path):
+def load(path: str | Path, *, acc_unit: str | None = None, gyro_unit: str | None = None,
+         time_unit: str | None = None, check_units: bool = True):
     """Read a recording: a bootnav HDF5 file or any file ``bootnav import`` reads (CSV, SD-card log, ...).
 
     Parameters
     ----------
     path
         The file.
+    acc_unit, gyro_unit, time_unit
+        The units of a text file's columns when its header or profile does not declare them, or declares them
+        wrongly (``"g"``, ``"mps2"``, ``"counts"``; ``"dps"``, ``"radps"``, ``"counts"``; ``"s"``, ``"ms"``,
+        ``"us"``), as ``bootnav import --acc-unit ...``. An HDF5 recording declares its own units.
+    check_units
+        ``False`` keeps a text file whose units contradict gravity (a note instead of an error).
 
     Returns
     -------
@@ -60,11 +67,14 @@ def load(path: str | Path):
     Raises
     ------
     bootnav.errors.InputError
-        Missing or unreadable file.
+        Missing or unreadable file; units that contradict gravity (the message names the keyword to give).
     """
     from bootnav.postproc.source import load_source
 
-    return load_source(path).recording
+    units = {k: v for k, v in dict(acc_unit=acc_unit, gyro_unit=gyro_unit, time_unit=time_unit).items() if v}
+    overrides = dict(units, check_units=False) if not check_units else units
+    with _ApiWords():
+        return load_source(path, import_overrides=overrides or None).recording
 
 
 def _pandas():
@@ -167,6 +177,11 @@ _API_PHRASES = (
     (r"--into-recording\b", "into_recording=True"),
     (r"--out ", "out_dir "),
     (r"choose another --out", "choose another out_dir"),
+    (r"--(acc|gyro|time)-unit ([a-z0-9]+(?:\|[a-z0-9]+)+)", lambda m: m[1] + "_unit=" + " or ".join(
+        f'"{u}"' for u in m[2].split("|"))),
+    (r"--(acc|gyro|time)-unit ([a-z0-9]+)", r'\1_unit="\2"'),
+    (r"--(acc|gyro|time)-unit\b", r"\1_unit="),
+    (r"--trust-units\b|--no-unit-check\b", "check_units=False"),
 )
 
 
