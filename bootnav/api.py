@@ -43,13 +43,20 @@ import numpy as np
 __all__ = ["load", "process", "process_two_boots", "pdr", "PathResult", "StepResult", "TwoBootPathResult"]
 
 
-def load(path: str | Path):
+def load(path: str | Path, *, acc_unit: str | None = None, gyro_unit: str | None = None,
+         time_unit: str | None = None, check_units: bool = True):
     """Read a recording: a bootnav HDF5 file or any file ``bootnav import`` reads (CSV, SD-card log, ...).
 
     Parameters
     ----------
     path
         The file.
+    acc_unit, gyro_unit, time_unit
+        The units of a text file's columns when its header or profile does not declare them, or declares them
+        wrongly (``"g"``, ``"mps2"``, ``"counts"``; ``"dps"``, ``"radps"``, ``"counts"``; ``"s"``, ``"ms"``,
+        ``"us"``), as ``bootnav import --acc-unit ...``. An HDF5 recording declares its own units.
+    check_units
+        ``False`` keeps a text file whose units contradict gravity (a note instead of an error).
 
     Returns
     -------
@@ -60,11 +67,14 @@ def load(path: str | Path):
     Raises
     ------
     bootnav.errors.InputError
-        Missing or unreadable file.
+        Missing or unreadable file; units that contradict gravity (the message names the keyword to give).
     """
     from bootnav.postproc.source import load_source
 
-    return load_source(path).recording
+    units = {k: v for k, v in dict(acc_unit=acc_unit, gyro_unit=gyro_unit, time_unit=time_unit).items() if v}
+    overrides = dict(units, check_units=False) if not check_units else units
+    with _ApiWords():
+        return load_source(path, import_overrides=overrides or None).recording
 
 
 def _pandas():
@@ -121,6 +131,32 @@ def _settings(cls, settings, overrides: dict):
     return cls.from_dict(_merged(base.to_dict(), _nested_as_dicts(cls, overrides))) if overrides else base
 
 
+def _numbers(value, name: str, fn: str) -> np.ndarray:
+    """``value`` as a float array, or an ``InputError`` in the API's words (strings, None, objects)."""
+    from bootnav.errors import InputError
+
+    if value is None or isinstance(value, (str, bytes)):
+        raise InputError(f"{fn}: {name} must be an array of numbers, got {type(value).__name__}")
+    try:
+        return np.asarray(value, float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{fn}: {name} must be an array of numbers, got {type(value).__name__} ({exc})") from None
+
+
+def _check_source(source, fn: str, arrays: str) -> None:
+    """A file path or a ``Recording``; anything else is an ``InputError`` saying what the function takes."""
+    import os
+
+    from bootnav.errors import InputError
+    from bootnav.logger.recording import Recording
+
+    if isinstance(source, (str, os.PathLike, Recording)):
+        return
+    got = type(source).__name__
+    hint = f" (with arrays, give {arrays} too)" if isinstance(source, (np.ndarray, list, tuple)) else ""
+    raise InputError(f"{fn}: expected a file path, a Recording, or t_s with {arrays}; got {got}{hint}")
+
+
 # The pipeline speaks `bootnav process`'s flags; the API says the same with its keywords. One table, applied to
 # every message the API passes on (errors and warnings).
 _API_PHRASES = (
@@ -141,6 +177,11 @@ _API_PHRASES = (
     (r"--into-recording\b", "into_recording=True"),
     (r"--out ", "out_dir "),
     (r"choose another --out", "choose another out_dir"),
+    (r"--(acc|gyro|time)-unit ([a-z0-9]+(?:\|[a-z0-9]+)+)", lambda m: m[1] + "_unit=" + " or ".join(
+        f'"{u}"' for u in m[2].split("|"))),
+    (r"--(acc|gyro|time)-unit ([a-z0-9]+)", r'\1_unit="\2"'),
+    (r"--(acc|gyro|time)-unit\b", r"\1_unit="),
+    (r"--trust-units\b|--no-unit-check\b", "check_units=False"),
 )
 
 
@@ -239,9 +280,9 @@ def _arrays(t_s, acc_mps2, gyro_radps, need_gyro: bool = True, *, acc_unit: str 
     from bootnav.logger.mpu6050 import STANDARD_GRAVITY
 
     call = "process(t_s, acc_mps2, gyro_radps)" if need_gyro else "pdr(t_s, acc_mps2[, gyro_radps])"
-    t = np.asarray(t_s, float)
-    acc = None if acc_mps2 is None else np.asarray(acc_mps2, float)
-    gyro = None if gyro_radps is None else np.asarray(gyro_radps, float)
+    t = _numbers(t_s, "t_s", call)
+    acc = None if acc_mps2 is None else _numbers(acc_mps2, "acc_mps2", call)
+    gyro = None if gyro_radps is None else _numbers(gyro_radps, "gyro_radps", call)
     if t.ndim == 2 and t.shape[1:] == (3,) and acc is not None and acc.shape == t.shape and gyro is None:
         raise InputError(f"{call}: the sample times are missing: the first argument is an (N, 3) array; give the "
                          "times first, t_s (N,) in s (e.g. t_s = np.arange(N) / rate_hz)")
@@ -450,6 +491,8 @@ def process(source, acc_mps2=None, gyro_radps=None, /, *, settings=None, calibra
         arrays = _source_and_units(source, acc_mps2, gyro_radps, True, units)
         if arrays is not None:
             source = _recording_of_arrays(*arrays[:3], notes=notes, **arrays[3])
+        else:
+            _check_source(source, "process(source)", "acc_mps2 and gyro_radps")
         res = _path_result(run(source, chosen, progress, calibration=given))
     res.warnings[:0] = notes
     _warn(res.warnings)
@@ -754,6 +797,13 @@ def pdr(source, acc_mps2=None, gyro_radps=None, /, *, mag_b=None, settings=None,
     arrays = _source_and_units(source, acc_mps2, gyro_radps, False, units)
     if arrays is not None:
         t, acc, gyro = _arrays(*arrays[:3], need_gyro=False, specific_force=False, notes=notes, **arrays[3])
+        if mag_b is not None:
+            from bootnav.errors import InputError
+
+            mag_b = _numbers(mag_b, "mag_b", "pdr(..., mag_b=)")
+            if mag_b.shape != (len(t), 3):
+                raise InputError(f"pdr(..., mag_b=): expected the magnetometer as (N, 3) = ({len(t)}, 3) like "
+                                 f"acc_mps2, got {mag_b.shape}")
         extra["mag_b"] = mag_b
     elif isinstance(source, Recording):
         from bootnav.postproc.pdr.io import PdrInput, calibrated
@@ -765,6 +815,7 @@ def pdr(source, acc_mps2=None, gyro_radps=None, /, *, mag_b=None, settings=None,
     else:
         from bootnav.postproc.pdr.io import calibrated, load_input
 
+        _check_source(source, "pdr(source)", "acc_mps2")
         inp, _ = calibrated(load_input(source), s.sensor_calibration)
         t, acc, gyro = inp.t_s, inp.acc_b, inp.gyro_b
         extra = {"mag_b": inp.mag_b, "compass_deg": inp.compass_deg, "gps": inp.gps}

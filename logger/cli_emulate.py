@@ -58,6 +58,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write what was sent (frames_sent, frames_corrupted, valid_seqs, ...)")
 
 
+def check_link_free(link: str, source: str | None = None) -> None:
+    """Refuse an ``--out-link`` that names an existing file or folder: the link would replace it and be removed on
+    exit (a recording given there by mistake would be lost). Only a stale link of an earlier emulator (a symlink to a
+    pseudo-terminal) may be replaced."""
+    import os
+    from pathlib import Path
+
+    from bootnav.core.paths import same_path, writable_folder
+    from bootnav.errors import InputError
+
+    p = Path(link)
+    if source and source != "synthetic" and same_path(p, source):
+        raise InputError(f"--out-link {p} is the --source file; give a new name for the link, e.g. /tmp/bootnav-boot")
+    if p.is_symlink() and os.readlink(p).startswith("/dev/pts/") and not p.exists():
+        return  # a dead pty's link left by an emulator killed with kill -9
+    if p.exists() or p.is_symlink():
+        raise InputError(f"--out-link {p} exists; the emulator never replaces a file: give a new name for the link, "
+                         "e.g. /tmp/bootnav-boot")
+    writable_folder(p.parent, "--out-link")
+
+
 def run(args) -> int:
     from pathlib import Path
 
@@ -79,6 +100,8 @@ def run(args) -> int:
         if value is not None and not (math.isfinite(value) and (value >= 0 if zero_ok else value > 0)):
             raise BootnavError(f"{flag} {value}: must be a {'non-negative' if zero_ok else 'positive'} number")
     links = args.out_link
+    for link in links:
+        check_link_free(link, args.source)
     if len(links) > 1:
         return _run_multi(args, kinds, corrupt)
     if args.source != "synthetic":

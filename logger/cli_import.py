@@ -62,26 +62,11 @@ def check_out(src: Path, out: Path, force: bool) -> None:
     BootnavError
         Naming the path and the fix.
     """
-    import h5py
+    from bootnav.core.paths import output_file, regular_input
 
-    from bootnav.errors import BootnavError
-
-    if src.is_dir():
-        raise BootnavError(f"{src}: is a directory; give the log file to import")
-    if out.is_dir():
-        raise BootnavError(f"--out {out}: is a directory; give a file name such as {out / (src.stem + '.h5')}")
-    parent = out.parent if str(out.parent) else Path(".")
-    if parent.is_dir() and not os.access(parent, os.W_OK):
-        raise BootnavError(f"--out {out}: {parent} is not writable; choose a writable place")
-    if not out.exists():
-        return
-    if src.exists() and os.path.samefile(src, out):
-        raise BootnavError(f"--out {out} is the input file; choose another name (the input is never overwritten)")
-    if not h5py.is_hdf5(out):
-        raise BootnavError(f"--out {out} exists and is not an HDF5 file; bootnav does not overwrite it, "
-                           "choose another name")
-    if not force:
-        raise BootnavError(f"--out {out} exists; choose another name or add --force to replace it")
+    if src.exists():
+        regular_input(src, "log")
+    output_file(out, force=force, inputs=[src], hdf5=True)  # the one output rule (bootnav.core.paths)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -86,6 +86,13 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         imu = g["imu"]
         names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
         n = min(imu[k].shape[0] for k in names)  # a killed writer may leave unequal lengths: the common prefix
+        lengths = {k: int(imu[k].shape[0]) for k in names}
+        file_warnings = []
+        if len(set(lengths.values())) > 1:
+            file_warnings.append("the datasets of /imu have different lengths (" + ", ".join(
+                f"{k} {v}" for k, v in lengths.items()) + f"): only the first {n} rows, common to all, are used; "
+                "a writer was killed or the file was edited")
+        unit_warnings = _unit_warnings(imu, n)
         events = g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE)
         meta = {k: decode_attr(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
         acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
@@ -156,7 +163,8 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         "mount": meta.get("mount", ""),
         "start_utc": meta.get("start_utc", ""),
         "complete": "stop_reason" in meta or "rate_measured_hz" in meta,
-        "data_warnings": _data_warnings(channels, n),
+        "data_warnings": file_warnings + _data_warnings(channels, n) + _cut_warnings(events),
+        "unit_warnings": unit_warnings,
         "gap_list": gaps[:100],
     }
     if boot is not None:  # the boot's place on the session clock (docs/recording-format.md)
@@ -217,6 +225,43 @@ def _scan(imu, n: int, si: dict, gyro_present: bool, block_rows: int) -> _Figure
                     gaps, sat_hist, channels)
 
 
+def _unit_warnings(imu, n: int) -> list[str]:
+    """The recording loader's unit check (``recording.unit_problems``) on the first rows, as warnings: info
+    shows such a file, ``process`` refuses it."""
+    import numpy as np
+
+    from bootnav.logger.recording import UNIT_CHECK_ROWS, unit_problems
+
+    k = min(n, UNIT_CHECK_ROWS)
+    if k < 2:
+        return []
+
+    def si(name):
+        ds = imu[name]
+        return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
+            + float(ds.attrs.get("offset_to_si", 0.0))
+
+    t = imu["t_s"][:k].astype(np.float64)
+    dt = np.diff(t)
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    rate = 1.0 / float(np.median(dt)) if dt.size else float("nan")
+    return [f"units: {p}; `bootnav process` refuses this file until scale_to_si is fixed"
+            for p in unit_problems(si("acc"), si("gyro"), rate)]
+
+
+def _cut_warnings(events) -> list[str]:
+    """A source cut short (a gzip stream or a file that ends mid-line): only the lines before the cut were read."""
+    out = []
+    for e in events:
+        detail = e["detail"].decode("utf-8", "replace") if isinstance(e["detail"], bytes) else str(e["detail"])
+        if any(w in detail for w in ("cut off", "truncated", "damaged gzip")):
+            line = int(e["line"]) if int(e["line"]) >= 0 else None
+            out.append(f"the source file is cut short or damaged ({detail}): only what precedes the damage"
+                       + (f" (line {line})" if line else "") + " was read; copy the file again from its source")
+            break
+    return out
+
+
 def _moving(channels: dict) -> bool:
     """The gyro (when present) has exceeded the no-motion bound in the blocks read so far."""
     return "gyro" in channels and channels["gyro"].absmax >= STILL_GYRO_RADPS
@@ -272,6 +317,8 @@ def run(args) -> int:
             print("\n".join(lines))
         return 0
     print("\n".join(_lines(s)), file=sys.stdout)
+    for w in s["data_warnings"] + s.get("unit_warnings", []):
+        print(f"bootnav info: warning: {w}", file=sys.stderr)
     return 0
 
 
@@ -328,7 +375,7 @@ def _lines(s: dict) -> list[str]:
     ]
     if s.get("calibration"):
         lines.append(f"  calibration {s['calibration']}")
-    for w in s["data_warnings"]:
+    for w in s["data_warnings"] + s.get("unit_warnings", []):
         lines.append(f"  WARNING     {w}")
     if not s["complete"]:
         lines.append("  note        no final metadata: the writer did not close (crash or still recording)")

@@ -21,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--baud", type=int, default=500_000,
                         help="baud rate (default 500000: carries 1 kHz; see firmware-protocol/PROTOCOL.md)")
     parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create")
-    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    parser.add_argument("--force", action="store_true",
+                        help="replace --out if it is an existing recording (never a file that is not HDF5)")
     parser.add_argument("--duration", type=float, default=None, metavar="S",
                         help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
     parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
@@ -35,10 +36,45 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--notes", default="", help="free-text session notes stored in /meta")
 
 
+#: The firmware's output rate (firmware-protocol/PROTOCOL.md: 1 kHz / (1 + SMPLRT_DIV 4)), for the space estimate.
+NOMINAL_RATE_HZ = 200.0
+#: Below this many minutes of free space ``record`` warns at start (a walk-through drill lasts 10-30 min).
+WARN_MINUTES = 10.0
+
+
+def check_free_space(out, n_boots: int = 1, quiet: bool = False) -> float:
+    """Say at start how many minutes of recording the free space holds; refuse when not even a new file fits.
+
+    Returns the minutes (uncompressed rows at ``NOMINAL_RATE_HZ`` per boot: a lower bound, gzip typically
+    doubles it). The recorder itself stops cleanly at the last flush that fits (``RecordingWriter.room_for``).
+    """
+    from pathlib import Path
+
+    from bootnav.errors import DiskFullError
+    from bootnav.logger.recording import MIN_FREE_BYTES, free_bytes, minutes_that_fit
+
+    out = Path(out)
+    free = free_bytes(out)
+    if free < MIN_FREE_BYTES:
+        raise DiskFullError(f"--out {out}: only {free / 1024:.0f} KB free there (the file-size limit or the disk), "
+                            f"less than a new recording needs ({MIN_FREE_BYTES >> 10} KB); free some space or "
+                            "record elsewhere")
+    minutes = minutes_that_fit(out, NOMINAL_RATE_HZ * n_boots)
+    if minutes < WARN_MINUTES:
+        print(f"bootnav record: warning: only {free / 1e6:.2f} MB free at {out.parent.resolve()}: about "
+              f"{minutes:.1f} min of recording at {NOMINAL_RATE_HZ:g} Hz x {n_boots} boot(s) fit; the recording stops "
+              "cleanly (readable, everything up to the last flush kept) when the disk is full", file=sys.stderr)
+    elif not quiet:
+        print(f"bootnav record: {free / 1e9:.1f} GB free: about {minutes / 60:.0f} h of recording fit",
+              file=sys.stderr)
+    return minutes
+
+
 def run(args) -> int:
     import os
     from pathlib import Path
 
+    from bootnav.core.paths import output_file
     from bootnav.errors import BootnavError
     from bootnav.logger.serial_recorder import RecorderSettings, SerialRecorder
 
@@ -50,12 +86,12 @@ def run(args) -> int:
                         ("--connect-timeout", args.connect_timeout), ("--duration", args.duration)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise BootnavError(f"{flag} {value}: must be a positive number of seconds")
-    if out.is_dir():
-        raise BootnavError(f"--out {out}: is a directory; give a file name such as {out / 'walk.h5'}")
-    if out.exists() and not args.force:  # never lose a session by re-running a command
-        raise BootnavError(f"{out} exists; choose another --out or add --force to overwrite it")
-    if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
-        raise BootnavError(f"{out.parent}: not a writable directory for --out")
+    from bootnav.core.limits import check_duration
+
+    check_duration("--duration", args.duration)
+    # never lose a session by re-running a command, never turn a user's other file into a recording
+    output_file(out, force=args.force, hdf5=True)
+    check_free_space(out, len(args.port), quiet=args.quiet)
 
     if len(args.port) > 1 or args.label:
         return _run_multi(args)

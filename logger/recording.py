@@ -159,8 +159,33 @@ def is_disk_full(exc: BaseException) -> bool:
     return any(f"errno = {c}," in str(exc) for c in codes)
 
 
-#: Space a new recording needs before its first block (superblock, groups, dataset headers, first chunks).
-MIN_FREE_BYTES = 256 << 10
+#: Space a new recording needs before its first block: the layout (superblock, groups, dataset headers, about
+#: 15 KB measured) and the first chunks at the smallest chunk size, with room to spare.
+MIN_FREE_BYTES = 64 << 10
+
+#: Smallest chunk (rows) a recording on a nearly full disk uses: small chunks let a few hundred KB of free space
+#: hold tens of seconds instead of nothing (HDF5 allocates a whole chunk per dataset at the first flush).
+MIN_CHUNK_ROWS = 64
+
+#: Bytes of one recorder row before compression: t_s 8, acc and gyro 2 x 6 (int16 counts), saturated 1, temp 2,
+#: t_device 4, t_host 8, seq 2 (the worst case a compressed chunk can need).
+RECORDER_ROW_BYTES = 37
+
+
+def chunk_rows_for(path: str | os.PathLike, chunk_rows: int = CHUNK_ROWS, row_bytes: int = RECORDER_ROW_BYTES) -> int:
+    """Rows per chunk for a new recording at ``path``: ``chunk_rows`` when space is plentiful, smaller (a power of
+    two, at least ``MIN_CHUNK_ROWS``) so that one chunk of every dataset takes at most 1/64 of the free space."""
+    fit = free_bytes(Path(path)) // (64 * row_bytes)
+    rows = MIN_CHUNK_ROWS
+    while rows * 2 <= min(fit, chunk_rows):
+        rows *= 2
+    return int(min(max(rows, MIN_CHUNK_ROWS), chunk_rows))
+
+
+def minutes_that_fit(path: str | os.PathLike, rate_hz: float, row_bytes: int = RECORDER_ROW_BYTES) -> float:
+    """Minutes of recording the free space at ``path`` holds at ``rate_hz`` (uncompressed rows: a lower bound)."""
+    room = max(free_bytes(Path(path)) - MIN_FREE_BYTES, 0)
+    return room / (row_bytes * rate_hz) / 60.0
 
 
 def free_bytes(path: Path) -> int:
@@ -236,10 +261,12 @@ class RecordingWriter:
         seq: bool = False,
         meta: Mapping[str, Any] | None = None,
         swmr: bool = True,
-        chunk_rows: int = CHUNK_ROWS,
+        chunk_rows: int | None = None,
         _shared: tuple[h5py.File, str] | None = None,
     ):
         self.path = Path(path)
+        if chunk_rows is None:  # smaller chunks on a nearly full disk (``chunk_rows_for``)
+            chunk_rows = chunk_rows_for(self.path)
         self._peers = [self]  # writers sharing the file (one per boot): a failed write rolls back all of them
         # what `bootnav info` reports, stored at close (a multi-boot recorder rewrites t_s after it: none there)
         self._stats = SampleStats() if _shared is None else None
@@ -573,8 +600,10 @@ class MultiBootWriter:
     """
 
     def __init__(self, path: str | os.PathLike, boots: Mapping[str, BootLayout], *,
-                 attrs: Mapping[str, Any] | None = None, swmr: bool = True, chunk_rows: int = CHUNK_ROWS):
+                 attrs: Mapping[str, Any] | None = None, swmr: bool = True, chunk_rows: int | None = None):
         self.path = Path(path)
+        if chunk_rows is None:  # every boot shares the free space
+            chunk_rows = chunk_rows_for(self.path, row_bytes=RECORDER_ROW_BYTES * max(len(boots), 1))
         labels = [check_boot_label(label) for label in boots]
         if len(set(labels)) != len(labels) or not labels:
             raise InputError(f"boot labels {labels}: give one distinct label per boot")
@@ -875,7 +904,54 @@ def sample_count(path: str | os.PathLike) -> int:
         return int(t.shape[0])
 
 
-def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None) -> Recording:
+#: Rows of a recording the unit check reads (10 min at 200 Hz): enough still seconds and strides, bounded memory.
+UNIT_CHECK_ROWS = 120_000
+
+
+def unit_problems(acc_si, gyro_si, rate_hz: float) -> list[str]:
+    """What is wrong with the units of samples that claim to be SI: ``import``'s checks (one definition,
+    ``bootnav.logger.importers.checks``) applied to stored values times ``scale_to_si``. Gravity at rest must be
+    9.81 m/s^2 +-25 % (a file in g, or in raw int16 counts without a scale, is not) and the gyro's 99.9th percentile
+    at most 35 rad/s (a file in deg/s is not). Empty when the units are plausible."""
+    from bootnav.logger.importers import checks
+
+    out = []
+    acc = np.asarray(acc_si, dtype=np.float64)
+    if acc.ndim == 2 and acc.shape[0] >= 2:
+        p = checks.acc_unit_problem(acc, 1.0, "m/s^2 (stored value x scale_to_si)", rate_hz)
+        if p:
+            out.append(p.replace("--acc-unit ", "acc unit "))
+    if gyro_si is not None and np.asarray(gyro_si).shape[0] >= 2:
+        p = checks.gyro_unit_problem(np.asarray(gyro_si, dtype=np.float64), "rad/s (stored value x scale_to_si)")
+        if p:
+            out.append(p.replace("--gyro-unit ", "gyro unit "))
+    return out
+
+
+def units_trusted(meta: Mapping[str, Any]) -> bool:
+    """The recording was imported with ``--trust-units`` (its ``/meta unit_check`` says the check was
+    overridden): the unit check is the user's decision, not repeated."""
+    return "overridden" in str(meta.get("unit_check", ""))
+
+
+def check_recording_units(rec: "Recording", path) -> None:
+    """``InputError`` when a recording's samples are not in SI units (``unit_problems``), naming the file, the
+    figures and the fix; nothing for a recording imported with ``--trust-units``."""
+    if units_trusted(rec.meta) or rec.n < 2:
+        return
+    k = min(rec.n, UNIT_CHECK_ROWS)
+    dt = np.diff(rec.t_s[:k])
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    rate = 1.0 / float(np.median(dt)) if dt.size else float("nan")
+    problems = unit_problems(rec.acc_mps2[:k], rec.gyro_radps[:k], rate)
+    if problems:
+        raise InputError(f"{path}: the samples are not in SI units: {'; '.join(problems)}; set the scale_to_si "
+                         "attributes of /imu/acc and /imu/gyro to the factors to m/s^2 and rad/s, or import the "
+                         "source again with the right --acc-unit/--gyro-unit (--trust-units to keep them)")
+
+
+def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None = None,
+         check_units: bool = False) -> Recording:
     """Open a recording and return it in SI units (the one function every consumer uses).
 
     Parameters
@@ -887,6 +963,11 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
     boot
         The boot to read from a multi-boot recording (``boot_labels``); required for one, refused for a
         single-boot recording. Its ``t_s`` is on the session clock shared by all boots.
+    check_units
+        Refuse samples whose units are not SI (``check_units``: acc in g or counts, gyro in deg/s, as ``import``
+        refuses them). Every consumer that computes a path asks for it (``postproc.source.load_source``: process,
+        eval and the API; ``live``; ``pdr``); tools that inspect or convert a file read it as it is (``info``
+        reports the problem as a warning).
 
     Raises
     ------
@@ -895,7 +976,10 @@ def load(path: str | os.PathLike, *, with_truth: bool = True, boot: str | None =
         names the file and the dataset path. A multi-boot file without ``boot`` (or an unknown label).
     """
     with recording_group(path, boot) as (f, g):
-        return _read(f, Path(path), with_truth, g)
+        rec = _read(f, Path(path), with_truth, g)
+    if check_units:
+        check_recording_units(rec, path)
+    return rec
 
 
 @contextmanager
@@ -906,11 +990,14 @@ def recording_group(path: str | os.PathLike, boot: str | None = None):
     The checks and messages of ``load``; a read error inside the ``with`` block (a damaged chunk or header)
     becomes the same one-line ``InputError``.
     """
+    from bootnav.core.paths import regular_input
+
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, expected a recording file")
+    regular_input(path, "recording")  # a FIFO would block forever
     with _open_for_read(path) as f:
         _missing_recording(f, path)
         labels = _boots_attr(f, path)

@@ -11,6 +11,7 @@ checked: none may be an input (even with ``--force``), none may exist already (u
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 
@@ -22,6 +23,9 @@ def _floats(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"expected LAT,LON[,H] numbers, got {text!r}") from None
     if len(vals) not in (2, 3):
         raise argparse.ArgumentTypeError(f"expected LAT,LON[,H], got {len(vals)} numbers")
+    if not all(math.isfinite(v) for v in vals):
+        raise argparse.ArgumentTypeError(f"expected finite numbers LAT,LON[,H], got {text!r} (a NaN or infinite "
+                                         "coordinate would be written into the GeoJSON)")
     return vals
 
 
@@ -291,10 +295,14 @@ def _one(input_path: str, settings, out_dir: str, progress, into_recording: bool
     from bootnav.postproc.outputs import ChartWorker, write_outputs
     from bootnav.postproc.pipeline import process
 
+    from bootnav.core import atomic
+    from bootnav.postproc.outputs import planned_files
+
     charts = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the run
     try:
         result = process(input_path, settings, progress=progress)
-        files = write_outputs(result, out_dir, into_recording, force, charts=charts)
+        with atomic.output_set(planned_files(settings, out_dir, into_recording)):  # all outputs or none
+            files = write_outputs(result, out_dir, into_recording, force, charts=charts)
     finally:
         if charts is not None:
             charts.close()
@@ -313,6 +321,23 @@ def _batch_job(job) -> tuple[str, dict | None, dict | None, str | None]:
         return input_path, summary, files, None
     except BootnavError as exc:  # one bad file must not stop the batch; reported at the end
         return input_path, None, None, str(exc)
+
+
+def stop_workers(pool, grace_s: float = 10.0) -> None:
+    """Cancel what a process pool has not started and send SIGTERM to its workers: each removes its unfinished
+    outputs (``bootnav.cli.Stopped``, ``atomic.output_set``); a worker still alive after ``grace_s`` is killed."""
+    import time
+
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        if p.is_alive():
+            p.terminate()
+    t_end = time.monotonic() + grace_s
+    for p in processes:
+        p.join(max(t_end - time.monotonic(), 0.0))
+        if p.is_alive():
+            p.kill()
 
 
 def output_names(inputs: list[str]) -> list[str]:
@@ -348,14 +373,9 @@ def _check_save_settings(args, others) -> None:
     """``--save-settings FILE``: never an input, never an existing file without ``--force``."""
     from pathlib import Path
 
-    from bootnav.errors import InputError
-    from bootnav.postproc.outputs import same_file
+    from bootnav.core.paths import output_file
 
-    dest = Path(args.save_settings)
-    if any(same_file(dest, Path(i)) for i in [*args.input, *others] if i):
-        raise InputError(f"--save-settings {dest} is an input file; choose another name")
-    if dest.exists() and not args.force:
-        raise InputError(f"{dest} exists; use --force to overwrite it")
+    output_file(Path(args.save_settings), force=args.force, inputs=[*args.input, *others], flag="--save-settings")
 
 
 # Peak memory of the whole-array run: base + per sample (1, 3, 12 h at 200 Hz: 634, 1417, 4815 MB; the slope is
@@ -422,6 +442,9 @@ def run(args) -> int:
     from bootnav.postproc.outputs import check_outputs
     from bootnav.postproc.summary import endpoint_label
 
+    from bootnav.core.limits import check_jobs
+
+    check_jobs("--jobs", args.jobs)
     settings = build_settings(args)
     from bootnav.postproc.twoboots import cli as two_boots
 
@@ -451,8 +474,12 @@ def run(args) -> int:
                         raise InputError("--into-recording is not available with --chunk-s")
                     from bootnav.postproc.pipeline import process_chunked
 
-                    summary, files = process_chunked(args.input[0], settings, args.out, chunk_s, args.force,
-                                                     progress)
+                    from bootnav.core import atomic
+                    from bootnav.postproc.outputs import planned_files
+
+                    with atomic.output_set(planned_files(settings, args.out)):  # all outputs or none
+                        summary, files = process_chunked(args.input[0], settings, args.out, chunk_s, args.force,
+                                                         progress)
                 else:
                     summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording,
                                           args.force)
@@ -465,14 +492,18 @@ def run(args) -> int:
     jobs = [(i, settings.to_dict(), o, args.into_recording, args.force) for i, o in zip(args.input, outs)]
     failed = 0
     with ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) as pool:
-        for fut in as_completed([pool.submit(_batch_job, j) for j in jobs]):
-            input_path, summary, files, error = fut.result()
-            if error:
-                failed += 1
-                print(f"bootnav process: error: {error}", file=sys.stderr)
-                continue
-            p = summary["path"]
-            print(f"{input_path}: {p.get('distance_m', 0):.2f} m, {endpoint_label(summary)} "
-                  f"{p.get('closure_3d_m', float('nan')):.3f} m -> {Path(files['summary']).parent}")
+        try:
+            for fut in as_completed([pool.submit(_batch_job, j) for j in jobs]):
+                input_path, summary, files, error = fut.result()
+                if error:
+                    failed += 1
+                    print(f"bootnav process: error: {error}", file=sys.stderr)
+                    continue
+                p = summary["path"]
+                print(f"{input_path}: {p.get('distance_m', 0):.2f} m, {endpoint_label(summary)} "
+                      f"{p.get('closure_3d_m', float('nan')):.3f} m -> {Path(files['summary']).parent}")
+        except BaseException:  # Ctrl-C, SIGTERM: stop the workers (they clean up like this process), then exit
+            stop_workers(pool)
+            raise
     print(f"{len(jobs) - failed} of {len(jobs)} inputs processed into {args.out}")
     return 1 if failed else 0

@@ -124,6 +124,9 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
     if e is None:  # the timing calibration is off: one forward run scores the path
         e = selftune.innovation_rms(t_s, acc_used, gyro_b, stance, init, gravity, settings.filter, saturated)
     conf = selftune.confidence(e, quality.bad_fraction, period, st)
+    split = selftune.split_strides(quality, period, st)
+    if split:
+        warnings.append(split)
     if not np.isfinite(period):
         warnings.append("no periodic gait found: the confidence of this path is 0")
     return Navigation(configured=configured, stance=stance, nav=nav, acc_used_b=acc_used, choice=choice,

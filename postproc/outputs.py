@@ -449,17 +449,13 @@ def check_outputs(settings, out_dir: str | Path, inputs, into_recording: bool = 
     """
     from .source import is_hdf5
 
+    from bootnav.core.paths import output_folder
+
     inputs = [Path(i) for i in inputs if i]
     out = Path(out_dir)
-    if any(same_file(out, i) for i in inputs):
-        raise InputError(f"--out {out} is an input; give a new directory for the outputs")
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} is an existing file, not a directory")
-    for o in planned_files(settings, out, into_recording):
-        if any(same_file(o, i) for i in inputs):
-            raise InputError(f"{o}: output would replace an input file; choose another --out")
-        if o.exists() and not force:
-            raise InputError(f"{o} exists; use --force to overwrite it (or choose another --out)")
+    # the one output rule of every command (bootnav.core.paths): never an input, never an existing file
+    # without force, never a non-HDF5 file replaced by HDF5, never a FIFO or a device
+    output_folder(out, [p.name for p in planned_files(settings, out, into_recording)], force=force, inputs=inputs)
     if into_recording and settings.output.write_hdf5:
         rec = inputs[0] if inputs else None
         if rec is not None and not rec.exists():
@@ -559,9 +555,9 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
             meta.setdefault("source_file", str(result.source) if result.source else "")
             imported = rec.raw.get("import_result")
             if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
-                from bootnav.logger.importers.core import write_result
+                from bootnav.logger.importers.core import write_result_into
 
-                write_result(imported, tmp)
+                write_result_into(imported, tmp)  # into the temporary itself: its commit is ours, below
             else:
                 write_recording(tmp, rec.t_s, rec.acc_mps2, rec.gyro_radps, events=rec.events, meta=meta,
                                 saturated=rec.saturated)

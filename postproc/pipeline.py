@@ -304,6 +304,24 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     return summary, files
 
 
+def _check_units_chunked(f, imu, n: int, path) -> None:
+    """The recording loader's unit check (``recording.check_recording_units``) on the first rows of a recording
+    read block by block: acc in g or counts, gyro in deg/s refused as ``import`` and ``load`` refuse them."""
+    from bootnav.logger.recording import UNIT_CHECK_ROWS, Recording, check_recording_units, decode_attr, make_events
+
+    k = min(n, UNIT_CHECK_ROWS)
+
+    def si(key):
+        ds = imu[key]
+        return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
+            + float(ds.attrs.get("offset_to_si", 0.0))
+
+    meta = {key: decode_attr(v) for key, v in f["meta"].attrs.items()} if "meta" in f else {}
+    head = Recording(path=path, t_s=imu["t_s"][:k].astype(np.float64), acc_mps2=si("acc"), gyro_radps=si("gyro"),
+                     saturated=np.zeros(k, np.uint8), events=make_events([]), meta=meta, attrs={})
+    check_recording_units(head, path)
+
+
 def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: float, warnings: list[str], lap,
                     worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
@@ -336,6 +354,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         t_all = imu["t_s"]
         if n < 3:
             raise InputError(f"{name}: only {n} samples; nothing to process")
+        _check_units_chunked(f, imu, n, path)
         cal = settings.calibration
         gravity = cal.gravity()
         t_head = t_all[: min(n, 1 << 16)].astype(np.float64)

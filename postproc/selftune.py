@@ -91,6 +91,9 @@ class SelfTuneSettings:
     max_bad_fraction, fail_stance_rate_radps: when the configured detector counts as failed (module docstring).
     v_pen_mps, v_scale_mps: criterion and confidence scales (module docstring).
     max_stride_m, max_speed_mps, missed_factor, max_dz_m, max_stance_rate_radps, min_stride_m: stride flags.
+    split_factor, max_split_fraction: a stride shorter in time than ``split_factor`` gait periods (footprint to
+        footprint) has a stance detected inside a swing; more than ``max_split_fraction`` of such strides is a
+        warning (``split_strides``).
     cycle_window_fraction: half-width of a cycle-minimum stance window, as a fraction of the gait period.
     cycle_depth_decades: a cycle-minimum window covers the samples within this many decades of the minimum.
     fallback: when the configured detector fails (a fatal stance finding of ``checks.stance_findings``, or
@@ -122,6 +125,8 @@ class SelfTuneSettings:
     max_dz_m: float = 0.5
     max_stance_rate_radps: float = 1.0
     min_stride_m: float = 0.05
+    split_factor: float = 0.5
+    max_split_fraction: float = 0.5
     cycle_window_fraction: float = 0.06
     cycle_depth_decades: float = 0.5
     fallback: bool = True
@@ -316,6 +321,26 @@ def stride_quality(t_s, pos_n, stance, gyro_b, gyro_bias_b, period_s: float,
     flags[length < s.min_stride_m] |= TINY
     bad = float(np.mean((flags & IMPLAUSIBLE) > 0)) if len(flags) else 1.0
     return StrideQuality(flags, dur, swing, med[1:], bad)
+
+
+def split_strides(quality: StrideQuality, period_s: float, settings: SelfTuneSettings | None = None) -> str | None:
+    """A warning when most strides are split: a foot rests once per gait cycle, so footprints closer in time
+    than ``split_factor`` (1/2) of the gait period are a stance detected inside a swing (or a turn on the spot).
+    A zero-velocity update there stops a moving foot, so every split stride is shortened and the distance comes
+    out short without any stride looking implausible (each piece is an ordinary short stride, or a TINY one,
+    which is informative only). A minority is normal (turns on the spot, the first and last step); when more than
+    ``max_split_fraction`` (1/2) of the strides contradict the gait rhythm, the stance sequence itself is wrong.
+    None without a gait period or when the strides fit the rhythm."""
+    s = settings or SelfTuneSettings()
+    dur = np.asarray(quality.duration_s, float)
+    if not np.isfinite(period_s) or dur.size < 4:
+        return None
+    split = float(np.mean(dur < s.split_factor * period_s))
+    if split <= s.max_split_fraction:
+        return None
+    return (f"{split:.0%} of the {dur.size} strides last less than half the gait cycle ({period_s:.2f} s): the stance "
+            "detector finds rests inside the swings, which stops the foot mid-stride, so the distance is likely too "
+            "short; try another --detector (e.g. shoe) or a higher --threshold")
 
 
 # ---------------------------------------------------------------------------------------------- criterion

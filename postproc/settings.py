@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import re
 import typing
 from dataclasses import dataclass, field
@@ -194,8 +195,11 @@ class ProcessSettings:
 
     def _check_anchor(self):
         a = self.output.geo_anchor
-        if a is not None and not (len(a) in (2, 3) and -90 < float(a[0]) < 90 and -180 <= float(a[1]) <= 180):
-            raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90), lon in [-180, 180], got {a}")
+        if a is not None and not (len(a) in (2, 3) and all(math.isfinite(float(v)) for v in a)
+                                  and -90 < float(a[0]) < 90 and -180 <= float(a[1]) <= 180
+                                  and (len(a) == 2 or -500.0 <= float(a[2]) <= 10000.0)):
+            raise ValueError(f"expected (lat, lon[, h]) with lat in (-90, 90) deg, lon in [-180, 180] deg and h in "
+                             f"[-500, 10000] m (finite numbers), got {a}")
 
     def _check_results_name(self):
         # an HDF5 group name, and a folder-like name in outputs: no path separators, no '.'/'..'

@@ -53,7 +53,7 @@ def is_hdf5(path: Path) -> bool:
         return False
 
 
-def load_source(source: str | Path | Recording) -> Source:
+def load_source(source: str | Path | Recording, import_overrides: dict | None = None) -> Source:
     """Read a recording, an HDF5 file or any importable file.
 
     Parameters
@@ -61,6 +61,9 @@ def load_source(source: str | Path | Recording) -> Source:
     source
         An in-memory ``Recording``, the path of a bootnav HDF5 recording, or the path of any file
         ``bootnav import`` reads.
+    import_overrides
+        For a text file: ``read_any``'s overrides (``acc_unit``, ``gyro_unit``, ``time_unit``, ``check_units``).
+        Refused for an HDF5 recording or a ``Recording``, whose units are declared.
 
     Returns
     -------
@@ -73,29 +76,43 @@ def load_source(source: str | Path | Recording) -> Source:
     InputError
         Missing file, a directory, an unreadable file, or fewer than 3 samples.
     """
+    def declared(name):  # unit keywords are for text files; a recording says its units
+        if import_overrides:
+            raise InputError(f"{name}: a bootnav recording declares its own units; "
+                             f"{', '.join(sorted(import_overrides))} apply to a text file (CSV, SD-card log)")
+
     if isinstance(source, Recording):
+        declared(source.path or "the recording")
         path = Path(source.path) if source.path else None
         src = Source(source, path, bool(source.path) and is_hdf5(path))
+        if src.is_hdf5:  # a recording read from a file (bootnav.load): its units checked like a path's
+            from bootnav.logger.recording import check_recording_units
+
+            check_recording_units(source, path)
     else:
         path = Path(source)
         if not path.exists():
             raise InputError(f"{path}: no such file")
         if path.is_dir():
             raise InputError(f"{path}: is a directory; give a recording (.h5) or an IMU file (e.g. imu.csv.gz)")
-        if is_hdf5(path):
-            src = Source(load(path, with_truth=False), path, True)
+        from bootnav.core.paths import regular_input
+
+        regular_input(path, "recording (.h5) or IMU")  # a FIFO would block forever, a device never end
+        if is_hdf5(path):  # units checked as `import` checks them (acc in g, gyro in deg/s, raw counts)
+            declared(path)
+            src = Source(load(path, with_truth=False, check_units=True), path, True)
         else:
-            src = Source(_import(path), path, False)
+            src = Source(_import(path, import_overrides or {}), path, False)
     if src.recording.n < 3:
         raise InputError(f"{src.name}: only {src.recording.n} samples; nothing to process")
     return src
 
 
-def _import(path: Path) -> Recording:
+def _import(path: Path, overrides: dict) -> Recording:
     """A non-HDF5 input through ``bootnav import``'s reader, as an in-memory Recording."""
     from bootnav.logger.importers import read_any
 
-    imp = read_any(path)
+    imp = read_any(path, **overrides)
     events = sorted(imp.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
     return Recording(path=path, t_s=np.asarray(imp.t_s, np.float64), acc_mps2=imp.acc_mps2,
                      gyro_radps=imp.gyro_radps, saturated=np.asarray(imp.saturated, np.uint8),

@@ -25,7 +25,9 @@ def add_arguments(parser) -> None:
                              "into one multi-boot recording (simulator/twoboots.py)")
     parser.add_argument("--two-files", action="store_true",
                         help="with --two-boots: two single-boot files OUT_left.h5 and OUT_right.h5 instead")
-    parser.add_argument("--force", action="store_true", help="with --two-boots: overwrite existing output files")
+    parser.add_argument("--force", action="store_true",
+                        help="replace existing output files (never an input; an HDF5 output never replaces a file "
+                             "that is not HDF5)")
     dev = parser.add_argument_group("one unit and its temperature (simulator/device.py, docs/simulator.md)")
     dev.add_argument("--device", metavar="D",
                      help="device id 0..2^32-1 (decimal or 0x-hex): draws one unit's stable constants (scale, "
@@ -99,9 +101,20 @@ def run(args) -> int:
 
     from pathlib import Path
 
-    for target in filter(None, (args.out, args.plot)):
-        if not Path(target).resolve().parent.is_dir():
-            raise InputError(f"{target}: the directory {Path(target).resolve().parent} does not exist")
+    from bootnav.core.limits import check_duration, check_range
+    from bootnav.core.paths import output_file
+
+    check_duration("--duration", args.duration)
+    check_range("--rate", args.rate, 1.0, 10000.0, "Hz", why="an IMU's output rate")
+    fmt = args.format or ("sd-txt" if str(args.out).lower().endswith(".txt") else "h5")
+    outs = [args.out]
+    if args.two_boots and args.two_files:
+        stem = Path(args.out).name[:-3] if Path(args.out).name.lower().endswith(".h5") else Path(args.out).name
+        outs = [Path(args.out).with_name(f"{stem}_{label}.h5") for label in ("left", "right")]
+    for target in outs:  # every refusal before the simulation (bootnav.core.paths)
+        output_file(target, force=args.force, hdf5=args.two_boots or fmt == "h5")
+    if args.plot:
+        output_file(args.plot, force=args.force, inputs=outs, flag="--plot")
     dev_kw = device_options(args)
     if args.two_boots:
         from bootnav.simulator.twoboots import run_cli
@@ -112,7 +125,6 @@ def run(args) -> int:
         return run_cli(args)
     if args.mount not in MOUNTS:
         raise UsageError(f"--mount: unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
-    fmt = args.format or ("sd-txt" if str(args.out).lower().endswith(".txt") else "h5")
     t0 = time.perf_counter()
     from bootnav.core import atomic
     from bootnav.core.progress import Progress

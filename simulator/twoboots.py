@@ -169,11 +169,10 @@ def _recording_kwargs(res: SimResult) -> dict:
 
 
 def _check_free(paths: list[Path], force: bool) -> None:
-    from bootnav.errors import InputError
+    from bootnav.core.paths import output_file
 
-    for p in paths:
-        if p.exists() and not force:
-            raise InputError(f"{p} exists; give --force to overwrite it")
+    for p in paths:  # the one output rule (bootnav.core.paths)
+        output_file(p, force=force, hdf5=True)
 
 
 def write_two_boots_h5(results: dict[str, SimResult], path: str | os.PathLike, force: bool = False) -> Path:

@@ -62,7 +62,10 @@ def test_hard_gaits_are_processed_within_the_sensor_budget(tmp_path, scenario, p
     r = process(_sim(tmp_path, scenario, profile, duration_s=40.0 if scenario != "crawl" else None),
                 ProcessSettings(reference="truth"))
     assert abs(_distance_err_pct(r)) < tol_pct
-    assert 0.0 <= r.summary["confidence"] <= 1.0
+    # the stated formula (1 - b) exp(-e / 0.5 m/s) from the run's own figures: a clip to [0, 1] cannot fake it
+    nav = r.summary["navigation"]
+    e, b = nav["timing_offset"]["innovation_rms_mps"], nav["implausible_stride_fraction"]
+    assert r.summary["confidence"] == pytest.approx((1.0 - b) * np.exp(-e / 0.5), rel=1e-9)
 
 
 def test_clipping_sensor_is_processed_with_a_low_confidence(tmp_path):

@@ -11,8 +11,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +19,7 @@ from bootnav.core.sensorcal import SensorCalibration, find_calibration
 from bootnav.logger.recording import load
 from bootnav.postproc.sensorcal import synthetic as sy
 from tests.conftest import REPO
+from tests.test_serial_record import wait_for
 
 pytestmark = pytest.mark.timeout(120)
 SPEED = 8.0
@@ -28,14 +27,6 @@ FAST_EMULATOR = ("import sys, time\n"
                  "_m = time.monotonic\n_t0 = _m()\n"
                  f"time.monotonic = lambda: _t0 + (_m() - _t0) * {SPEED}\n"
                  "from bootnav.cli import main\nsys.exit(main(sys.argv[1:]))\n")
-
-
-def _wait_for(path: Path, timeout: float = 20.0) -> None:
-    end = time.monotonic() + timeout
-    while not os.path.lexists(path):
-        if time.monotonic() > end:
-            raise AssertionError(f"{path} did not appear")
-        time.sleep(0.02)
 
 
 def test_guided_live_calibration_through_the_emulator(tmp_path, monkeypatch):
@@ -50,7 +41,7 @@ def test_guided_live_calibration_through_the_emulator(tmp_path, monkeypatch):
                             "--out-link", str(link), "--quiet", "--host-timeout", "400", "--write-timeout", "200",
                             "--linger", "8"], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        _wait_for(link)
+        wait_for(link, timeout=20.0)
         cal = subprocess.run([sys.executable, "-m", "bootnav", "calibrate", "--port", str(link), "--record",
                               str(record), "--out", str(out), "--hold", "2", "--goal-scale", "0.2",
                               "--goal-misalignment", "0.2", "--gravity", "9.80665"],

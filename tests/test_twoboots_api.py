@@ -11,6 +11,10 @@ from bootnav.errors import InputError
 from bootnav.simulator import custom
 from bootnav.simulator.twoboots import WalkerGeometry, simulate_two_boots, write_two_boots, write_two_boots_h5
 
+# issue 27: a numerical fault (e.g. a sign error in the constraint) must fail within minutes, not hang for the
+# suite's 10-minute default; the slowest test here takes about 20 s on a loaded 2-core machine
+pytestmark = pytest.mark.timeout(120)
+
 GEO = WalkerGeometry()
 BACK = custom("back", lambda pb: pb.stand(5).walk(12).turn_in_place(math.pi).walk(12).stand(5))
 KNOWN_START = {"right_start_m": (GEO.step_length_m, -GEO.step_width_m), "right_start_frame": "left-sensor"}

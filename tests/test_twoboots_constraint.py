@@ -5,6 +5,10 @@ import pytest
 
 from bootnav.postproc.twoboots.constraint import position_measurement, project_max_separation
 
+# issue 27: a numerical fault (e.g. a sign error in the constraint) must fail within minutes, not hang for the
+# suite's 10-minute default; the slowest test here takes about 20 s on a loaded 2-core machine
+pytestmark = pytest.mark.timeout(120)
+
 
 def _spd(rng, scale):
     a = rng.normal(size=(3, 3))

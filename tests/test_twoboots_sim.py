@@ -31,6 +31,10 @@ from bootnav.simulator import custom
 from bootnav.simulator.twoboots import (WalkerGeometry, max_separation_m, sensor_position_n, simulate_two_boots,
                                         write_two_boots)
 
+# issue 27: a numerical fault (e.g. a sign error in the constraint) must fail within minutes, not hang for the
+# suite's 10-minute default; the slowest test here takes about 20 s on a loaded 2-core machine
+pytestmark = pytest.mark.timeout(120)
+
 GEO = WalkerGeometry()
 
 

@@ -73,10 +73,18 @@ def read_json_file(path: str | Path, what: str) -> Any:
     InputError
         "PATH: WHAT not found" or "PATH: invalid JSON at line L column C: ...".
     """
+    from bootnav.core.paths import regular_input
+
     path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: {what} not found")
+    regular_input(path, what)  # a FIFO would block forever, a device never end
     try:
         return json.loads(path.read_text())
     except FileNotFoundError:
         raise InputError(f"{path}: {what} not found") from None
+    except RecursionError:
+        raise InputError(f"{path}: {what} is nested too deeply to read (thousands of nested [ or {{); a settings "
+                         "file is a few levels deep: check that this is the right file") from None
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None

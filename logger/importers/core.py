@@ -52,6 +52,9 @@ from .text import TextTable, decode_text, parse_table, read_bytes, utf16_encodin
 G = mpu6050.STANDARD_GRAVITY
 ACC_SCALE = {"g": G, "mps2": 1.0}
 GYRO_SCALE = {"dps": math.pi / 180.0, "radps": 1.0}
+#: Highest sample rate a flag or profile may declare (Hz): MEMS IMUs output at most a few kHz (MPU6050: 8 kHz gyro).
+MAX_RATE_HZ = 100_000.0
+
 OVERRIDE_KEYS = {"columns", "acc_unit", "gyro_unit", "time_unit", "acc_range_g", "gyro_range_dps", "rate_hz",
                  "mount", "sensor", "delimiter", "check_units"}
 MAX_BAD_FRACTION = 0.5
@@ -207,10 +210,16 @@ def read_any(path, profile: str | Path | Profile | None = None, **overrides) -> 
     if unknown:
         raise TypeError(f"unknown override(s) {sorted(unknown)}; known: {sorted(OVERRIDE_KEYS)}")
     overrides = {k: v for k, v in overrides.items() if v is not None}
-    for key, flag in (("rate_hz", "--rate"), ("acc_range_g", "--acc-range"), ("gyro_range_dps", "--gyro-range")):
-        value = overrides.get(key)
-        if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            raise InputError(f"{flag} {value}: must be a positive number")
+    from bootnav.core.limits import check_range
+    from bootnav.core.paths import regular_input
+
+    for key, flag, lo, hi, unit, why in (
+            ("rate_hz", "--rate", 0.0, MAX_RATE_HZ, "Hz", "an IMU's output rate"),
+            ("acc_range_g", "--acc-range", 0.0, 1000.0, "g", "an accelerometer's full scale"),
+            ("gyro_range_dps", "--gyro-range", 0.0, 100000.0, "deg/s", "a gyroscope's full scale")):
+        check_range(flag, overrides.get(key), lo, hi, unit, lo_open=True, why=why)
+    if Path(path).exists():
+        regular_input(path, "log")  # a FIFO would block forever, a device never end
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
@@ -507,6 +516,14 @@ def _build_time(src: _Source) -> tuple[np.ndarray, str]:
         if t0 > 1e9 and "start_utc" not in meta and src.time_text_kind is None:  # a UNIX epoch clock
             meta["start_utc"] = _dt.datetime.fromtimestamp(t0, _dt.timezone.utc).isoformat()
         t = t_abs - t0
+    if src.time_mode == "column" and src.rate_hz and n > 2:
+        dt = np.diff(t)
+        dt = dt[np.isfinite(dt) & (dt > 0)]
+        measured = 1.0 / float(np.median(dt)) if dt.size else float("nan")
+        if np.isfinite(measured) and not 0.5 <= float(src.rate_hz) / measured <= 2.0:
+            raise InputError(f"{path}: --rate {float(src.rate_hz):g} Hz contradicts the time column, whose median step "
+                             f"gives {measured:.4g} Hz; drop --rate (the time column gives the times) or fix "
+                             "--time-unit")
     if src.time_mode == "column":
         events += time_events(t, src.line_numbers, nominal_dt=1.0 / float(src.rate_hz) if src.rate_hz else None)
     for e in events:
@@ -741,15 +758,17 @@ def write_atomically(out, write) -> Path:
 
 def write_result(result: ImportResult, out) -> Path:
     """Write an ``ImportResult`` as a bootnav recording (``/aux`` holds the extra columns), crash-safe."""
+    return write_atomically(out, lambda tmp: write_result_into(result, tmp))
+
+
+def write_result_into(result: ImportResult, path) -> None:
+    """Write an ``ImportResult`` into ``path`` as it is (not crash-safe on its own: for a file that is itself a
+    temporary, e.g. the one ``results.h5`` is built in, whose rename is the caller's)."""
     events = sorted(result.events, key=lambda e: (e.get("sample_index", -1), e.get("line", -1)))
-
-    def write(tmp):
-        write_recording(tmp, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
-                        gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
-                        saturated=result.saturated, **result.optional)
-        write_aux(tmp, "aux", result)
-
-    return write_atomically(out, write)
+    write_recording(path, result.t_s, result.acc, result.gyro, acc_channel=result.acc_channel,
+                    gyro_channel=result.gyro_channel, events=make_events(events), meta=result.meta,
+                    saturated=result.saturated, **result.optional)
+    write_aux(path, "aux", result)
 
 
 def load_aux(path) -> dict[str, np.ndarray]:

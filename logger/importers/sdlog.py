@@ -239,13 +239,30 @@ def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **
         events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
                            detail="uint32 microsecond clock wrapped (71.6 min); 2**32 us added"))
     t = (t_unwrapped - t_unwrapped[0]) * 1e-6
-    accel_fs, gyro_fs = int(header["accel_fs"]), int(header["gyro_fs"])
+    def code(key: str, valid, flag: str, unit: str, default=None) -> int:
+        """A header field as an integer register code, or an InputError naming the header and the fix."""
+        text = header.get(key, default)
+        try:
+            value = int(text)
+        except (TypeError, ValueError):
+            value = None
+        if value is None or (valid is not None and value not in valid):
+            choices = f" (valid: {', '.join(f'{c} = +-{r} {unit}' for c, r in valid.items())})" if valid else ""
+            fix = f"; give the range with {flag}" if flag else ""
+            raise InputError(f"{path}: line 1 (header): {key}={text} is not a valid MPU6050 code{choices}; the header "
+                             f"is damaged or not from a bootnav logger{fix}")
+        return value
+
     if "acc_range_g" in overrides:
         accel_fs = mpu6050.accel_code(overrides["acc_range_g"])
+    else:
+        accel_fs = code("accel_fs", mpu6050.ACCEL_RANGE_G, "--acc-range G", "g")
     if "gyro_range_dps" in overrides:
         gyro_fs = mpu6050.gyro_code(overrides["gyro_range_dps"])
-    dlpf = int(header.get("dlpf", -1))
-    div = int(header.get("smplrt_div", -1))
+    else:
+        gyro_fs = code("gyro_fs", mpu6050.GYRO_RANGE_DPS, "--gyro-range DPS", "deg/s")
+    dlpf = code("dlpf", None, "", "", -1)
+    div = code("smplrt_div", None, "", "", -1)
     rate_nominal = (1000.0 if 1 <= dlpf <= 6 else 8000.0) / (1 + div) if div >= 0 and dlpf >= 0 else float("nan")
     events += time_events(t, line_numbers, nominal_dt=1 / rate_nominal if np.isfinite(rate_nominal) else None,
                           with_gaps=False)  # the frame counter reports the gaps (the one gap rule)

@@ -56,9 +56,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _check(args) -> None:
     from bootnav.errors import BootnavError
 
+    from bootnav.core.limits import check_range
+
     for flag, value in (("--speed", args.speed), ("--no-motion-s", args.no_motion_s)):
         if not (math.isfinite(value) and value > 0):
             raise BootnavError(f"{flag} {value}: must be a positive number")
+    check_range("--speed", args.speed, 0.0, 1000.0, "x real time", lo_open=True)
+    check_range("--no-motion-s", args.no_motion_s, 0.0, 3600.0, "s", lo_open=True,
+                why="the PASS-device alarm time is 30 s")
     if not 0 <= args.http_port <= 65535:
         raise BootnavError(f"--http-port {args.http_port}: must be in 0..65535")
     if args.port and not args.out:
@@ -192,8 +197,9 @@ def _quietly(func, *args) -> None:
 def _check_summary(out_dir, force: bool) -> None:
     from bootnav.errors import BootnavError
 
-    if (out_dir / "live.json").exists() and not force:
-        raise BootnavError(f"{out_dir / 'live.json'} exists; choose another --out or add --force to overwrite it")
+    from bootnav.core.paths import output_folder
+
+    output_folder(out_dir, ["live.json"], force=force)  # the one output rule (bootnav.core.paths)
 
 
 def _write_summary(out_dir, feeds, settings, live):

@@ -10,7 +10,6 @@ to the ``server.Hub``.
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
@@ -175,11 +174,9 @@ def labels_for(names: list[str], given: list[str] | None) -> list[str]:
 
 def out_paths(out_dir: Path, labels: list[str], force: bool) -> list[Path]:
     """``OUT/<label>.h5`` per boot; refuses to overwrite an existing recording without ``--force``."""
+    from bootnav.core.paths import output_folder
+
+    # the one output rule (bootnav.core.paths): never an existing file without --force, never a non-HDF5 file
+    paths = output_folder(out_dir, [f"{lb}.h5" for lb in labels], force=force)
     out_dir.mkdir(parents=True, exist_ok=True)
-    if not os.access(out_dir, os.W_OK):
-        raise BootnavError(f"--out {out_dir}: not a writable directory")
-    paths = [out_dir / f"{lb}.h5" for lb in labels]
-    existing = [p for p in paths if p.exists()]
-    if existing and not force:
-        raise BootnavError(f"{existing[0]} exists; choose another --out or add --force to overwrite it")
     return paths

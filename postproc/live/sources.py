@@ -129,7 +129,12 @@ class ReplayRecording:
 
     def __init__(self, path: str | Path, speed: float = 1.0, boot: str | None = None):
         self.path = Path(path)
-        rec = load(self.path, with_truth=False, boot=boot)
+        rec = load(self.path, with_truth=False, boot=boot, check_units=True)
+        if rec.n < 2:
+            from bootnav.errors import InputError
+
+            raise InputError(f"{self.path}{f' boot {boot}' if boot else ''}: {rec.n} sample(s), nothing to replay "
+                             "(the recording stopped before its first frames); `bootnav info` shows what it holds")
         self.meta = rec.meta
         self._rec = rec
         self.speed = float(speed)

@@ -151,6 +151,16 @@ def build_settings(args):
     if args.engineered and "literal" in DETECTORS[s.detector].__dataclass_fields__:
         s.detector_params["literal"] = False
     s.detector_params.update(_params(args.detector_param, DETECTORS[s.detector], "--detector-param"))
+    from bootnav.core.limits import check_range
+    from bootnav.core.validate import SETTING_RANGES
+
+    for flag, value, key in (("--step-length", args.step_length, ".length_params.length_m"),
+                             ("--weinberg-k", args.weinberg_k, ".length_params.k"), ("--height", args.height, ".height_m")):
+        lo, hi, unit, why = SETTING_RANGES[key]  # the settings file's ranges (one definition)
+        check_range(flag, value, lo, hi, unit, why=why)
+    for flag, value in (("--heading0", args.heading0), ("--declination", args.declination)):
+        check_range(flag, value, -360.0, 360.0, "deg")
+    check_range("--complementary-tau", args.complementary_tau, 0.0, 3600.0, "s", lo_open=True)
     length = args.length
     for flag, model, key, value in (("--weinberg-k", "weinberg", "k", args.weinberg_k),
                                     ("--step-length", "constant", "length_m", args.step_length)):
@@ -222,22 +232,15 @@ def _check_outputs(args) -> None:
     input, and none exists unless --force."""
     from pathlib import Path
 
-    from bootnav.errors import InputError
-    from bootnav.postproc.outputs import same_file
+    from bootnav.core.paths import output_file, output_folder
     from bootnav.postproc.pdr.plots import PLOT_FILES
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} is an existing file, not a directory")
     inputs = [Path(args.input), *(Path(p) for p in [args.settings, args.checkpoints] if p)]
     inputs += [Path(item.rpartition("=")[0]) for item in args.calibrate_length]
-    targets = [out / name for name in (*OUTPUT_FILES, *PLOT_FILES)]
-    targets += [Path(args.save_settings)] if args.save_settings else []
-    for target in targets:
-        if any(same_file(target, i) for i in inputs):
-            raise InputError(f"{target} is an input; choose another --out / --save-settings")
-        if target.exists() and not args.force:
-            raise InputError(f"{target} exists; use --force to overwrite it (or choose another --out)")
+    # the one output rule of every command (bootnav.core.paths)
+    output_folder(args.out, [*OUTPUT_FILES, *PLOT_FILES], force=args.force, inputs=inputs)
+    if args.save_settings:
+        output_file(args.save_settings, force=args.force, inputs=inputs, flag="--save-settings")
 
 
 def _csv(path, columns: dict, fmt="%.6f") -> None:
@@ -282,35 +285,38 @@ def run(args) -> int:
     except InputError as exc:
         raise InputError(f"{args.input}: {exc}") from None
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    _csv(out / "steps.csv", {"t_s": res.t_s, "length_m": res.length_m, **heading_columns(res.yaw_enu_rad),
-                             "x_m": res.x_m, "y_m": res.y_m})
-    first = [0.0] if res.count else []
-    _csv(out / "path_local.csv", {"t_s": np.r_[res.t_s[:1], res.t_s], "x_m": np.r_[first, res.x_m],
-                                  "y_m": np.r_[first, res.y_m]})
-    if res.lat_deg is not None:
-        _csv(out / "path_latlon.csv", {"t_s": res.t_s, "lat_deg": res.lat_deg, "lon_deg": res.lon_deg},
-             fmt=["%.6f", "%.9f", "%.9f"])
-    if res.gps is not None:
-        _csv(out / "gps.csv", {k: res.gps[k] for k in ("t_s", "gps_east_m", "gps_north_m", "pdr_east_m",
-                                                       "pdr_north_m")})
-    summary = res.summary()
-    summary.setdefault("warnings", []).extend(sensor_cal.warnings)
-    summary.update({"calibration": sensor_cal.provenance, "input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
-                    "has_gyro": inp.gyro_b is not None, "has_mag": inp.mag_b is not None,
-                    "has_compass": inp.compass_deg is not None, "has_gps": inp.gps is not None,
-                    "detector_params": make_detector(settings.detector, **settings.detector_params).to_dict(),
-                    "start_lat_lon": None if res.start_lat_lon is None else list(res.start_lat_lon)})
-    if args.checkpoints:
-        summary["checkpoints"] = checkpoint_report(res.t_s, res.x_m, res.y_m, float(inp.t_s[0]),
-                                                   *_checkpoints(args.checkpoints))
-    if not args.no_plots:
-        from bootnav.postproc.pdr.plots import write_plots
+    from bootnav.postproc.pdr.plots import PLOT_FILES
 
-        summary["plots"] = [p.name for p in write_plots(res, out)]
-    summary["runtime_s"] = time.perf_counter() - t0
-    text = json.dumps(to_jsonable(summary), indent=1, allow_nan=False)
-    atomic.write_text(out / "summary.json", text)
+    with atomic.output_set([out / n for n in (*OUTPUT_FILES, *PLOT_FILES)]):  # all outputs or none
+        out.mkdir(parents=True, exist_ok=True)
+        _csv(out / "steps.csv", {"t_s": res.t_s, "length_m": res.length_m, **heading_columns(res.yaw_enu_rad),
+                                 "x_m": res.x_m, "y_m": res.y_m})
+        first = [0.0] if res.count else []
+        _csv(out / "path_local.csv", {"t_s": np.r_[res.t_s[:1], res.t_s], "x_m": np.r_[first, res.x_m],
+                                      "y_m": np.r_[first, res.y_m]})
+        if res.lat_deg is not None:
+            _csv(out / "path_latlon.csv", {"t_s": res.t_s, "lat_deg": res.lat_deg, "lon_deg": res.lon_deg},
+                 fmt=["%.6f", "%.9f", "%.9f"])
+        if res.gps is not None:
+            _csv(out / "gps.csv", {k: res.gps[k] for k in ("t_s", "gps_east_m", "gps_north_m", "pdr_east_m",
+                                                           "pdr_north_m")})
+        summary = res.summary()
+        summary.setdefault("warnings", []).extend(sensor_cal.warnings)
+        summary.update({"calibration": sensor_cal.provenance, "input": inp.source, "input_kind": inp.kind, "n_samples": int(len(inp.t_s)),
+                        "has_gyro": inp.gyro_b is not None, "has_mag": inp.mag_b is not None,
+                        "has_compass": inp.compass_deg is not None, "has_gps": inp.gps is not None,
+                        "detector_params": make_detector(settings.detector, **settings.detector_params).to_dict(),
+                        "start_lat_lon": None if res.start_lat_lon is None else list(res.start_lat_lon)})
+        if args.checkpoints:
+            summary["checkpoints"] = checkpoint_report(res.t_s, res.x_m, res.y_m, float(inp.t_s[0]),
+                                                       *_checkpoints(args.checkpoints))
+        if not args.no_plots:
+            from bootnav.postproc.pdr.plots import write_plots
+
+            summary["plots"] = [p.name for p in write_plots(res, out)]
+        summary["runtime_s"] = time.perf_counter() - t0
+        text = json.dumps(to_jsonable(summary), indent=1, allow_nan=False)
+        atomic.write_text(out / "summary.json", text)
     msg = f"{res.count} steps, {summary['distance_m']:.1f} m, heading from {res.heading_source}"
     if res.gps is not None:
         msg += f", {res.gps['mean_m']:.1f} m mean / {res.gps['final_m']:.1f} m final from GPS"

@@ -75,11 +75,14 @@ def load_input(path) -> PdrInput:
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
+    from bootnav.core.paths import regular_input
+
+    regular_input(path, "recording or IMU")  # a FIFO would block forever, a device never end
     name = path.name.lower()
     if name.endswith((".h5", ".hdf5")):
         from bootnav.logger.recording import load
 
-        rec = load(path)
+        rec = load(path, check_units=True)  # acc in g / gyro in deg/s refused as `import` does
         aux = {}
         try:
             from bootnav.logger.importers import load_aux

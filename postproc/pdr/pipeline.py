@@ -22,7 +22,7 @@ Inside the package headings are bearings, clockwise from north, as in the source
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -224,6 +224,7 @@ class PdrResult:
     gravity_restored: bool = False
     gps: dict | None = None  # path.gps_comparison, when the input had GPS fixes
     start_lat_lon: tuple | None = None  # start of lat_deg/lon_deg (settings.start_lat_lon or from the first fix)
+    notes: list = field(default_factory=list)  # warnings of the run (e.g. no walking motion, motion.walking_bouts)
 
     @property
     def count(self) -> int:
@@ -242,7 +243,7 @@ class PdrResult:
             "final_y_m": float(self.y_m[-1]) if self.count else 0.0,
             "heading_source": self.heading_source,
             "is_path": self.heading_source != "none",
-            "warnings": ([] if self.heading_source != "none" else
+            "warnings": list(self.notes) + ([] if self.heading_source != "none" else
                          ["no heading source (no gyroscope, no magnetometer or compass): steps and distance only; "
                           "x_m/y_m keep the start bearing and are not a path"]),
             "gravity_restored": self.gravity_restored,
@@ -443,12 +444,18 @@ def run_pdr(t_s, acc_b, gyro_b=None, settings: PdrSettings | None = None, mag_b=
     # the wrong polarity merges or skips steps (seen on phyphox exports): keep the larger count, then the
     # more regular sequence
     acc, events = min(runs, key=lambda r: (-r[1].count, irregularity(r[1].t_s)))
+    from bootnav.postproc.pdr.motion import walking_bouts
+
+    walking, motion_note = walking_bouts(t, acc, events.t_s)  # steps in pure sensor noise are not steps
+    if not walking.all():
+        events = replace(events, t_s=events.t_s[walking])
     feats = step_features(events.t_s, t, acc)
     length = _length_model(settings).estimate(feats)
     heading, source = _heading(settings, t, acc, gyro, mag, events.t_s, compass)  # bearings, cw from north
     x, y = local_path(length, heading)
     res = PdrResult(events.t_s, np.asarray(length, float), yaw_enu_from_bearing(heading), x, y, events, feats,
-                    settings, heading_source=source, gravity_restored=gravity_restored)
+                    settings, heading_source=source, gravity_restored=gravity_restored,
+                    notes=[motion_note] if motion_note else [])
     start = settings.start_lat_lon
     if gps is not None and settings.use_gps:
         fixes = gps_fixes(*gps)

@@ -83,13 +83,13 @@ def check_outputs(args, device_id) -> None:
     from bootnav.errors import InputError
 
     if args.out:
+        from bootnav.core.paths import output_file
+
         out = Path(args.out)
         if out.is_dir():
             raise InputError(f"--out {out}: is a directory; give a file name such as {out / 'calibration.json'}")
-        if out.exists() and not args.force:
-            raise InputError(f"--out {out}: exists; choose another --out or add --force to overwrite it")
-        if not out.resolve().parent.is_dir():
-            raise InputError(f"--out {out}: the directory {out.resolve().parent} does not exist")
+        # the one output rule of every writer: never an input, an existing file only with --force
+        output_file(out, force=args.force, inputs=list(getattr(args, "sessions", None) or []), flag="--out")
     if args.no_store and not args.out:
         raise InputError("--no-store without --out would throw the calibration away; give --out FILE.json")
 

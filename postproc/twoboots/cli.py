@@ -84,6 +84,9 @@ def boot_pair(path, boots=None) -> tuple[object, object]:
     labels = boot_labels(path)
     if boots:
         want = list(boots)
+        if len(want) == 2 and want[0] == want[1]:
+            raise InputError(f"--boots {want[0]},{want[1]}: the same boot twice; give two different labels of {path}: "
+                             f"{', '.join(labels)}")
         if len(want) != 2 or any(w not in labels for w in want):
             raise InputError(f"boots {','.join(map(str, want))}: give two of the labels in {path}: {', '.join(labels)}")
     elif {"left", "right"} <= set(labels):

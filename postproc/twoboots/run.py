@@ -26,6 +26,7 @@ from typing import Any, Callable
 import numpy as np
 
 from bootnav.core.conventions import CONVENTIONS, SOFTWARE
+from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
 from . import align
@@ -112,6 +113,7 @@ def process_two_boots(left: str | Path | Recording, right: str | Path | Recordin
     tb = two_boot or TwoBootSettings()
     tb.validate()
     check_filter(settings.filter)  # before the long single-foot runs
+    check_two_feet(left, right)
     t0 = time.perf_counter()
     single = {}
     for label, src in zip(LABELS, (left, right)):
@@ -120,6 +122,30 @@ def process_two_boots(left: str | Path | Recording, right: str | Path | Recordin
     result = fuse_results(single, settings, tb, {"left": _name(left), "right": _name(right)}, progress)
     result.summary["timings_s"]["each_foot_s"] = time.perf_counter() - t0 - result.summary["timings_s"]["total_s"]
     return result
+
+
+def check_two_feet(left, right) -> None:
+    """``InputError`` when the left and the right foot are one recording given twice (the same file, a byte-identical
+    copy, or the same samples): a fusion of a foot with itself would report a perfect walker."""
+    import filecmp
+
+    from bootnav.core.paths import same_path
+
+    def samples(x):
+        return x.acc_mps2 if isinstance(x, Recording) else None
+
+    if isinstance(left, (str, Path)) and isinstance(right, (str, Path)):
+        a, b = Path(left), Path(right)
+        same = same_path(a, b)
+        if not same and a.is_file() and b.is_file() and a.stat().st_size == b.stat().st_size:
+            same = filecmp.cmp(a, b, shallow=False)
+        if same:
+            raise InputError(f"{a} and {b} are the same recording; give the left and the right boot's recordings "
+                             "(two different files, or one multi-boot recording)")
+    elif samples(left) is not None and samples(right) is not None and left.acc_mps2.shape == right.acc_mps2.shape \
+            and np.array_equal(left.acc_mps2, right.acc_mps2) and np.array_equal(left.t_s, right.t_s):
+        raise InputError("the left and the right boot have the same samples: the same recording was given twice; "
+                         "give each foot's own recording")
 
 
 def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None = None,

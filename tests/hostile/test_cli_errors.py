@@ -157,8 +157,9 @@ def test_unexpected_error_is_one_line_and_verbose_shows_traceback(capsys, monkey
     monkeypatch.setattr(info, "run", boom)
     code, _, err = _run(capsys, ["info", WALK])
     assert code == 1 and "Traceback" not in err
-    assert err.strip() == ("bootnav info: error: unexpected RuntimeError: simulated bug "
-                           "(run with --verbose for the traceback)")
+    # issue 27: a bug is called a bug (no "unexpected ..."), with what to send
+    assert err.strip() == ("bootnav info: error: internal error, a bug in bootnav (RuntimeError: simulated bug); "
+                           "please report it with the output of --verbose")
     code, _, err = _run(capsys, ["info", WALK, "--verbose"])
     assert code == 1 and "Traceback" in err and "simulated bug" in err
     code, _, err = _run(capsys, ["--verbose", "info", WALK])  # before the subcommand too
