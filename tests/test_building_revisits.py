@@ -24,7 +24,7 @@ def test_flights_are_runs_of_climbing_strides():
     z = np.concatenate([np.zeros(5), 0.34 * np.arange(1, 6), 1.7 * np.ones(4), 1.7 - 0.34 * np.arange(1, 3)])
     fp = np.column_stack([np.arange(len(z)), np.zeros(len(z)), z])
     # five climbing strides form a flight; two descending ones are too few to be one
-    assert flights(fp, S.revisit_riser_m) == [(4, 9)]
+    assert flights(fp, S.level_max_dz_m) == [(4, 9)]
 
 
 def test_entry_edge_only_when_the_walk_ends_near_its_start():

@@ -20,8 +20,8 @@ Truth-free revisit detection (``revisits``):
   to the first when their distance is below ``revisit_entry_gate`` × the distance walked (1 %: the drift of a
   foot INS; a larger gap comes from scale or heading errors, which a position graph can only absorb by bending
   the path) — never on a walk that ends far away;
-* ``stairs``: two stair flights (runs of at least 3 strides each climbing or descending ≥ ``revisit_riser_m``)
-  with parallel directions (lower to upper end within 30°) whose lower ends and upper ends are both within
+* ``stairs``: two stair flights (runs of at least 3 strides each climbing or descending ≥ ``level_max_dz_m``,
+  half the lowest riser: the height hold's level-stride rule read the other way) with parallel directions (lower to upper end within 30°) whose lower ends and upper ends are both within
   ``revisit_stair_gate_m`` horizontally are the same flight or one stacked above it: both ends are tied.
 
 Off by default (``revisits = "none"``): ``docs/building.md`` gives what it does on the building scenario.
@@ -67,7 +67,7 @@ def detect_revisits(fp: np.ndarray, settings) -> list[tuple[int, int, str]]:
         if np.linalg.norm(fp[-1, :2] - fp[0, :2]) < settings.revisit_entry_gate * walked:
             edges.append((0, len(fp) - 1, "entry"))
     if "stairs" in mode:
-        fl = flights(fp, settings.revisit_riser_m)
+        fl = flights(fp, settings.level_max_dz_m)
         ends = []
         for a, b in fl:
             lo, hi = (a, b) if fp[b, 2] > fp[a, 2] else (b, a)

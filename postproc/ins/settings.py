@@ -122,8 +122,6 @@ class FilterSettings:
     revisit_stair_gate_m : float
         "stairs": two parallel flights are the same (or stacked) when both ends are this close, m. 3 m (the
         drift between two visits; flights of one stairwell in the same direction are stacked exactly).
-    revisit_riser_m : float
-        "stairs": a stair stride climbs or descends at least this, m (half the lowest riser, 0.15 m). 0.075.
     revisit_sigma_m : float
         Std of a revisit edge, m (where a foot lands at a door or on a step). 0.3 m.
     revisit_step_sigma_m : float
@@ -190,7 +188,6 @@ class FilterSettings:
     revisits: str = "none"
     revisit_entry_gate: float = 0.01
     revisit_stair_gate_m: float = 3.0
-    revisit_riser_m: float = 0.075
     revisit_sigma_m: float = 0.3
     revisit_step_sigma_m: float = 0.05
     hde_threshold_rad: float = 10.0 * DEG
@@ -224,7 +221,7 @@ class FilterSettings:
         if self.revisits not in ("none", "entry", "stairs", "entry+stairs"):
             raise ValueError(f"FilterSettings.revisits must be 'none', 'entry', 'stairs' or 'entry+stairs', got "
                              f"{self.revisits!r}")
-        for name in ("revisit_entry_gate", "revisit_stair_gate_m", "revisit_riser_m", "revisit_sigma_m",
+        for name in ("revisit_entry_gate", "revisit_stair_gate_m", "revisit_sigma_m",
                      "revisit_step_sigma_m"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
