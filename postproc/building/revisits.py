@@ -22,7 +22,8 @@ Truth-free revisit detection (``revisits``):
   the path) — never on a walk that ends far away;
 * ``stairs``: two stair flights (runs of at least 3 strides each climbing or descending ≥ ``level_max_dz_m``,
   half the lowest riser: the height hold's level-stride rule read the other way) with parallel directions
-  (lower to upper end within 30°) whose lower ends and upper ends are both within ``revisit_stair_gate_m`` horizontally are the same flight or one stacked above it: both ends are tied.
+  (lower to upper end within 30°) whose lower ends and upper ends are both within ``revisit_stair_gate_m``
+  horizontally are the same flight or one stacked above it: both ends are tied.
 
 Off by default (``revisits = "none"``): ``docs/building.md`` gives what it does on the building scenario.
 """
