@@ -35,6 +35,12 @@ def _fig(vals, worst=max) -> str:
     return f"{np.median(vals):.2f} / {worst(vals):.2f}" if vals else "–"
 
 
+def _on(rows: list[dict]) -> str:
+    """How many walks ``heading_aid = "auto"`` switched on (rows of runs without it: –)."""
+    dec = [r["heading_aid_on"] for r in rows if "heading_aid_on" in r]
+    return f"{sum(dec)}/{len(dec)}" if dec else "–"
+
+
 def table(rows: list[dict]) -> str:
     keys = []
     for r in rows:
@@ -42,8 +48,8 @@ def table(rows: list[dict]) -> str:
         if k not in keys:
             keys.append(k)
     out = ["| scenario | variant | aids | walks (failed) | final h (m) median / worst | ARMSE h (m) median / worst "
-           "| stance in 1.5 m (%) median / lowest | final v (m) median / worst | better than the first label |",
-           "|---|---|---|---|---|---|---|---|---|"]
+           "| stance in 1.5 m (%) median / lowest | final v (m) median / worst | better than the first label | auto on |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for scen, var, lab in keys:
         rs = [r for r in rows if (r["scenario"], r["variant"], r.get("label", "")) == (scen, var, lab)]
         ok = [r for r in rs if "error" not in r]
@@ -58,7 +64,7 @@ def table(rows: list[dict]) -> str:
                    f"{_fig([r.get('final_h_m') for r in ok])} | {_fig([r.get('armse_h_m') for r in ok])} | "
                    f"{_fig([r.get('stance_within_tol_pct') for r in ok], worst=min)} | "
                    f"{_fig([abs(r['final_v_m']) if r.get('final_v_m') is not None else None for r in ok])} | "
-                   f"{better} |")
+                   f"{better} | {_on(ok)} |")
     return "\n".join(out)
 
 
