@@ -27,7 +27,7 @@ from . import postprocess
 from bootnav.core.arrays import as_imu_arrays, clipped_samples, saturation_mask
 from .base import DETECTORS, StanceDetector, StanceResult, detector_class, register
 
-from . import adaptive, ared, mag, mv, paper_accmag, shoe, xio  # noqa: F401  (importing them fills DETECTORS)
+from . import adaptive, ared, learned, mag, mv, paper_accmag, shoe, xio  # noqa: F401  (importing them fills DETECTORS)
 
 __all__ = ["DETECTORS", "DetectorSettings", "StanceDetector", "StanceResult", "detect_stance", "detector_class", "parameter_fields",
            "postprocess", "register"]
