@@ -17,9 +17,12 @@ Labels (only from references, never from a detector of bootnav's: those would te
 Each labelled dataset gets the same total weight; every trial is used at its own rate and block-mean
 decimated by 2 (augmentation: 100 Hz), so the model sees the rates boots log at.
 
-    .venv/bin/python benchmarks/learned_stance.py train [--hidden 8] [--exclude SET ...] [--out model.json]
-    .venv/bin/python benchmarks/learned_stance.py crossval [--hidden 8] [--jobs 1]   # the LODO table
+    .venv/bin/python benchmarks/learned_stance.py train [--hidden 0] [--exclude SET ...] [--out model.json]
+    .venv/bin/python benchmarks/learned_stance.py crossval [--hidden 0] [--jobs 1]   # the LODO table
+    .venv/bin/python benchmarks/learned_stance.py compare h0.json h8.json ...          # LODO choice of variant
+    .venv/bin/python benchmarks/learned_stance.py loto [--hidden 0]                  # pyshoe_vicon leave-one-trial-out
     .venv/bin/python benchmarks/learned_stance.py rates                              # decimation check
+    .venv/bin/python benchmarks/learned_stance.py decimated [--out model.json]       # figures at lower rates
 
 ``train`` without ``--out`` writes the shipped model (postproc/detectors/learned_stance.json) with its
 provenance. ``crossval``: for each foot dataset D of ``crossval.PRIMARY``, a model is trained on the labels of
@@ -34,6 +37,7 @@ import datetime as _dt
 import hashlib
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -80,14 +84,14 @@ def _point_labels(t: np.ndarray, stance_t, swing_t) -> tuple[np.ndarray, np.ndar
     return idx[keep], np.asarray(lab, float)[keep]
 
 
-def labelled_units(root: Path, sets: list[str]):
+def labelled_units(root: Path, sets: list[str], skip_trials=()):
     """Yield (set, unit name, raw data (N, 7), label_fn(t) -> (indices, labels)) of every labelled IMU file."""
     import csv
 
     manifest = json.loads((root / "manifest.json").read_text())
     for tr in manifest["trials"]:
         s, path = tr["set"], root / tr["path"]
-        if s not in sets:
+        if s not in sets or tr["id"] in skip_trials:
             continue
         if s == "pyshoe_vicon":
             data = read_imu(path / "imu.csv.gz")
@@ -129,13 +133,13 @@ def read_imu_like(path: Path) -> np.ndarray:
         return np.loadtxt(fh, delimiter=",", skiprows=1)
 
 
-def build_training_set(root: Path, sets: list[str], factors=(1, 2)):
+def build_training_set(root: Path, sets: list[str], factors=(1, 2), skip_trials=()):
     """Features X (M, F), labels y (M,), weights w (M,), per-set label counts."""
     from bootnav.core.arrays import median_dt
     from bootnav.postproc.detectors.learned import stance_features
 
     xs, ys, ws, sources = [], [], [], []
-    for s, unit, data, fn in labelled_units(root, sets):
+    for s, unit, data, fn in labelled_units(root, sets, skip_trials):
         for k in factors:
             t, x = (data[:, 0], data[:, 1:]) if k == 1 else decimate_block_mean(data[:, 0], data[:, 1:], k)
             t, acc, gyro, g = _inputs(np.column_stack([t, x]))
@@ -217,13 +221,13 @@ def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, hidden: int, l2: float = 1e
     return mean, scale, layers, float(res.fun)
 
 
-def train(root: Path, exclude: list[str], hidden: int, out: Path, l2: float = 1e-3) -> dict:
+def train(root: Path, exclude: list[str], hidden: int, out: Path, l2: float = 1e-3, skip_trials=()) -> dict:
     """Train on the labelled sets not in ``exclude``; write the model JSON; return its provenance."""
     from bootnav.postproc.detectors.learned import StanceModel
 
     sets = [s for s in LABELLED if s not in exclude]
     t0 = time.perf_counter()
-    X, y, w, counts = build_training_set(root, sets)
+    X, y, w, counts = build_training_set(root, sets, skip_trials=skip_trials)
     t1 = time.perf_counter()
     mean, scale, layers, loss = fit(X, y, w, hidden, l2)
     t2 = time.perf_counter()
@@ -231,7 +235,7 @@ def train(root: Path, exclude: list[str], hidden: int, out: Path, l2: float = 1e
     p = model.probability(X)
     acc = {s: None for s in counts}
     prov = {
-        "trained_on": sets, "labels": counts, "hidden_units": hidden, "l2": l2, "seed": SEED,
+        "trained_on": sets, "left_out_trials": list(skip_trials), "labels": counts, "hidden_units": hidden, "l2": l2, "seed": SEED,
         "augmentation": "each file at its own rate and block-mean decimated by 2",
         "date": _dt.date.today().isoformat(), "script": "benchmarks/learned_stance.py train",
         "dataset_root": str(root.name), "training_loss": loss,
@@ -265,15 +269,17 @@ def crossval(root: Path, hidden: int, jobs: int, work: Path, cache: Path | None,
     models: dict[tuple, Path] = {}
     rows_out = []
     t_train = []
+    trial_rows: dict = {"learned": {}, "default": {}}
     for held in sets:
         trials = [t for t in manifest["trials"] if t["set"] == held]
         train_sets = tuple(s for s in LABELLED if s != held)
         if train_sets not in models:
-            tmp = work / "model_tmp.json"
+            tmp = work / f"model_tmp_{os.getpid()}.json"
             t0 = time.perf_counter()
             train(root, [held], hidden, tmp)
             t_train.append(time.perf_counter() - t0)
-            h = hashlib.sha1(tmp.read_bytes()).hexdigest()[:12]
+            doc = json.loads(tmp.read_text())  # named by its weights (the provenance holds timings)
+            h = hashlib.sha1(json.dumps([doc["mean"], doc["scale"], doc["layers"]]).encode()).hexdigest()[:12]
             path = work / f"model_h{hidden}_{h}.json"
             tmp.replace(path)
             models[train_sets] = path
@@ -282,6 +288,8 @@ def crossval(root: Path, hidden: int, jobs: int, work: Path, cache: Path | None,
                                                                                    "probability": probability}})
         r_l = score_settings(root, trials, learned, jobs, cache, fp)
         r_d = score_settings(root, trials, settings_with({}), jobs, cache, fp)
+        trial_rows["learned"].update(r_l)
+        trial_rows["default"].update(r_d)
         metric = PRIMARY[held]
         f_l, f_d = set_figures(r_l, held, metric), set_figures(r_d, held, metric)
         d, se = paired_diff(f_l, f_d)
@@ -293,7 +301,51 @@ def crossval(root: Path, hidden: int, jobs: int, work: Path, cache: Path | None,
                          "failed_learned": f_l["failed"], "failed_default": f_d["failed"], "per_trial": per_trial})
         print(f"{held}: learned {f_l['mean']:.4g} default {f_d['mean']:.4g} diff {d:.3g} ± {se:.3g}",
               file=sys.stderr)
-    return {"hidden": hidden, "probability": probability, "rows": rows_out, "train_s": t_train}
+    return {"hidden": hidden, "probability": probability, "rows": rows_out, "train_s": t_train,
+            "trial_rows": trial_rows}
+
+
+def loto(root: Path, hidden: int, jobs: int, work: Path, cache: Path | None, probability: float = 0.5) -> None:
+    """pyshoe_vicon leave-one-TRIAL-out: each trial processed with a model trained on every label but its own
+    (what per-sample labels from the same lab and sensor buy; not leave-one-dataset-out)."""
+    manifest = json.loads((root / "manifest.json").read_text())
+    fp = source_fingerprint()
+    trials = [t for t in manifest["trials"] if t["set"] == "pyshoe_vicon"]
+    rows_l, rows_d = {}, {}
+    for tr in trials:
+        tmp = work / f"model_tmp_{os.getpid()}.json"
+        train(root, [], hidden, tmp, skip_trials=(tr["id"],))
+        doc = json.loads(tmp.read_text())
+        h = hashlib.sha1(json.dumps([doc["mean"], doc["scale"], doc["layers"]]).encode()).hexdigest()[:12]
+        path = work / f"model_h{hidden}_{h}.json"
+        tmp.replace(path)
+        st = settings_with({"detector.method": "learned", "detector.params": {"model": str(path),
+                                                                               "probability": probability}})
+        rows_l.update(score_settings(root, [tr], st, jobs, cache, fp))
+        rows_d.update(score_settings(root, [tr], settings_with({}), jobs, cache, fp))
+    f_l, f_d = (set_figures(r, "pyshoe_vicon", "armse_2d") for r in (rows_l, rows_d))
+    d, se = paired_diff(f_l, f_d)
+    print(f"\npyshoe_vicon leave-one-trial-out (hidden {hidden}, p >= {probability:g}): learned "
+          f"{f_l['mean']:.4g} m, adaptive {f_d['mean']:.4g} m (SE {f_d['se']:.3g}, n {f_d['n']}), "
+          f"learned − adaptive {d:.3g} ± {se:.3g} m: {_verdict(d, se)}")
+    for tid in rows_l:
+        print(f"  {tid}: {rows_l[tid]['metrics'].get('armse_2d', float('nan')):.3f} "
+              f"vs {rows_d[tid]['metrics'].get('armse_2d', float('nan')):.3f}")
+
+
+def compare(paths: list[Path]) -> None:
+    """LODO choice among variants (``crossval --json`` outputs) and the default: for each held-out set, the
+    variant with the best geometric mean of normalised held-out figures over the OTHER sets
+    (``crossval.lodo``), its figure on the held-out set against the default's."""
+    from crossval import lodo, print_tables
+
+    runs = [json.loads(Path(p).read_text()) for p in paths]
+    sets = [r["held_out"] for r in runs[0]["rows"]]
+    rows = {"default (adaptive)": runs[0]["trial_rows"]["default"]}
+    for r in runs:
+        rows[f"learned h{r['hidden']} p{r['probability']:g}"] = r["trial_rows"]["learned"]
+    figs = {c: {s: set_figures(rows[c], s, PRIMARY[s]) for s in sets} for c in rows}
+    print_tables(figs, lodo(figs, "default (adaptive)"), {s: PRIMARY[s] for s in sets}, "stance detector")
 
 
 def print_crossval(res: dict) -> None:
@@ -343,12 +395,38 @@ def rates(root: Path) -> None:
                   f"{ref.mean():.3f} → {st.mean():.3f} | {np.mean(back == ref):.3f} |")
 
 
+def decimated(root: Path, jobs: int, cache: Path | None, work: Path, model: str = "") -> None:
+    """Navigation figures of the learned detector and the default on block-mean decimated copies of the two
+    unlabelled high-rate sets (never trained on), as benchmarks/rates.py makes them."""
+    from rates import make_tree
+
+    manifest = json.loads((root / "manifest.json").read_text())
+    fp = source_fingerprint()
+    plan = {"openshoe_820": (1, 2, 3, 4), "xio_ngimu_loops": (1, 2, 4)}
+    cands = {"adaptive (default)": settings_with({}),
+             "learned": settings_with({"detector.method": "learned", "detector.params": {"model": model}})}
+    print("\n| set | rate Hz | metric | " + " | ".join(cands) + " |")
+    print("|---|---|---|" + "---|" * len(cands))
+    for s, factors in plan.items():
+        trials = [t for t in manifest["trials"] if t["set"] == s]
+        for k in factors:
+            r, tr = (root, trials) if k == 1 else make_tree(root, trials, k, "mean", work / "rates")
+            cells = []
+            for name, st in cands.items():
+                rows = score_settings(r, tr, st, jobs, cache, fp)
+                f = set_figures(rows, s, "closure_pct")
+                v = set_figures(rows, s, "closure_v_m")
+                cells.append("FAIL" if f["failed"] else f"{f['mean']:.3g} % / {v['mean']:.3g} m")
+            print(f"| {s} | {trials[0]['rate_hz'] / k:.0f} | `closure_pct` / `closure_v_m` | " + " | ".join(cells) + " |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", choices=["train", "crossval", "rates"])
+    ap.add_argument("command", choices=["train", "crossval", "compare", "rates", "decimated", "loto"])
+    ap.add_argument("runs", nargs="*", type=Path, help="compare: crossval --json outputs")
     ap.add_argument("--root", type=Path, default=DEFAULT_ROOT)
-    ap.add_argument("--hidden", type=int, default=8, help="tanh hidden units (0: logistic regression)")
+    ap.add_argument("--hidden", type=int, default=0, help="tanh hidden units (0, the shipped model: logistic regression)")
     ap.add_argument("--l2", type=float, default=1e-3)
     ap.add_argument("--probability", type=float, default=0.5, help="crossval: stance where p(stance) >= this")
     ap.add_argument("--exclude", nargs="*", default=[], help="labelled sets left out of training")
@@ -373,6 +451,13 @@ def main(argv=None) -> int:
         print_crossval(res)
         if a.json:
             a.json.write_text(json.dumps(res, indent=1, default=float))
+    elif a.command == "decimated":
+        decimated(a.root, a.jobs, Path(a.cache) if a.cache else None, a.work, str(a.out or ""))
+    elif a.command == "loto":
+        a.work.mkdir(parents=True, exist_ok=True)
+        loto(a.root, a.hidden, a.jobs, a.work, Path(a.cache) if a.cache else None, a.probability)
+    elif a.command == "compare":
+        compare(a.runs)
     else:
         rates(a.root)
     return 0
