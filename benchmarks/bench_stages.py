@@ -1,10 +1,11 @@
 """Where `bootnav process` spends its CPU: seconds of process CPU per stage of one run (issue 25, point 5).
 
-Runs ``pipeline.process`` + ``outputs.write_outputs`` (charts drawn in this process, so their CPU counts) on
-a cached ``bench_long`` recording under ``cProfile`` with the process CPU clock as its timer: a stage's
+Runs ``pipeline.process`` + ``outputs.write_outputs`` (without charts) on a cached ``bench_long`` recording under ``cProfile`` with the process CPU clock as its timer: a stage's
 figure is the CPU of every thread of the process while the stage ran (the timing probes' two threads, the
 smoother's thread). The kernels are loaded first (a one-minute run), so compile time is not counted; the
-import row is a child ``python -c "import ..."``. Wall times on a shared machine are noise: compare CPU.
+import row is a child ``python -c "import ..."``. The charts (``plots.ChartStream`` and the drawing of the
+chart processes, here in this process) are timed without the profiler, whose cost per Python call would
+triple matplotlib's. Wall times on a shared machine are noise: compare CPU.
 Prints a table; asserts nothing.
 
     .venv/bin/python benchmarks/bench_stages.py [--hours 1] [--cache DIR] [--repeat 2]
@@ -41,10 +42,8 @@ STAGES = [
     ("storeys", "floors.py", "snap_storeys"),
     ("strides", "strides.py", "segment_strides"),
     ("process (all stages)", "pipeline.py", "process"),
-    ("chart stream", "plots.py", "from_result"),
     ("trajectory.csv", "outputs.py", "write_trajectory_csv"),
-    ("charts drawn (7 PNG + html)", "outputs.py", "draw_here"),
-    ("write_outputs (all, charts included)", "outputs.py", "write_outputs"),
+    ("write_outputs (no charts)", "outputs.py", "write_outputs"),
 ]
 
 IMPORTS = ("import bootnav.postproc.pipeline, bootnav.postproc.outputs, bootnav.postproc.navigate, "
@@ -73,7 +72,6 @@ def main() -> None:
     from bootnav.postproc import outputs
     from bootnav.postproc.outputs import warm_csv_writer, write_outputs
 
-    outputs.ChartWorker.start = classmethod(lambda cls: None)  # no chart process: drawn here, its CPU counted
     from bootnav.postproc.pipeline import process
     from bootnav.postproc.settings import ProcessSettings
 
@@ -82,6 +80,11 @@ def main() -> None:
     warm.output.plots = False
     write_outputs(process(rec, warm), work / "warm")
     warm_csv_writer()
+    from bootnav.postproc.plots import ChartStream, warm_up
+
+    warm_up()
+    settings = ProcessSettings()
+    settings.output.plots = False
     best: dict[str, float] = {}
     walls = []
     for i in range(args.repeat):
@@ -89,9 +92,15 @@ def main() -> None:
         prof = cProfile.Profile(time.process_time)
         w0 = time.perf_counter()
         prof.enable()
-        result = process(rec, ProcessSettings())
+        result = process(rec, settings)
         write_outputs(result, out)
         prof.disable()
+        c = time.process_time()
+        stream = ChartStream.from_result(result)
+        c1 = time.process_time()
+        outputs.draw_here(stream, out)
+        for label, v in (("chart stream", c1 - c), ("charts drawn (7 PNG + html)", time.process_time() - c1)):
+            best[label] = min(best.get(label, v), v)
         walls.append(time.perf_counter() - w0)
         stats = pstats.Stats(prof)
         for label, suffix, name in STAGES:
@@ -100,7 +109,7 @@ def main() -> None:
         shutil.rmtree(out, ignore_errors=True)
     print(f"\n{rec.name}: CPU s per stage (smallest of {args.repeat} runs; process CPU of all threads)")
     print(f"{'imports (child process)':<44} {import_cpu:7.2f}")
-    for label, _, _ in STAGES:
+    for label in [s[0] for s in STAGES] + ["chart stream", "charts drawn (7 PNG + html)"]:
         print(f"{label:<44} {best[label]:7.2f}")
     print(f"(wall of process + write_outputs: {', '.join(f'{w:.2f}' for w in walls)} s; {os.cpu_count()} CPUs; "
           f"bench CPU {time.process_time() - c0:.1f} s)")
