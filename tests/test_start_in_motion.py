@@ -75,3 +75,21 @@ def test_a_still_period_after_a_moving_start_is_carried_back_to_the_first_sample
     rp_rest = euler_zyx_from_quat(np.asarray(walk.truth["q_nb"][stand_start + 50], float))[:2]
     rp_true = euler_zyx_from_quat(np.asarray(walk.truth["q_nb"][k0], float))[:2]
     assert np.max(np.abs(rp_rest - rp_true)) > _bound_rad()
+
+
+@pytest.mark.parametrize("gait", ["walk", "run"])
+def test_a_foot_that_never_rests_a_second_passes_the_gravity_check(gait):
+    """The importer's unit check reads gravity in the quietest second; a foot cut out of a run never rests
+    that long (|f| of its quietest second is ~2.7 g on the simulated run), so the check used to refuse it.
+    Its foot-flats read g exactly (ideal sensor); the same samples in g units are still caught."""
+    from bootnav.logger.importers import checks
+
+    res = sim.simulate(sim.custom(gait, lambda pb: pb.stand(1.0).walk(60.0, gait=sim.GAITS[gait])),
+                       seed=0, profile="ideal", rate_hz=200.0)
+    acc = np.asarray(res.acc, float)[int(2.0 * res.rate_hz):]  # from the first swing on: no still second
+    assert not np.asarray(res.truth["stance"], bool)[int(2.0 * res.rate_hz):][:200].all()
+    assert checks.acc_unit_problem(acc, 1.0, "mps2", res.rate_hz) is None
+    mag, _ = checks.quietest_magnitude(np.linalg.norm(acc, axis=1), res.rate_hz)
+    assert mag == pytest.approx(9.80665, rel=1e-3)
+    p = checks.acc_unit_problem(acc / 9.80665, 1.0, "mps2", res.rate_hz)
+    assert p is not None and "fits --acc-unit g" in p

@@ -4,7 +4,10 @@
 (the 1-s window whose |acc| has the smallest standard deviation) and its median |acc| after applying the
 declared unit. If it is not within ±25 % of g, the declared unit (or range) is wrong; the error message
 says which unit *would* fit: |acc| ≈ 1 means g, ≈ 9.81 means m/s², ≈ 32768/R means int16 counts at ±R g.
-(±25 % tolerates a sensor tilted while moving slowly, and still separates a range off by 2x.)
+(±25 % tolerates a sensor tilted while moving slowly, and still separates a range off by 2x.) A recording
+that never rests for a second (a foot cut out of a walk, a run) has no quiet second: when the quietest
+second's |acc| varies by more than ``REST_REL_STD`` (10 %) of its median, the quietest ``FOOT_FLAT_S``
+(0.1 s, a walking foot-flat) window is taken instead, so a foot in motion is judged by its stance phases.
 
 **Gyro check.** Walking feet turn at up to ~10-15 rad/s (about 600-900 °/s); the MPU6050 tops out at
 2000 °/s = 34.9 rad/s. A 99.9th-percentile |ω| above 35 rad/s after conversion is physically absurd and
@@ -46,6 +49,8 @@ MIN_DYNAMIC_S = 1.0  # dynamic time needed before the gyro is judged (a few stri
 GYRO_MOVING_MIN_RADPS = 0.6  # p99 |rate| while accelerating: a walking foot, waist or hand turns faster
 GYRO_UNIT_ERROR_RADPS = 0.3  # below it with deg/s declared: rad/s read as deg/s (15 rad/s -> 0.26)
 SI_MARGIN = 0.005
+REST_REL_STD = 0.10  # a quietest second varying more than this (relative std of |acc|) holds no rest
+FOOT_FLAT_S = 0.1  # s, the shortest rest of a walking foot (foot-flat 0.1-0.4 s [Perry2010])
 TIME_STEP_MAX_S = 0.5  # a median time step above this is no IMU in seconds (< 2 Hz): ms or us
 
 
@@ -116,11 +121,22 @@ def quietest_magnitude(mag: np.ndarray, rate_hz: float) -> tuple[float, int]:
     n = max(int(round(rate_hz)) if np.isfinite(rate_hz) else 1, 5)
     if mag.size < n:
         return float(np.median(mag)) if mag.size else float("nan"), 0
+    med, std, i0 = _quietest_window(mag, n)
+    if std > REST_REL_STD * abs(med) and np.isfinite(rate_hz):  # no rest second: the quietest foot-flat
+        n_flat = max(int(round(FOOT_FLAT_S * rate_hz)), 5)
+        if n_flat < n:
+            med, _, i0 = _quietest_window(mag, n_flat)
+    return med, i0
+
+
+def _quietest_window(mag: np.ndarray, n: int) -> tuple[float, float, int]:
+    """(median, std, start index) of the non-overlapping ``n``-sample window of ``mag`` with the least std."""
     k = mag.size // n
     win = mag[: k * n].reshape(k, n)
     rows = max(1, (1 << 20) // n)
-    j = int(np.argmin(np.concatenate([win[a:a + rows].std(axis=1) for a in range(0, k, rows)])))
-    return float(np.median(win[j])), j * n
+    std = np.concatenate([win[a:a + rows].std(axis=1) for a in range(0, k, rows)])
+    j = int(np.argmin(std))
+    return float(np.median(win[j])), float(std[j]), j * n
 
 
 def acc_unit_problem(acc_raw: np.ndarray | None, scale_to_si: float, declared: str, rate_hz: float, *,
@@ -138,7 +154,7 @@ def acc_unit_problem(acc_raw: np.ndarray | None, scale_to_si: float, declared: s
         candidates += [(words.acc_counts.format(r), 32768.0 / r) for r in (2, 4, 8, 16)]
     fits = [flag for flag, ref in candidates if abs(raw_mag / ref - 1.0) <= ACC_TOLERANCE]
     hint = f"; it fits {fits[0]}" if fits else "; no unit fits (is gravity removed, i.e. linear acceleration?)"
-    return (f"gravity check failed: at rest (quietest second, from sample {i0}) the median |acc| is {raw_mag:.4g} "
+    return (f"gravity check failed: at rest (quietest second or foot-flat, from sample {i0}) the median |acc| is {raw_mag:.4g} "
             f"{words.data} = {si:.4g} m/s^2 with the declared unit {declared!r}, expected 9.81 m/s^2 +-25%{hint}")
 
 
