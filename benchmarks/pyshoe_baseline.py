@@ -22,6 +22,8 @@ choice, confidence and stride flags.
 
     nice -n 10 .venv/bin/python benchmarks/pyshoe_baseline.py            # 16 trials, ~1-2 min on 2 cores
     nice -n 10 .venv/bin/python benchmarks/pyshoe_baseline.py --json out.json --jobs 2
+    nice -n 10 .venv/bin/python benchmarks/pyshoe_baseline.py --swap     # + each filter with the other's mask
+    nice -n 10 .venv/bin/python benchmarks/pyshoe_baseline.py --cut 0.5 1   # trials cut to start in motion
 
 Prints figures; asserts nothing.
 """
@@ -137,12 +139,13 @@ def _stance_pr(t_est, stance_est, folder: Path) -> tuple[float, float]:
     from bootnav.postproc.evaluate.runner import read_csv_columns
 
     ts = read_csv_columns(folder / "truth_stance.csv.gz")
-    m = stance_metrics(t_est, stance_est, ts["t_s"], ts["stance"])
+    inside = (ts["t_s"] >= t_est[0]) & (ts["t_s"] <= t_est[-1])
+    m = stance_metrics(t_est, stance_est, ts["t_s"][inside], ts["stance"][inside])
     return m["stance_precision"], m["stance_recall"]
 
 
 def one(args) -> dict:
-    trial, root, swap = args
+    trial, root, swap, cut = args
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from bootnav.postproc.evaluate.metrics import trajectory_metrics
     from bootnav.postproc.evaluate.runner import estimate_foot, read_csv_columns, read_imu, score_foot
@@ -151,6 +154,19 @@ def one(args) -> dict:
     t, acc, gyr = read_imu(folder / "imu.csv.gz")
     tr = read_csv_columns(folder / "truth_trajectory.csv.gz")
     truth = np.column_stack([tr["x_m"], tr["y_m"], tr["z_m"]])
+    imu_path = folder / "imu.csv.gz"
+    tmp = None
+    if cut != (0.0, 1.0):  # the trial cut to [a, b) of its samples: it starts (and ends) with the foot in motion
+        import gzip
+        import tempfile
+
+        a, b = int(cut[0] * len(t)), int(cut[1] * len(t))
+        t, acc, gyr = t[a:b], acc[a:b], gyr[a:b]
+        tmp = tempfile.TemporaryDirectory()
+        imu_path = Path(tmp.name) / "imu.csv.gz"
+        with gzip.open(imu_path, "wt") as fh:
+            fh.write("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n")
+            np.savetxt(fh, np.column_stack([t, acc, gyr]), delimiter=",", fmt="%.6f")
     zv = shoe_mask(acc, gyr)
     pos = pyshoe_ekf(acc, gyr, zv)
     pos[:, 1] = -pos[:, 1]  # (N, E, Up) -> the right-handed frame of the set's truth
@@ -162,10 +178,13 @@ def one(args) -> dict:
     from bootnav.postproc.settings import ProcessSettings
 
     try:
-        fe = estimate_foot(folder / "imu.csv.gz", ProcessSettings())
+        fe = estimate_foot(imu_path, ProcessSettings())
     except BootnavError as exc:  # a refusal counts (METRICS.md: never silently skipped)
         row.update(bootnav_armse_2d=float("nan"), refused=str(exc)[:160])
         return row
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
     scored, _ = score_foot(fe, folder, [k for k in trial["truth"] if k != "none"], "imu.csv.gz")
     b_p, b_r = _stance_pr(fe.t_s, fe.stance, folder)
     nav = fe.result.summary["navigation"]
@@ -217,11 +236,15 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", help="write every figure here")
     ap.add_argument("--swap", action="store_true", help="also run each filter with the other's stance mask")
+    ap.add_argument("--cut", nargs=2, type=float, default=[0.0, 1.0], metavar=("FROM", "TO"),
+                    help="run the trials cut to this fraction of their samples (e.g. 0.5 1: from half-way)")
     a = ap.parse_args(argv)
+    if a.swap and tuple(a.cut) != (0.0, 1.0):
+        ap.error("--swap runs whole trials only")
     man = json.loads((Path(a.root) / "manifest.json").read_text())
     trials = [t for t in man["trials"] if t["set"] == "pyshoe_vicon" and (not a.trials or t["id"] in a.trials)]
     with ProcessPoolExecutor(a.jobs) as ex:
-        rows = list(ex.map(one, [(t, a.root, a.swap) for t in trials]))
+        rows = list(ex.map(one, [(t, a.root, a.swap, tuple(a.cut)) for t in trials]))
     print("| trial | pyshoe armse_2d m | bootnav armse_2d m | winner | stance frac ps / bn | stance P/R ps | "
           "stance P/R bn | bootnav choice | conf |")
     print("|---|---|---|---|---|---|---|---|---|")
