@@ -7,10 +7,11 @@ the truth-free choice among other candidates (``selftune.select_stance``) takes 
 so, with a confidence figure. That holds without a periodic gait too (mixed gaits, crawling, stairs with
 pauses: the autocorrelation of ‖ω‖ finds no single rhythm; the confidence is then 0). Only what the signals
 prove is not a walking foot is refused, and only when no candidate finds a zero-velocity phase either:
-``summary.mount_check`` flags it (a trunk or hand sensor: ‖ω‖ never reaches a foot swing's rate), or
-nothing moves (``pipeline.process`` refuses a recording without one stride and without a gait rhythm). A
-foot-like recording on which no candidate finds a rest keeps the configured mask, with confidence 0 and
-a warning.
+``summary.mount_check`` flags it (a trunk or hand sensor: ‖ω‖ never reaches a foot swing's rate), or there
+is no gait rhythm as well (a foot in motion rests once per stride and repeats its stride; a sensor shaken
+at random does neither), or nothing moves (``pipeline.process`` refuses a recording without one stride and
+without a gait rhythm). A foot-like recording with a gait rhythm on which no candidate finds a rest keeps
+the configured mask, with confidence 0 and a warning.
 
 Every run of the filter gets the specific force rotated by the per-recording timing offset τ
 (``selftune.level_timing_offset``), which removes most of the vertical drift of level walks
@@ -24,6 +25,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bootnav.core.arrays import row_norm
 from bootnav.errors import InputError
 
 from . import selftune
@@ -78,8 +80,8 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
     Raises
     ------
     InputError
-        No candidate finds a zero-velocity phase and ``summary.mount_check`` says the signals are not a
-        foot's, or the configured detector fails while ``selftune.fallback`` is off.
+        No candidate finds a zero-velocity phase and there is no gait rhythm or ``summary.mount_check`` says
+        the signals are not a foot's, or the configured detector fails while ``selftune.fallback`` is off.
     """
     from .calibration import stance_reference
     from .detectors import detect_stance
@@ -114,19 +116,25 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
         candidates = sel.candidates
         gait = ("no periodic gait" if not np.isfinite(period)
                 else f"a gait period of {period:.2f} s but no moment the foot rests")
-        if not any(np.isfinite(c["J"]) for c in candidates):
+        chosen = np.asarray(sel.stance, dtype=bool)
+        rate = float(np.median(row_norm(gyro_b[chosen] - np.asarray(init.gyro_bias_b)))) if chosen.any() else np.inf
+        # no rest: no candidate has a stance-to-swing edge, or the best one "rests" turning faster than a
+        # running foot does (``fail_stance_rate_radps``): its zero-velocity phases are dips of a random motion
+        if not any(np.isfinite(c["J"]) for c in candidates) or rate > st.fail_stance_rate_radps:
             from .summary import mount_check
 
             mount = mount_check(t_s, gyro_b, period, 0.0)  # no path yet: the advance per period is unknown
-            if not mount["looks_like_foot"]:
+            if not mount["looks_like_foot"] or not np.isfinite(period):
+                why = (mount["message"] if not mount["looks_like_foot"] else
+                       "a moving foot rests once per stride and repeats its stride: this signal does neither")
                 raise InputError(f"{name}: not a walking foot: {failed}; no other stance detection finds a "
-                                 f"zero-velocity phase either ({gait}), and {mount['message']}")
+                                 f"zero-velocity phase either ({gait}), and {why}")
             stance, no_rest = np.asarray(configured.stance, dtype=bool), True
             warnings.append(f"no stance detection finds a zero-velocity phase ({failed}; {gait}): the path is "
                             "mostly unaided inertial integration and its confidence is 0; check that the sensor "
                             "is on the foot")
         else:
-            stance, choice = np.asarray(sel.stance, dtype=bool), sel.choice
+            stance, choice = chosen, sel.choice
             warnings += sel.warnings
         run = _run(t_s, acc_b, gyro_b, stance, init, gravity, settings, saturated, period, filter_progress)
     timing, acc_used, nav, quality = run
