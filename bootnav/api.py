@@ -309,7 +309,7 @@ def _arrays(t_s, acc_mps2, gyro_radps, need_gyro: bool = True, *, acc_unit: str 
         quiet = checks.quietest_second(acc, rate)
         fits_a_unit = any(abs(quiet[0] / ref - 1) <= checks.ACC_TOLERANCE for ref in (1.0, STANDARD_GRAVITY))
         if specific_force or fits_a_unit:  # a phone's linear acceleration (pdr) has no gravity to check
-            problems.append(checks.acc_unit_problem(None, 1.0, acc_unit, rate, quiet=quiet, words=words))
+            problems.append(checks.acc_unit_problem(acc, 1.0, acc_unit, rate, quiet=quiet, words=words))
             if not problems[-1]:
                 borderline.append(checks.acc_borderline(None, 1.0, rate, quiet=quiet, words=words))
         if gyro is not None:

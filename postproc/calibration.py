@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.core.rotations import quat_from_euler_zyx
+from bootnav.core.rotations import euler_zyx_from_quat, quat_conjugate, quat_from_euler_zyx, quat_multiply
 from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 
@@ -97,6 +97,9 @@ class CalibrationSettings:
         foot's gyro varies only by sensor noise; a window with more variance holds a small motion (a shifting
         foot passes the still thresholds), and the mean rate of a motion is not bias. 2 = std within √2 of
         the quietest window (``quiet_core``); 1.5-3 perform alike (pre-LODO; docs/tuning-log.md). 0 = off.
+    rest_window_s, rest_gyro_max_radps: without a still period, roll/pitch come from the first foot-flat
+        (``first_rest``): a window this long (s; a walking foot-flat lasts 0.1-0.4 s [Perry2010]) in which
+        ‖ω‖ stays below this rate (rad/s; a resting foot turns at < 0.5 rad/s, ``InputChecks``' stance bound).
     use_gyro_bias: subtract the still-period gyro mean as the initial gyro bias.
     sensor_calibration: which sensor calibration is applied (``resolve_calibration``): "auto" = the stored
         calibration of the recording's device id, if there is one; "none" = no calibration; anything else is
@@ -117,6 +120,8 @@ class CalibrationSettings:
     min_still_s: float = 0.5
     max_still_s: float = 30.0
     still_quiet_ratio: float = 2.0
+    rest_window_s: float = 0.1
+    rest_gyro_max_radps: float = 0.5
     use_gyro_bias: bool = True
     sensor_calibration: str = "auto"
     accel_calibration_file: str | None = None
@@ -230,7 +235,11 @@ def roll_pitch_from_specific_force(f_b) -> tuple[float, float]:
 def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
                       gravity: float | None = None) -> InitialState:
     """Roll/pitch from the mean specific force of the initial still period, yaw = 0, gyro bias = its mean
-    rate (both over its quiet core, ``quiet_core``). Without a still period: levelling on the first ``min_still_s`` of data, zero bias, and a warning."""
+    rate (both over its quiet core, ``quiet_core``). The attitude is the first sample's: when the still period
+    starts later (the recording starts in motion), the levelled attitude is carried back to the start by the
+    gyro increments in between (``gyro_rotation``). Without a still period: levelling on the first foot-flat
+    (``first_rest``), carried back the same way, zero bias and a warning; without a foot-flat either, on the
+    first ``min_still_s`` of data."""
     s = settings or CalibrationSettings()
     g = s.gravity() if gravity is None else float(gravity)
     t_s = np.asarray(t_s, dtype=np.float64)
@@ -242,15 +251,32 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
         raise ValueError(f"too few samples for alignment ({t_s.shape[0]})")
     warnings: list[str] = []
     still = find_still_period(t_s, acc_b, gyro_b, min_duration_s=s.min_still_s, settings=s, gravity=g)
+    q_start = None
     if still is None:
-        n = max(1, int(np.searchsorted(t_s, t_s[0] + s.min_still_s)))
-        f_mean = np.nanmean(acc_b[:n], axis=0)
         bias = np.zeros(3)
-        warnings.append(
-            f"no initial still period (>= {s.min_still_s:g} s of rest within the first {s.still_search_s:g} s): "
-            f"roll/pitch levelled on the first {t_s[n - 1] - t_s[0]:.2f} s of motion data (may be wrong by "
-            "degrees) and gyro bias set to zero; start recordings with the foot at rest for a few seconds"
-        )
+        rest = first_rest(t_s, acc_b, gyro_b, s, g)
+        if rest is not None:  # level on the first foot-flat, rotated back to the first sample by the gyro
+            a, b = rest
+            f_mean = acc_b[a:b].mean(axis=0)
+            roll_r, pitch_r = roll_pitch_from_specific_force(f_mean)
+            q_rest = quat_from_euler_zyx(roll_r, pitch_r, 0.0)
+            q_move = gyro_rotation(t_s[: a + 1], gyro_b[: a + 1])
+            q_start = tuple(float(x) for x in euler_zyx_from_quat(quat_multiply(q_rest, quat_conjugate(q_move)))[:2])
+            warnings.append(
+                f"no initial still period (>= {s.min_still_s:g} s of rest within the first {s.still_search_s:g} s): "
+                f"roll/pitch levelled on the first foot-flat (t = {t_s[a] - t_s[0]:.2f}-{t_s[b - 1] - t_s[0]:.2f} s) "
+                "and carried back to the start by the gyro; gyro bias set to zero; start recordings with the foot "
+                "at rest for a few seconds"
+            )
+        else:
+            n = max(1, int(np.searchsorted(t_s, t_s[0] + s.min_still_s)))
+            f_mean = np.nanmean(acc_b[:n], axis=0)
+            warnings.append(
+                f"no initial still period (>= {s.min_still_s:g} s of rest within the first {s.still_search_s:g} s) "
+                f"and no foot-flat: roll/pitch levelled on the first {t_s[n - 1] - t_s[0]:.2f} s of motion data "
+                "(may be wrong by degrees) and gyro bias set to zero; start recordings with the foot at rest for a "
+                "few seconds"
+            )
     else:
         quiet = quiet_core(t_s, gyro_b, still, s)  # motion inside the still period is not bias
         f_mean = acc_b[still][quiet].mean(axis=0)
@@ -263,10 +289,70 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
             )
         if dur < 1.0:
             warnings.append(f"initial still period is short ({dur:.2f} s); gyro bias estimate is noisy")
-    roll, pitch = roll_pitch_from_specific_force(f_mean)
+        if still.start > 0:  # the foot moved before it rested: carry the levelled attitude back to the start
+            roll_r, pitch_r = roll_pitch_from_specific_force(f_mean)
+            q_rest = quat_from_euler_zyx(roll_r, pitch_r, 0.0)
+            q_move = gyro_rotation(t_s[: still.start + 1], gyro_b[: still.start + 1] - bias)
+            q_start = tuple(float(x) for x in euler_zyx_from_quat(quat_multiply(q_rest, quat_conjugate(q_move)))[:2])
+    roll, pitch = roll_pitch_from_specific_force(f_mean) if q_start is None else q_start
     return InitialState(q_nb=quat_from_euler_zyx(roll, pitch, 0.0), gyro_bias_b=np.asarray(bias, dtype=np.float64),
                         acc_mean_b=np.asarray(f_mean, dtype=np.float64), still=still, gravity=g,
                         warnings=warnings, roll_rad=roll, pitch_rad=pitch)
+
+
+def first_rest(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
+               gravity: float = 9.80665) -> tuple[int, int] | None:
+    """The first foot-flat within ``still_search_s`` of the start: (start, stop) sample indices, or None.
+
+    A recording that starts in motion has no still period, and levelling on its first samples (a swing)
+    tilts the start by tens of degrees, which the filter, believing its initial attitude to
+    ``init_att_sigma_rad``, carries through the whole walk (height and stride flags run away, docs/tuning-log.md
+    2026-12-02). A walking foot rests flat once per stride: a window of ``rest_window_s`` whose ‖ω‖ stays
+    below ``rest_gyro_max_radps`` and whose mean ‖f‖ is within ``still_acc_dev_mps2`` of gravity. Of the first
+    run of such windows, the one with the least mean ‖ω‖ is taken.
+    """
+    s = settings or CalibrationSettings()
+    t_s = np.asarray(t_s, dtype=np.float64)
+    n = max(3, int(round(s.rest_window_s / sample_period(t_s))))
+    # only the first still_search_s can hold it: the windows over that prefix (memory flat in the record)
+    k_end = min(len(t_s), int(np.searchsorted(t_s, t_s[0] + s.still_search_s, side="right")) + 2 * n)
+    t_s, acc_b, gyro_b = t_s[:k_end], np.asarray(acc_b)[:k_end], np.asarray(gyro_b)[:k_end]
+    if t_s.shape[0] < n:
+        return None
+    from scipy.ndimage import maximum_filter1d
+
+    w = row_norm(np.asarray(gyro_b, dtype=np.float64))
+    w_max = maximum_filter1d(w, size=n, mode="nearest")  # centred, as moving_mean: index k + n//2 = [k, k + n)
+    w_mean = moving_mean(w, n)
+    f_mag = moving_mean(row_norm(np.asarray(acc_b, dtype=np.float64)), n)
+    k = np.arange(t_s.shape[0] - n + 1)
+    c = k + n // 2  # centre of window k (moving_mean is centred)
+    ok = ((w_max[c] < s.rest_gyro_max_radps) & (np.abs(f_mag[c] - gravity) < s.still_acc_dev_mps2)
+          & (t_s[k] - t_s[0] <= s.still_search_s))
+    starts, stops = runs(ok)
+    if starts.size == 0:
+        return None
+    cand = np.arange(starts[0], stops[0])
+    best = int(cand[np.argmin(w_mean[cand + n // 2])])
+    return best, best + n
+
+
+def gyro_rotation(t_s, gyro_b) -> np.ndarray:
+    """q_b0_bk (wxyz): the body rotation from the first to the last sample, the product of the per-sample
+    increments exp(ω_k Δt_k / 2) (as the strapdown integrates them), in log2(N) vectorised rounds."""
+    t_s = np.asarray(t_s, dtype=np.float64)
+    theta = np.asarray(gyro_b, dtype=np.float64)[1:] * np.diff(t_s)[:, None]
+    if theta.shape[0] == 0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    a = row_norm(theta)
+    half = np.where(a > 1e-8, np.sin(0.5 * a) / np.where(a > 1e-8, a, 1.0), 0.5 - a * a / 48.0)
+    q = np.column_stack([np.cos(0.5 * a), half[:, None] * theta])
+    while q.shape[0] > 1:  # ordered pairwise products: (q1 q2)(q3 q4)...
+        if q.shape[0] % 2:
+            q = np.vstack([q, [1.0, 0.0, 0.0, 0.0]])
+        q = quat_multiply(q[0::2], q[1::2])
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return q[0]
 
 
 def stance_reference(init: InitialState, gravity: float) -> tuple[np.ndarray, float]:

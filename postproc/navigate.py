@@ -1,11 +1,17 @@
 """Stages 4-5 of ``process``: stance detection with a fallback, the vertical timing calibration, the filter.
 
-Policy: a plausible foot recording always gets a path. The configured detector runs first; if its mask is
-implausible (a fatal ``checks.stance_findings`` finding) or more than ``SelfTuneSettings.max_bad_fraction``
-of the strides it gives are implausible (``selftune.stride_quality``), the truth-free choice among other
-candidates (``selftune.select_stance``) takes over and the summary says so, with a confidence figure. Only
-a recording that cannot be a walking foot is refused: the configured detector fails AND there is no
-periodic gait (no motion, or motion without a stride rhythm), or no candidate finds a zero-velocity phase.
+Policy: a recording with motion always gets a path, its confidence and per-stride flags. The configured
+detector runs first; if its mask is implausible (a fatal ``checks.stance_findings`` finding) or more than
+``SelfTuneSettings.max_bad_fraction`` of the strides it gives are implausible (``selftune.stride_quality``),
+the truth-free choice among other candidates (``selftune.select_stance``) takes over and the summary says
+so, with a confidence figure. That holds without a periodic gait too (mixed gaits, crawling, stairs with
+pauses: the autocorrelation of ‖ω‖ finds no single rhythm; the confidence is then 0). Only what the signals
+prove is not a walking foot is refused, and only when no candidate finds a zero-velocity phase either:
+``summary.mount_check`` flags it (a trunk or hand sensor: ‖ω‖ never reaches a foot swing's rate), or there
+is no gait rhythm as well (a foot in motion rests once per stride and repeats its stride; a sensor shaken
+at random does neither), or nothing moves (``pipeline.process`` refuses a recording without one stride and
+without a gait rhythm). A foot-like recording with a gait rhythm on which no candidate finds a rest keeps
+the configured mask, with confidence 0 and a warning.
 
 Every run of the filter gets the specific force rotated by the per-recording timing offset τ
 (``selftune.level_timing_offset``), which removes most of the vertical drift of level walks
@@ -19,6 +25,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bootnav.core.arrays import row_norm
 from bootnav.errors import InputError
 
 from . import selftune
@@ -73,8 +80,8 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
     Raises
     ------
     InputError
-        No candidate finds a zero-velocity phase (no motion, no gait: not a walking foot), or the configured
-        detector fails while ``selftune.fallback`` is off.
+        No candidate finds a zero-velocity phase and there is no gait rhythm or ``summary.mount_check`` says
+        the signals are not a foot's, or the configured detector fails while ``selftune.fallback`` is off.
     """
     from .calibration import stance_reference
     from .detectors import detect_stance
@@ -92,6 +99,7 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
         raise InputError(f"{name}: {failed}")
     period = selftune.gait_period(t_s, gyro_b)
     choice, candidates = f"configured ({configured.method})", []
+    no_rest = False  # no candidate finds a zero-velocity phase: confidence 0
 
     run = None
     if failed is None:
@@ -101,29 +109,39 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
                       "faster than a foot moves, a missed stance, or a climb steeper than stairs)")
             if not st.fallback:
                 warnings.append(f"stance detector '{configured.method}': {failed}")
-    if failed is not None and st.fallback and not np.isfinite(period):
-        raise InputError(f"{name}: not a walking foot: {failed}; and no periodic gait (no stride rhythm of 0.4-3 s "
-                         "in the angular rate). Zero-velocity navigation needs a sensor on a walking foot; for a "
-                         "waist, pocket or hand sensor use `bootnav pdr`")
     if failed is not None and st.fallback:
         sel = selftune.select_stance(t_s, acc_b, gyro_b, init, gravity, settings.detector, settings.filter,
                                      saturated=saturated, settings=st, configured=configured, failed=failed,
                                      period_s=period)
         candidates = sel.candidates
-        if not any(np.isfinite(c["J"]) for c in candidates):
-            gait = ("no periodic gait" if not np.isfinite(period)
-                    else f"a gait period of {period:.2f} s but no moment the foot rests")
-            raise InputError(f"{name}: not a walking foot: {failed}; no other stance detection finds a "
-                             f"zero-velocity phase either ({gait}). Zero-velocity navigation needs a sensor on "
-                             "the foot; for a waist, pocket or hand sensor use `bootnav pdr`")
-        stance, choice = np.asarray(sel.stance, dtype=bool), sel.choice
-        warnings += sel.warnings
+        gait = ("no periodic gait" if not np.isfinite(period)
+                else f"a gait period of {period:.2f} s but no moment the foot rests")
+        chosen = np.asarray(sel.stance, dtype=bool)
+        rate = float(np.median(row_norm(gyro_b[chosen] - np.asarray(init.gyro_bias_b)))) if chosen.any() else np.inf
+        # no rest: no candidate has a stance-to-swing edge, or the best one "rests" turning faster than a
+        # running foot does (``fail_stance_rate_radps``): its zero-velocity phases are dips of a random motion
+        if not any(np.isfinite(c["J"]) for c in candidates) or rate > st.fail_stance_rate_radps:
+            from .summary import mount_check
+
+            mount = mount_check(t_s, gyro_b, period, 0.0)  # no path yet: the advance per period is unknown
+            if not mount["looks_like_foot"] or not np.isfinite(period):
+                why = (mount["message"] if not mount["looks_like_foot"] else
+                       "a moving foot rests once per stride and repeats its stride: this signal does neither")
+                raise InputError(f"{name}: not a walking foot: {failed}; no other stance detection finds a "
+                                 f"zero-velocity phase either ({gait}), and {why}")
+            stance, no_rest = np.asarray(configured.stance, dtype=bool), True
+            warnings.append(f"no stance detection finds a zero-velocity phase ({failed}; {gait}): the path is "
+                            "mostly unaided inertial integration and its confidence is 0; check that the sensor "
+                            "is on the foot")
+        else:
+            stance, choice = chosen, sel.choice
+            warnings += sel.warnings
         run = _run(t_s, acc_b, gyro_b, stance, init, gravity, settings, saturated, period, filter_progress)
     timing, acc_used, nav, quality = run
     e = timing.get("innovation_rms_mps")
     if e is None:  # the timing calibration is off: one forward run scores the path
         e = selftune.innovation_rms(t_s, acc_used, gyro_b, stance, init, gravity, settings.filter, saturated)
-    conf = selftune.confidence(e, quality.bad_fraction, period, st)
+    conf = 0.0 if no_rest else selftune.confidence(e, quality.bad_fraction, period, st)
     split = selftune.split_strides(quality, period, st)
     if split:
         warnings.append(split)

@@ -84,3 +84,26 @@ def test_standing_still_is_refused_with_a_reason(tmp_path):
     path = _sim(tmp_path, sim.custom("stand", lambda pb: pb.stand(30.0)), "mpu6050-noise-only")
     with pytest.raises(InputError, match="no motion: not one stride.*no periodic gait|not a walking foot.*no periodic"):
         process(path)
+
+
+def test_a_failed_detector_without_a_gait_rhythm_still_gets_a_path(tmp_path, monkeypatch):
+    """Mixed gaits (walk, run, stairs, crawl in one mocap trial) can leave the autocorrelation of |ω| without
+    one stride rhythm. That used to turn a failed configured detector into a refusal ('not a walking foot:
+    ... and no periodic gait'); now the other candidates run, the path comes with confidence 0 and says why."""
+    from bootnav.postproc import selftune
+
+    path = _sim(tmp_path, "fast-corridor", "mpu6050-noise-only", duration_s=25.0)
+    s = ProcessSettings()
+    s.detector = s.detector.with_method("shoe", threshold=1e12)  # every sample "stance": a fatal finding
+    monkeypatch.setattr(selftune, "gait_period", lambda *a, **k: float("nan"))
+    strict = ProcessSettings()
+    strict.detector = s.detector
+    strict.selftune = replace(strict.selftune, fallback=False)
+    with pytest.raises(InputError):
+        process(path, strict)  # the configured detector does fail: this test can fail
+    r = process(path, s)
+    nav = r.summary["navigation"]
+    assert nav["configured_failed"] and nav["stance_choice"] != "configured (shoe)"
+    assert r.summary["confidence"] == 0.0
+    assert any("no periodic gait" in w for w in r.warnings)
+    assert r.summary["strides"] > 10  # 25 s of walking: a stride every ~1.1 s

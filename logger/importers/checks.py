@@ -4,7 +4,10 @@
 (the 1-s window whose |acc| has the smallest standard deviation) and its median |acc| after applying the
 declared unit. If it is not within ±25 % of g, the declared unit (or range) is wrong; the error message
 says which unit *would* fit: |acc| ≈ 1 means g, ≈ 9.81 means m/s², ≈ 32768/R means int16 counts at ±R g.
-(±25 % tolerates a sensor tilted while moving slowly, and still separates a range off by 2x.)
+(±25 % tolerates a sensor tilted while moving slowly, and still separates a range off by 2x.) A recording
+that never rests for a second (a foot cut out of a walk, a run) has no quiet second: when the quietest
+second does not fit, the quietest ``FOOT_FLAT_S`` (0.1 s, a walking foot-flat) window is judged too, and a
+declared unit that fits there passes, so a foot in motion is judged by its stance phases.
 
 **Gyro check.** Walking feet turn at up to ~10-15 rad/s (about 600-900 °/s); the MPU6050 tops out at
 2000 °/s = 34.9 rad/s. A 99.9th-percentile |ω| above 35 rad/s after conversion is physically absurd and
@@ -46,6 +49,7 @@ MIN_DYNAMIC_S = 1.0  # dynamic time needed before the gyro is judged (a few stri
 GYRO_MOVING_MIN_RADPS = 0.6  # p99 |rate| while accelerating: a walking foot, waist or hand turns faster
 GYRO_UNIT_ERROR_RADPS = 0.3  # below it with deg/s declared: rad/s read as deg/s (15 rad/s -> 0.26)
 SI_MARGIN = 0.005
+FOOT_FLAT_S = 0.1  # s, the shortest rest of a walking foot (foot-flat 0.1-0.4 s [Perry2010])
 TIME_STEP_MAX_S = 0.5  # a median time step above this is no IMU in seconds (< 2 Hz): ms or us
 
 
@@ -106,14 +110,14 @@ def quietest_second(acc_si: np.ndarray, rate_hz: float) -> tuple[float, int]:
     return quietest_magnitude(np.linalg.norm(acc_si, axis=1), rate_hz)
 
 
-def quietest_magnitude(mag: np.ndarray, rate_hz: float) -> tuple[float, int]:
-    """``quietest_second`` of the row norms ``mag`` of the accelerometer (a streamed import keeps only them).
-    The windows' std is taken a few thousand windows at a time (the same figures, without a temporary copy
-    of the whole record)."""
+def quietest_magnitude(mag: np.ndarray, rate_hz: float, window_s: float = 1.0) -> tuple[float, int]:
+    """``quietest_second`` of the row norms ``mag`` of the accelerometer (a streamed import keeps only them);
+    ``window_s``: another window length (``FOOT_FLAT_S``). The windows' std is taken a few thousand windows at
+    a time (the same figures, without a temporary copy of the whole record)."""
     finite = np.isfinite(mag)
     if not finite.all():
         mag = mag[finite]
-    n = max(int(round(rate_hz)) if np.isfinite(rate_hz) else 1, 5)
+    n = max(int(round(window_s * rate_hz)) if np.isfinite(rate_hz) else 1, 5)
     if mag.size < n:
         return float(np.median(mag)) if mag.size else float("nan"), 0
     k = mag.size // n
@@ -124,21 +128,32 @@ def quietest_magnitude(mag: np.ndarray, rate_hz: float) -> tuple[float, int]:
 
 
 def acc_unit_problem(acc_raw: np.ndarray | None, scale_to_si: float, declared: str, rate_hz: float, *,
-                     quiet: tuple[float, int] | None = None, words: Words = CLI_WORDS) -> str | None:
+                     quiet: tuple[float, int] | None = None, flat: tuple[float, int] | None = None,
+                     words: Words = CLI_WORDS) -> str | None:
     """None if the gravity magnitude fits the declared unit, else a message with a suggestion (``quiet``:
-    ``quietest_second`` of ``acc_raw`` when already known; ``words``: the remedy's vocabulary)."""
+    ``quietest_second`` of ``acc_raw`` when already known; ``flat``: the same over ``FOOT_FLAT_S`` windows,
+    the rest of a foot that never rests a second (module docstring); ``words``: the remedy's vocabulary)."""
     raw_mag, i0 = quiet or quietest_second(np.asarray(acc_raw, dtype=np.float64), rate_hz)
     if not np.isfinite(raw_mag):
         return None
-    si = raw_mag * scale_to_si
-    if abs(si / STANDARD_GRAVITY - 1.0) <= ACC_TOLERANCE:
+    if abs(raw_mag * scale_to_si / STANDARD_GRAVITY - 1.0) <= ACC_TOLERANCE:
         return None
+    if flat is None and acc_raw is not None:
+        flat = quietest_magnitude(np.linalg.norm(np.asarray(acc_raw, dtype=np.float64), axis=1), rate_hz,
+                                  FOOT_FLAT_S)
     candidates = [(words.acc.format("g"), 1.0), (words.acc.format("mps2"), STANDARD_GRAVITY)]
     if words.acc_counts:
         candidates += [(words.acc_counts.format(r), 32768.0 / r) for r in (2, 4, 8, 16)]
+    where = "quietest second"
+    if flat is not None and np.isfinite(flat[0]):
+        if abs(flat[0] * scale_to_si / STANDARD_GRAVITY - 1.0) <= ACC_TOLERANCE:
+            return None  # a foot that never rests a second: its foot-flats read gravity
+        if not any(abs(raw_mag / ref - 1.0) <= ACC_TOLERANCE for _, ref in candidates):
+            raw_mag, i0, where = flat[0], flat[1], f"quietest {FOOT_FLAT_S:g} s"
+    si = raw_mag * scale_to_si
     fits = [flag for flag, ref in candidates if abs(raw_mag / ref - 1.0) <= ACC_TOLERANCE]
     hint = f"; it fits {fits[0]}" if fits else "; no unit fits (is gravity removed, i.e. linear acceleration?)"
-    return (f"gravity check failed: at rest (quietest second, from sample {i0}) the median |acc| is {raw_mag:.4g} "
+    return (f"gravity check failed: at rest ({where}, from sample {i0}) the median |acc| is {raw_mag:.4g} "
             f"{words.data} = {si:.4g} m/s^2 with the declared unit {declared!r}, expected 9.81 m/s^2 +-25%{hint}")
 
 

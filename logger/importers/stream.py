@@ -307,7 +307,10 @@ def _finish(path, prof, overrides, writer, fields, n_lines, ends_without_newline
     # the magnitudes first, so they are freed before the time base's temporaries; the rate from the writer's
     # exact count of the steps (timing_summary's median, without its copies of t)
     rate = 1.0 / writer.stats.steps.median() if n > 1 else 1.0
-    quiet = checks.quietest_magnitude(parts.pop("acc_mag"), rate)
+    acc_mag = parts.pop("acc_mag")
+    quiet = checks.quietest_magnitude(acc_mag, rate)
+    flat = checks.quietest_magnitude(acc_mag, rate, checks.FOOT_FLAT_S)  # a foot that never rests a second
+    del acc_mag
     gyro_problem = checks.gyro_unit_problem(None, "radps", mag=parts.pop("gyro_mag")) if has_gyro and n else None
     # _build_time of a column of seconds
     t0 = state["t0"] if n else 0.0
@@ -321,7 +324,7 @@ def _finish(path, prof, overrides, writer, fields, n_lines, ends_without_newline
         if e.get("sample_index", -1) >= 0 and "t_s" not in e:
             e["t_s"] = float(t[e["sample_index"]])
     # _check_units with declared SI units
-    problems = [p for p in (checks.acc_unit_problem(None, 1.0, "mps2", rate, quiet=quiet), gyro_problem) if p]
+    problems = [p for p in (checks.acc_unit_problem(None, 1.0, "mps2", rate, quiet=quiet, flat=flat), gyro_problem) if p]
     if not problems:
         w = checks.acc_borderline(None, 1.0, rate, quiet=quiet)
         if w:
