@@ -107,3 +107,15 @@ def test_api_keyword_with_another_method_starts_from_that_methods_defaults():
     base = ProcessSettings().to_dict()
     merged = ProcessSettings.from_dict(_merged(base, {"detector": {"method": "mv"}}))
     assert merged.detector == DetectorSettings("mv")
+
+
+def test_dataclasses_replace_with_another_method_gives_that_methods_defaults():
+    import dataclasses
+
+    s = DetectorSettings("adaptive", {"alpha": 0.25}, detect_clipping=False)
+    shoe = dataclasses.replace(s, method="shoe")
+    assert shoe == DetectorSettings("shoe", detect_clipping=False)
+    assert dataclasses.replace(s, detect_clipping=True).params["alpha"] == 0.25  # same method: kept
+    with pytest.raises(ValueError, match="has no parameter"):  # an explicit dict is checked, never dropped
+        DetectorSettings("shoe", dict(s.params))
+    assert json.loads(json.dumps(ProcessSettings(detector=s).to_dict()))["detector"]["params"]["alpha"] == 0.25

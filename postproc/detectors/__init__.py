@@ -46,6 +46,16 @@ LEGACY_FIELDS: dict[str, Any] = {
         "paper_accmag_min_stance_s", "paper_accmag_min_swing_s", "xio_min_stance_s", "xio_min_swing_s")}}
 
 
+class DetectorParams(dict):
+    """The resolved parameters of one detector (a dict that remembers whose they are: given to another
+    ``method``, as ``dataclasses.replace(settings, method="shoe")`` does, they are dropped for that detector's
+    defaults; a plain dict is always validated against the method)."""
+
+    def __init__(self, *args, method: str = "", **kwargs):
+        super().__init__(*args, **kwargs)
+        self.method = method
+
+
 @dataclass
 class DetectorSettings:
     """The stance detector of a run, as saved with the results: ``{"method": "shoe", "params": {...}}``.
@@ -92,6 +102,9 @@ class DetectorSettings:
         cls = detector_class(self.method)  # unknown name: ValueError listing the registered ones
         if not isinstance(self.params, dict):
             raise ValueError(f"params of {self.method!r} must be an object of parameters, got {self.params!r}")
+        if isinstance(self.params, DetectorParams) and self.params.method != self.method:
+            # another detector's resolved parameters (``dataclasses.replace(s, method=...)``): its defaults
+            object.__setattr__(self, "params", {})
         known = parameter_fields(cls)
         unknown = sorted(set(self.params) - set(known))
         if unknown:
@@ -108,7 +121,7 @@ class DetectorSettings:
             except InputError as exc:
                 raise ValueError(str(exc).removeprefix("settings.detector.")) from None
             resolved[name] = value
-        object.__setattr__(self, "params", resolved)
+        object.__setattr__(self, "params", DetectorParams(resolved, method=self.method))
         try:
             cls(**resolved).check()
         except ValueError as exc:
