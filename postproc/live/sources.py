@@ -2,8 +2,8 @@
 
 ``GrowingRecording`` tails the SWMR file a running ``bootnav record`` flushes (``docs/recording-format.md``,
 "Crash safety"): it opens the file read-only in SWMR mode once the recorder has created it, and each ``poll``
-refreshes the datasets and returns the rows flushed since the last one, in SI units (raw · ``scale_to_si`` +
-``offset_to_si``, exactly what ``recording.load`` computes). It runs in the view's own process and never
+refreshes the datasets and returns the rows flushed since the last one, in SI units (read through
+``recording.RecordingReader``, the one decoder of the layout: exactly what ``recording.load`` computes). It runs in the view's own process and never
 writes, so the recorder cannot lose a frame because of it.
 
 ``ReplayRecording`` serves a finished recording (``recording.load``; one boot of a multi-boot recording)
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.logger.recording import EVENT_DTYPE, load
+from bootnav.logger.recording import EVENT_DTYPE, RecordingReader, load
 
 #: per-sample datasets read by the view (every recorder-written file has them)
 _IMU = ("t_s", "acc", "gyro", "saturated")
@@ -51,58 +51,40 @@ class GrowingRecording:
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
-        self._f = None
+        self._reader: RecordingReader | None = None
         self._n = 0
         self._n_events = 0
         self.meta: dict = {}
-        self._scale: dict[str, tuple[float, float]] = {}
 
     def _open(self) -> bool:
-        import h5py
-
         if not self.path.exists():
             return False
         try:
-            f = h5py.File(self.path, "r", libver="latest", swmr=True)
-        except OSError:
-            return False  # created but not yet switched to SWMR by the recorder: next poll
-        if "imu" not in f or any(k not in f["imu"] for k in _IMU):
-            f.close()
-            return False
-        self._f = f
-        self.meta = {k: (v.decode() if isinstance(v, bytes) else v.item() if isinstance(v, np.generic) else v)
-                     for k, v in f["meta"].attrs.items()} if "meta" in f else {}
-        for k in ("acc", "gyro"):
-            a = f["imu"][k].attrs
-            self._scale[k] = (float(a.get("scale_to_si", 1.0)), float(a.get("offset_to_si", 0.0)))
+            reader = RecordingReader(self.path, swmr=True, require=_IMU)
+        except (OSError, KeyError):
+            return False  # created but not yet switched to SWMR (or its /imu not complete) by the recorder
+        self._reader, self.meta = reader, reader.meta
         return True
 
     def poll(self) -> Chunk | None:
         """The rows flushed since the last call (None before the file is readable)."""
-        if self._f is None and not self._open():
+        if self._reader is None and not self._open():
             return None
-        imu = self._f["imu"]
-        for k in _IMU:
-            imu[k].refresh()
-        n = min(imu[k].shape[0] for k in _IMU)  # the recorder flushes all at once; keep the common prefix
+        n = self._reader.refresh()  # the recorder flushes all at once; the common prefix
         chunk = _empty_chunk()
         if n > self._n:
-            sl = slice(self._n, n)
-            si = {k: imu[k][sl].astype(np.float64) * self._scale[k][0] + self._scale[k][1] for k in ("acc", "gyro")}
-            chunk = Chunk(imu["t_s"][sl], si["acc"], si["gyro"], imu["saturated"][sl])
+            chunk = Chunk(*self._reader.block(self._n, n))
             self._n = n
-        if "events" in self._f:
-            ev = self._f["events"]
-            ev.refresh()
-            if ev.shape[0] > self._n_events:
-                chunk.events = ev[self._n_events:]
-                self._n_events = ev.shape[0]
+        events = self._reader.events(self._n_events)
+        if len(events):
+            chunk.events = events
+            self._n_events += len(events)
         return chunk
 
     def close(self) -> None:
-        if self._f is not None:
-            self._f.close()
-            self._f = None
+        if self._reader is not None:
+            self._reader.close()
+            self._reader = None
 
 
 class ReplayRecording:
