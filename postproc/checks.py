@@ -150,7 +150,7 @@ def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray) -> np.ndarray:
     -------
     ndarray of uint8, shape (N,)
         Bit ``SATURATION_BITS[axis]`` set where that axis sits on a rail
-        (``bootnav.postproc.detectors._common.clipped_axes``).
+        (``bootnav.core.arrays.clipped_axes``).
     """
     from bootnav.core.arrays import clipped_axes
 

@@ -5,6 +5,7 @@ Python API::
     from bootnav.simulator import simulate, write_h5, write_sd_txt
     res = simulate("three-floors", seed=1, profile="mpu6050-16g-2000dps", rate_hz=200.0)
     write_h5(res, "three_floors.h5")
+    cal = simulate("calibration", seed=1, device=0x2A)  # one unit, hand-held calibration session
 
 See docs/simulator.md for the scenarios and the model equations.
 
@@ -28,11 +29,13 @@ _HOME = {  # public name -> its module in this package
     "SCENARIOS": "scenarios", "Scenario": "scenarios", "custom": "scenarios", "get_scenario": "scenarios",
     "SimResult": "simulate", "simulate": "simulate",
     "write_h5": "writers", "write_sd_txt": "writers",
+    "DeviceModel": "device", "TemperatureProfile": "device", "draw_unit": "device",
+    "CalibrationPlan": "calibration",
 }
 
 __all__ = ["simulate", "SimResult", "write_h5", "write_sd_txt", "SCENARIOS", "Scenario", "custom", "get_scenario",
            "PROFILES", "SensorProfile", "get_profile", "MOUNTS", "Mount", "GAITS", "Gait", "PathBuilder",
-           "synthesize"]
+           "synthesize", "DeviceModel", "TemperatureProfile", "draw_unit", "CalibrationPlan"]
 
 
 def __getattr__(name: str):

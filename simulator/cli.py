@@ -25,6 +25,48 @@ def add_arguments(parser) -> None:
     parser.add_argument("--two-files", action="store_true",
                         help="with --two-boots: two single-boot files OUT_left.h5 and OUT_right.h5 instead")
     parser.add_argument("--force", action="store_true", help="with --two-boots: overwrite existing output files")
+    dev = parser.add_argument_group("one unit and its temperature (simulator/device.py, docs/simulator.md)")
+    dev.add_argument("--device", metavar="D",
+                     help="device id 0..2^32-1 (decimal or 0x-hex): draws one unit's stable constants (scale, "
+                          "cross-axis, mean turn-on bias, temperature coefficients, clock error) from D alone; "
+                          "--seed then draws this power-on and walk. Written into the header as device_id")
+    dev.add_argument("--ambient-degc", type=float, metavar="C",
+                     help="ambient temperature at power-on, C (default 25; needs --device)")
+    dev.add_argument("--ambient-ramp-degc-per-min", type=float, metavar="R",
+                     help="ambient ramp, C per minute (e.g. a boot carried into a hot building; needs --device)")
+    dev.add_argument("--ambient-ramp-start-s", type=float, metavar="S", help="start of the ramp, s (default 0)")
+    dev.add_argument("--ambient-ramp-duration-s", type=float, metavar="S",
+                     help="length of the ramp, s (default: to the end)")
+    dev.add_argument("--self-heating-degc", type=float, metavar="C",
+                     help="die warm-up above ambient after power-on, C (default 3, time constant 300 s)")
+
+
+_TEMPERATURE_FLAGS = {"ambient_degc": "ambient_degc", "ambient_ramp_degc_per_min": "ramp_degc_per_min",
+                      "ambient_ramp_start_s": "ramp_start_s", "ambient_ramp_duration_s": "ramp_duration_s",
+                      "self_heating_degc": "self_heating_degc"}
+
+
+def device_options(args) -> dict:
+    """``simulate`` keywords from the device and temperature flags (InputError when they do not fit)."""
+    from bootnav.errors import InputError
+    from bootnav.simulator.device import TemperatureProfile, parse_device_id
+
+    given = {field: getattr(args, flag) for flag, field in _TEMPERATURE_FLAGS.items()
+             if getattr(args, flag, None) is not None}
+    device = getattr(args, "device", None)
+    if device is None:
+        if given:
+            flags = ", ".join("--" + f.replace("_", "-") for f in _TEMPERATURE_FLAGS
+                              if getattr(args, f, None) is not None)
+            raise InputError(f"{flags}: give --device D too (the temperature coefficients belong to one unit)")
+        return {}
+    try:
+        out = {"device": parse_device_id(device)}
+        if given:
+            out["temperature"] = TemperatureProfile(**given)
+    except ValueError as exc:
+        raise InputError(f"--device/--ambient: {exc}") from exc
+    return out
 
 
 def _list() -> int:
@@ -58,9 +100,13 @@ def run(args) -> int:
     for target in filter(None, (args.out, args.plot)):
         if not Path(target).resolve().parent.is_dir():
             raise InputError(f"{target}: the directory {Path(target).resolve().parent} does not exist")
+    dev_kw = device_options(args)
     if args.two_boots:
         from bootnav.simulator.twoboots import run_cli
 
+        if dev_kw:
+            raise InputError("--device is not available with --two-boots (two boots are two units); simulate "
+                             "each boot with its own --device instead")
         return run_cli(args)
     if args.mount not in MOUNTS:
         raise InputError(f"unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
@@ -76,7 +122,7 @@ def run(args) -> int:
 
     try:
         res = simulate(args.scenario, seed=args.seed, profile=args.sensor_profile, rate_hz=args.rate,
-                       duration_s=args.duration, mount=args.mount, progress=progress)
+                       duration_s=args.duration, mount=args.mount, progress=progress, **dev_kw)
     except ValueError as exc:
         raise InputError(str(exc)) from exc
     shown.done()
@@ -101,6 +147,14 @@ def run(args) -> int:
     sat = sum(res.saturation_counts().values())
     print(f"{path}: {args.scenario}, {res.n} samples at {res.rate_hz:g} Hz ({tr['t_s'][-1]:.1f} s), "
           f"{len(res.steps['length_m'])} strides, {dist:.1f} m, climb {climb:.2f} m, profile {res.profile.name}, "
-          f"seed {res.seed}, {res.attrs['n_dropped']} dropped, {sat} saturated axis-samples "
+          f"seed {res.seed}{device_text(res)}, {res.attrs['n_dropped']} dropped, {sat} saturated axis-samples "
           f"[{time.perf_counter() - t0:.1f} s]")
     return 0
+
+
+def device_text(res) -> str:
+    """', device 0x0000002A, chip 25.0-27.9 C' for a recording of one unit, else ''."""
+    if "device_id" not in res.attrs:
+        return ""
+    t = res.truth["temp_degc"]
+    return f", device 0x{int(res.attrs['device_id']):08X}, chip {t.min():.1f}-{t.max():.1f} C"

@@ -32,6 +32,10 @@ tables 6.1/6.2 unless marked [ENG] (engineering assumption, no datasheet figure 
 * timestamps [ENG]: Arduino ``micros()`` (4 us resolution) on a ceramic resonator, clock error sigma
   1000 ppm, read-latency jitter sigma 20 us (clipped at +-3 sigma);
 * dropped samples [ENG]: bursts (SD-card write stalls) at 0.01 per second, mean burst 3 samples.
+
+One unit (``simulate(..., device=D)``, ``simulator/device.py``): the sensitivity matrices, the mean turn-on
+biases, temperature coefficients and clock error come from the device id; ``ErrorModel`` then draws only this
+power-on's bias repeatability and the noise from its generator, and follows the chip temperature.
 """
 
 from __future__ import annotations
@@ -159,7 +163,9 @@ def quantize(x: np.ndarray, lsb: float) -> tuple[np.ndarray, np.ndarray]:
     return c.astype(np.int16), (c == INT16_MAX) | (c == INT16_MIN)
 
 
-def _misalignment(rng: np.random.Generator, scale_sigma: float, cross_sigma: float) -> np.ndarray:
+def misalignment_matrix(rng: np.random.Generator, scale_sigma: float, cross_sigma: float) -> np.ndarray:
+    """A drawn sensitivity matrix M = I + diag(scale errors) + cross-axis terms (σ's dimensionless, from ``rng``):
+    sensor reading = M · true value (the error model and the device model draw it the same way)."""
     M = np.eye(3) + np.diag(rng.normal(0.0, 1.0, 3) * scale_sigma)
     off = rng.normal(0.0, 1.0, (3, 3)) * cross_sigma
     return M + off - np.diag(np.diag(off))
@@ -168,20 +174,30 @@ def _misalignment(rng: np.random.Generator, scale_sigma: float, cross_sigma: flo
 class ErrorModel:
     """Stateful MPU6050 error model: feed exact signals block by block at the internal rate.
 
-    All random numbers come from the one ``rng``; turn-on constants are drawn in ``__init__``.
+    All random numbers come from the one ``rng``; turn-on constants are drawn in ``__init__``. With a
+    ``unit`` (``device.DeviceUnit``) the sensitivity matrices, the mean turn-on biases and the temperature
+    coefficients are the unit's; ``rng`` then draws only this power-on's bias repeatability (and the noise),
+    and ``process`` takes the chip temperature (``simulator/device.py``). Without a unit the draws are
+    exactly those of a recording without ``--device``.
     """
 
-    def __init__(self, profile: SensorProfile, internal_rate_hz: float, rng: np.random.Generator):
+    def __init__(self, profile: SensorProfile, internal_rate_hz: float, rng: np.random.Generator, unit=None):
         from scipy import signal  # heavy import kept local
 
         self.p = profile
         self.fs = float(internal_rate_hz)
         self.rng = rng
+        self.unit = unit
         g = STANDARD_GRAVITY
-        self.M_a = _misalignment(rng, profile.accel_scale_sigma, profile.accel_cross_axis_sigma)
-        self.M_g = _misalignment(rng, profile.gyro_scale_sigma, profile.gyro_cross_axis_sigma)
-        self.b0_a = rng.normal(0.0, 1.0, 3) * np.asarray(profile.accel_turn_on_bias_sigma_mg) * 1e-3 * g
-        self.b0_g = rng.normal(0.0, 1.0, 3) * math.radians(profile.gyro_turn_on_bias_sigma_dps)
+        if unit is None:
+            self.M_a = misalignment_matrix(rng, profile.accel_scale_sigma, profile.accel_cross_axis_sigma)
+            self.M_g = misalignment_matrix(rng, profile.gyro_scale_sigma, profile.gyro_cross_axis_sigma)
+            self.b0_a = rng.normal(0.0, 1.0, 3) * np.asarray(profile.accel_turn_on_bias_sigma_mg) * 1e-3 * g
+            self.b0_g = rng.normal(0.0, 1.0, 3) * math.radians(profile.gyro_turn_on_bias_sigma_dps)
+        else:  # the unit's stable constants; this power-on's repeatability from the seed
+            self.M_a, self.M_g = np.array(unit.M_a), np.array(unit.M_g)
+            self.b0_a = unit.acc_bias_mean_mps2 + rng.normal(0.0, 1.0, 3) * unit.acc_bias_repeat_sigma_mps2
+            self.b0_g = unit.gyro_bias_mean_radps + rng.normal(0.0, 1.0, 3) * unit.gyro_bias_repeat_sigma_radps
         self.rw_a = np.zeros(3)
         self.rw_g = np.zeros(3)
         self.sigma_a = profile.accel_noise_si * math.sqrt(self.fs / 2.0)
@@ -199,9 +215,12 @@ class ErrorModel:
         self._zi_a = self._zi_g = None
 
     def constants(self) -> dict:
-        """The drawn turn-on constants (saved in /truth attrs)."""
-        return {"accel_misalignment": self.M_a.tolist(), "gyro_misalignment": self.M_g.tolist(),
-                "accel_turn_on_bias_mps2": self.b0_a.tolist(), "gyro_turn_on_bias_radps": self.b0_g.tolist()}
+        """The drawn turn-on constants (saved in /truth attrs); biases at the reference temperature."""
+        d = {"accel_misalignment": self.M_a.tolist(), "gyro_misalignment": self.M_g.tolist(),
+             "accel_turn_on_bias_mps2": self.b0_a.tolist(), "gyro_turn_on_bias_radps": self.b0_g.tolist()}
+        if self.unit is not None:
+            d["device"] = self.unit.to_dict()
+        return d
 
     def _walk(self, state: np.ndarray, k: float, n: int) -> np.ndarray:
         """Bias random walk values at the n samples of this block (continuing ``state``)."""
@@ -222,24 +241,40 @@ class ErrorModel:
         setattr(self, which, zi)
         return y
 
-    def process(self, f_b: np.ndarray, w_b: np.ndarray):
-        """One block at the internal rate -> (acc, gyro, bias_acc, bias_gyro), all SI, filtered."""
+    def process(self, f_b: np.ndarray, w_b: np.ndarray, temp_degc: np.ndarray | None = None):
+        """One block at the internal rate -> (acc, gyro, bias_acc, bias_gyro), all SI, filtered.
+
+        ``temp_degc`` (chip temperature per sample) is used with a unit only:
+        ``y = (I + diag(s) dT) M x + b0 + k dT + b_rw + n``, dT = T - T0 (``device`` module doc).
+        """
         n = f_b.shape[0]
         noise_a = self.rng.normal(0.0, 1.0, (n, 3)) * self.sigma_a
         noise_g = self.rng.normal(0.0, 1.0, (n, 3)) * self.sigma_g
         bias_a = self.b0_a + self._walk(self.rw_a, self.k_a, n)
         bias_g = self.b0_g + self._walk(self.rw_g, self.k_g, n)
-        acc = f_b @ self.M_a.T + bias_a + noise_a
-        gyro = w_b @ self.M_g.T + bias_g + noise_g
+        if self.unit is None:
+            acc = f_b @ self.M_a.T + bias_a + noise_a
+            gyro = w_b @ self.M_g.T + bias_g + noise_g
+        else:
+            u = self.unit
+            dT = (np.asarray(temp_degc, dtype=float) - u.t_reference_degc)[:, None]
+            bias_a = bias_a + u.acc_bias_tempco_mps2_per_degc * dT
+            bias_g = bias_g + u.gyro_bias_tempco_radps_per_degc * dT
+            acc = (f_b @ self.M_a.T) * (1.0 + u.acc_scale_tempco_per_degc * dT) + bias_a + noise_a
+            gyro = (w_b @ self.M_g.T) * (1.0 + u.gyro_scale_tempco_per_degc * dT) + bias_g + noise_g
         return self._dlpf(acc, self.sos_a, "_zi_a"), self._dlpf(gyro, self.sos_g, "_zi_g"), bias_a, bias_g
 
 
-def timestamps(n: int, rate_hz: float, profile: SensorProfile, rng: np.random.Generator):
-    """Device timestamps (uint32 us, wrapping) of n nominal samples; returns (t_true, t_device_us_unwrapped)."""
+def timestamps(n: int, rate_hz: float, profile: SensorProfile, rng: np.random.Generator,
+               clock_error: float | None = None):
+    """Device timestamps (uint32 us, wrapping) of n nominal samples; returns (t_true, t_device_us_unwrapped).
+
+    ``clock_error``: a unit's resonator error (device clock = true time (1 + e)); None: drawn from ``rng``.
+    """
     t_true = np.arange(n) / rate_hz
     if profile.ideal:
         return t_true, np.rint(t_true * 1e6).astype(np.int64)
-    e = rng.normal() * profile.clock_error_ppm_sigma * 1e-6
+    e = rng.normal() * profile.clock_error_ppm_sigma * 1e-6 if clock_error is None else float(clock_error)
     jit = np.clip(rng.normal(0.0, 1.0, n), -3, 3) * profile.timestamp_jitter_s
     offset_us = int(rng.integers(1_000_000, 4_000_000))  # micros() already running at first sample
     res = max(profile.timestamp_resolution_s, 1e-6) * 1e6

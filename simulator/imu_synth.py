@@ -84,8 +84,20 @@ def synthesize(traj: Trajectory, t: np.ndarray, mount: Mount = Mount(), g: float
     """Exact specific force and angular rate of the mounted sensor at times ``t`` (see module doc)."""
     val, d1, d2, still = traj.evaluate(t)
     yaw, pit, rol = val[:, 3], val[:, 4], val[:, 5]
-    dy, dp, dr = d1[:, 3], d1[:, 4], d1[:, 5]
-    ddy, ddp, ddr = d2[:, 3], d2[:, 4], d2[:, 5]
+    w_f, dw_f = euler_zyx_body_rate(val[:, 3:6], d1[:, 3:6], d2[:, 3:6])
+    R_nf = dcm_from_euler_zyx(rol, pit, yaw)
+    q_nf = quat_from_euler_zyx(rol, pit, yaw, canonical=False)
+    return mounted_kinematics(t, val[:, :3], d1[:, :3], d2[:, :3], R_nf, q_nf, w_f, dw_f, mount, still, g)
+
+
+def euler_zyx_body_rate(ang: np.ndarray, d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Body-frame rate and its derivative of ``R = Rz(yaw) Ry(pitch) Rx(roll)``; columns (yaw, pitch, roll).
+
+    ``ang``, ``d1``, ``d2``: (N, 3) angles and their first and second time derivatives (see module doc).
+    """
+    pit, rol = ang[:, 1], ang[:, 2]
+    dy, dp, dr = d1[:, 0], d1[:, 1], d1[:, 2]
+    ddy, ddp, ddr = d2[:, 0], d2[:, 1], d2[:, 2]
     sp, cp, sr, cr = np.sin(pit), np.cos(pit), np.sin(rol), np.cos(rol)
     w_f = np.stack([dr - dy * sp, dp * cr + dy * cp * sr, -dp * sr + dy * cp * cr], axis=-1)
     dw_f = np.stack([
@@ -93,19 +105,28 @@ def synthesize(traj: Trajectory, t: np.ndarray, mount: Mount = Mount(), g: float
         ddp * cr - dp * sr * dr + ddy * cp * sr - dy * sp * dp * sr + dy * cp * cr * dr,
         -ddp * sr - dp * cr * dr + ddy * cp * cr - dy * sp * dp * cr - dy * cp * sr * dr,
     ], axis=-1)
-    R_nf = dcm_from_euler_zyx(rol, pit, yaw)
+    return w_f, dw_f
+
+
+def mounted_kinematics(t, p_f, v_f, a_f, R_nf, q_nf, w_f, dw_f, mount: Mount, still,
+                       g: float = STANDARD_GRAVITY) -> Kinematics:
+    """Exact signals of the sensor on ``mount`` from the foot (boot) frame's motion (module doc, rigid body).
+
+    ``p_f, v_f, a_f``: foot origin position, velocity, acceleration (N, 3, nav); ``R_nf`` (N, 3, 3) and
+    ``q_nf`` (N, 4) its attitude; ``w_f, dw_f`` its body rate and rate derivative (N, 3, foot frame).
+    """
     r = np.asarray(mount.lever_arm_m, dtype=float)
     wxr = np.cross(w_f, r)
     rel_acc = np.cross(dw_f, r) + np.cross(w_f, wxr)
-    pos = val[:, :3] + R_nf @ r
-    vel = d1[:, :3] + np.einsum("nij,nj->ni", R_nf, wxr)
-    acc = d2[:, :3] + np.einsum("nij,nj->ni", R_nf, rel_acc)
+    pos = p_f + R_nf @ r
+    vel = v_f + np.einsum("nij,nj->ni", R_nf, wxr)
+    acc = a_f + np.einsum("nij,nj->ni", R_nf, rel_acc)
     R_fs = mount.R_fs
     R_ns = R_nf @ R_fs
-    q_ns = quat_multiply(quat_from_euler_zyx(rol, pit, yaw, canonical=False), mount.q_fs)
+    q_ns = quat_multiply(q_nf, mount.q_fs)
     omega_s = w_f @ R_fs  # R_fs^T w_f, row-wise
     f_s = np.einsum("nji,nj->ni", R_ns, acc + np.array([0.0, 0.0, g]))
-    return Kinematics(np.asarray(t, float), pos, vel, acc, q_ns, f_s, omega_s, val[:, :3].copy(), still)
+    return Kinematics(np.asarray(t, float), pos, vel, acc, q_ns, f_s, omega_s, p_f.copy(), still)
 
 
 def describe_mount(m: Mount) -> dict:

@@ -15,6 +15,8 @@ def plot_result(res: SimResult, path, zoom_s: tuple[float, float] | None = None)
     import matplotlib.pyplot as plt
 
     tr = res.truth
+    if "pose_index" in tr:
+        return _plot_calibration(res, path, plt)
     t = tr["t_s"]
     pos = tr["pos_n_m"]
     fig = plt.figure(figsize=(14, 11), constrained_layout=True)
@@ -53,4 +55,32 @@ def plot_result(res: SimResult, path, zoom_s: tuple[float, float] | None = None)
     fig.suptitle(f"bootnav simulate: {res.scenario}, seed {res.seed}, profile {res.profile.name}, "
                  f"{res.rate_hz:g} Hz, mount {res.mount.name} (grey = stance)")
     fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _plot_calibration(res: SimResult, path, plt) -> None:
+    """Hand-held calibration session: attitude, |f| and |omega| delivered, held poses shaded."""
+    from bootnav.core.rotations import euler_zyx_from_quat
+
+    tr = res.truth
+    t = tr["t_s"]
+    held = tr["pose_index"] >= 0
+    fig, axes = plt.subplots(4, 1, figsize=(14, 11), sharex=True, constrained_layout=True)
+    rpy = np.degrees(np.unwrap(euler_zyx_from_quat(tr["q_nb"]), axis=0))
+    acc, gyro = res.acc_mps2, res.gyro_radps
+    panels = ((rpy, ("roll", "pitch", "yaw"), "deg", "truth attitude (ZYX Euler, unwrapped)"),
+              (acc, tuple("xyz"), "m/s^2", "specific force delivered"),
+              (np.degrees(gyro), tuple("xyz"), "deg/s", "angular rate delivered"),
+              (np.column_stack([np.linalg.norm(acc, axis=1), np.linalg.norm(tr["f_b_mps2"], axis=1)]),
+               ("|f| delivered", "|f| truth"), "m/s^2", "norm of the specific force"))
+    for ax, (y, labels, unit, title) in zip(axes, panels):
+        for k, label in enumerate(labels):
+            ax.plot(t, y[:, k], lw=0.7, label=label)
+        ax.fill_between(t, 0, 1, where=held, transform=ax.get_xaxis_transform(), color="0.88", zorder=0)
+        ax.set(ylabel=unit, title=title)
+        ax.legend(loc="upper right", fontsize=7, ncol=3)
+    axes[-1].set(xlabel="t (s)")
+    fig.suptitle(f"bootnav simulate: {res.scenario}, seed {res.seed}, profile {res.profile.name} "
+                 f"(grey = pose held)")
+    fig.savefig(path, dpi=80)
     plt.close(fig)

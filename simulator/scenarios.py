@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from bootnav.simulator.calibration import make_session
 from bootnav.simulator.gait import CRAWL, FAST, RUN, SHUFFLE, STAIRS_DOWN, STAIRS_UP, WALK, PathBuilder
 
 
@@ -241,6 +242,8 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("fast-corridor", "fast near-running strides (2.1-2.5 m, 137-150 steps/min, foot flat 0.1-0.2 s) "
                  "along a 40 m corridor, 180 deg turns on the spot (120 s)", fast_corridor, 120.0),
         Scenario("shuffle", "shuffling search: 0.1-0.3 m steps, pauses, turns on the spot (60 s)", shuffle, 60.0),
+        Scenario("calibration", "hand-held calibration on a table: 23 static poses held 2-5 s (tremor), rotations "
+                 "about every boot axis, 3 full turns on the table (~2 min; simulator/calibration.py)", make_session),
     )
 }
 

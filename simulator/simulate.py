@@ -4,7 +4,10 @@ The exact signals are evaluated at the internal rate f_i = m * rate_hz (m chosen
 the profile's 1 kHz; ``ideal``: m = 1), passed through the error model in blocks (the DLPF and the bias
 random walk carry their state across blocks, so the result does not depend on the block size) and
 decimated to the output rate. One ``numpy.random.Generator(seed)`` makes every random draw, in this
-order: scenario choices, turn-on constants, per-block noise and bias walks, timestamps, drops.
+order: scenario choices, turn-on constants, per-block noise and bias walks, timestamps, drops. With a
+``device`` the unit's stable constants come from its own generator (``device.draw_unit``) and the seed's
+generator draws, in the same order, this power-on's bias repeatability instead of the turn-on constants,
+and no clock error.
 
 ``LongSimulation`` generates recordings of any length (a whole shift) block by block without keeping them:
 ``writers.write_long_h5`` appends each block to the HDF5 file as it comes.
@@ -19,7 +22,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from bootnav.core.runs import runs
+from bootnav.logger.mpu6050 import INT16_MAX, INT16_MIN, TEMP_LSB_PER_DEGC, TEMP_OFFSET_DEGC
 from bootnav.logger.recording import SATURATION_BITS, make_events
+from bootnav.simulator.device import DeviceModel, DeviceUnit, TemperatureProfile, draw_unit
 from bootnav.simulator.gait import GAIT_CODES
 from bootnav.simulator.imu_model import ErrorModel, SensorProfile, drop_mask, get_profile, quantize, timestamps
 from bootnav.simulator.imu_synth import MOUNTS, Mount, describe_mount, synthesize
@@ -72,17 +77,62 @@ class SimResult:
         return {name: int(np.count_nonzero(self.saturated & (1 << bit))) for name, bit in SATURATION_BITS.items()}
 
 
+def temp_counts(temp_degc: np.ndarray) -> np.ndarray:
+    """TEMP_OUT register counts of a die temperature (T = raw / 340 + 36.53 C), clipped to int16."""
+    return np.clip(np.rint((temp_degc - TEMP_OFFSET_DEGC) * TEMP_LSB_PER_DEGC), INT16_MIN, INT16_MAX).astype(np.int16)
+
+
+def _kinematics(traj, t: np.ndarray, mount: Mount):
+    """Exact signals of a foot ``Trajectory``, or of a motion that synthesises itself (calibration session)."""
+    own = getattr(traj, "synthesize", None)
+    return own(t, mount) if own is not None else synthesize(traj, t, mount)
+
+
+def device_setup(prof: SensorProfile, device=None, device_model: DeviceModel | None = None,
+                 temperature: TemperatureProfile | None = None):
+    """(unit or None, temperature profile) for a simulation; checks that the options fit together."""
+    if device is None:
+        if temperature is not None or device_model is not None:
+            raise ValueError("a temperature profile or device model needs a device (--device D): the temperature "
+                             "coefficients belong to one unit")
+        return None, TemperatureProfile(ambient_degc=prof.temp_degc)
+    if prof.ideal:
+        raise ValueError(f"profile {prof.name!r} has no sensor errors; a device needs an mpu6050-* profile")
+    return draw_unit(device, prof, device_model or DeviceModel()), temperature or TemperatureProfile(
+        ambient_degc=prof.temp_degc)
+
+
+def device_truth(unit: DeviceUnit, model: ErrorModel) -> dict[str, np.ndarray]:
+    """The constants this recording got, SI, sensor body frame (docs/simulator.md, "Device truth")."""
+    return {
+        "acc_sensitivity_matrix": np.array(unit.M_a), "gyro_sensitivity_matrix": np.array(unit.M_g),
+        "acc_bias_turn_on_b_mps2": model.b0_a.copy(), "gyro_bias_turn_on_b_radps": model.b0_g.copy(),
+        "acc_bias_device_mean_b_mps2": np.array(unit.acc_bias_mean_mps2),
+        "gyro_bias_device_mean_b_radps": np.array(unit.gyro_bias_mean_radps),
+        "acc_bias_tempco_b_mps2_per_degc": np.array(unit.acc_bias_tempco_mps2_per_degc),
+        "gyro_bias_tempco_b_radps_per_degc": np.array(unit.gyro_bias_tempco_radps_per_degc),
+        "acc_scale_tempco_per_degc": np.array(unit.acc_scale_tempco_per_degc),
+        "gyro_scale_tempco_per_degc": np.array(unit.gyro_scale_tempco_per_degc),
+        "clock_error": np.float64(unit.clock_error), "temp_reference_degc": np.float64(unit.t_reference_degc),
+    }
+
+
 def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
              rate_hz: float = 200.0, duration_s: float | None = None, mount: str | Mount = "right_boot",
-             progress=None) -> SimResult:
+             progress=None, device: int | str | None = None, device_model: DeviceModel | None = None,
+             temperature: TemperatureProfile | None = None) -> SimResult:
     """Simulate ``scenario`` and return the recording with its exact truth.
 
-    ``progress(done_fraction)`` is called after each block (long runs).
+    ``progress(done_fraction)`` is called after each block (long runs). ``device`` (0..2^32-1, int or
+    decimal / 0x-hex string): one unit's stable constants drawn from the id alone, ``seed`` draws this
+    power-on and walk (``simulator/device.py``); ``temperature`` (a ``TemperatureProfile``, needs a device):
+    the chip's ambient and warm-up. Without ``device`` the recording is what it always was.
     """
     if not (rate_hz > 0 and math.isfinite(rate_hz)):
         raise ValueError(f"rate must be a positive number of Hz, got {rate_hz}")
     sc = get_scenario(scenario)
     prof = get_profile(profile)
+    unit, tprof = device_setup(prof, device, device_model, temperature)
     mnt = MOUNTS[mount] if isinstance(mount, str) else mount
     rng = np.random.default_rng(seed)
     builder = sc.make(rng, duration_s)
@@ -92,7 +142,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     m = 1 if prof.ideal else max(1, int(round(prof.internal_rate_hz / rate_hz)))
     f_int = rate_hz * m
     n_out = int(math.floor(traj.t_knots[-1] * rate_hz + 1e-9)) + 1
-    model = None if prof.ideal else ErrorModel(prof, f_int, rng)
+    model = None if prof.ideal else ErrorModel(prof, f_int, rng, unit)
 
     names = ("pos_n_m", "vel_n_mps", "q_nb", "f_b_mps2", "omega_b_radps", "foot_pos_n_m")
     widths = (3, 3, 4, 3, 3, 3)
@@ -106,7 +156,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         j1 = min(n_out, j0 + BLOCK_OUT)
         i_end = (j1 - 1) * m + 1 if j1 == n_out else j1 * m
         t_int = np.arange(j0 * m, i_end) / f_int
-        kin = synthesize(traj, t_int, mnt)
+        kin = _kinematics(traj, t_int, mnt)
         sl = slice(None, None, m)
         for key, arr in zip(names, (kin.pos_n, kin.vel_n, kin.q_nb, kin.f_b, kin.omega_b, kin.foot_pos_n)):
             truth[key][j0:j1] = arr[sl]
@@ -114,7 +164,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         if model is None:
             acc_si[j0:j1], gyro_si[j0:j1] = kin.f_b, kin.omega_b
         else:
-            a, g, ba, bg = model.process(kin.f_b, kin.omega_b)
+            a, g, ba, bg = model.process(kin.f_b, kin.omega_b, None if unit is None else tprof.chip(t_int))
             acc_si[j0:j1], gyro_si[j0:j1], bias_a[j0:j1], bias_g[j0:j1] = a[sl], g[sl], ba[sl], bg[sl]
         if progress:
             progress(j1 / n_out)
@@ -123,7 +173,7 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     truth["acc_bias_b_mps2"] = bias_a
     truth["gyro_bias_b_radps"] = bias_g
 
-    t_true, t_us = timestamps(n_out, rate_hz, prof, rng)
+    t_true, t_us = timestamps(n_out, rate_hz, prof, rng, None if unit is None else unit.clock_error)
     keep = drop_mask(n_out, rate_hz, prof, rng)
     idx = np.flatnonzero(keep)
     events = []
@@ -150,15 +200,23 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
                                detail="at full scale"))
     events.sort(key=lambda e: e["sample_index"])
 
+    if hasattr(builder, "per_sample_truth"):  # a motion with its own truth (calibration session)
+        truth.update(builder.per_sample_truth(np.arange(n_out) * m / f_int))
     truth = {k: v[idx] for k, v in truth.items()}
+    if hasattr(builder, "tables"):
+        truth.update(builder.tables(mnt))
     truth["t_s"] = t_true[idx]
     truth["sample_index"] = idx  # index in the nominal (drop-free) sample stream
     steps = builder.step_table()
     temp = None
     t_device = seq = None
+    if unit is not None:
+        truth["temp_degc"] = tprof.chip(t_true[idx])
+        truth["ambient_degc"] = tprof.ambient(t_true[idx])
+        truth.update(device_truth(unit, model))
     if not prof.ideal:
-        warm = prof.temp_degc + 3.0 * (1 - np.exp(-t_true[idx] / 300.0))  # die warm-up after power-on
-        temp = np.rint((warm - 36.53) * 340.0).astype(np.int16)
+        warm = tprof.chip(t_true[idx])  # die warm-up after power-on (device.TemperatureProfile)
+        temp = temp_counts(warm)
         t_device = (t_us[idx] % (1 << 32)).astype(np.uint32)
         seq = (idx % (1 << 16)).astype(np.uint16)
     attrs = {
@@ -176,7 +234,11 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
         "step_kind_codes": json.dumps(GAIT_CODES),
         "gait_parameters": json.dumps(builder.gait_list()),
         **describe_mount(mnt),
+        **(builder.describe() if hasattr(builder, "describe") else {}),
     }
+    if unit is not None:
+        attrs.update(device_id=unit.device_id, device_model=json.dumps((device_model or DeviceModel()).to_dict()),
+                     temperature_profile=json.dumps(tprof.to_dict()))
     return SimResult(sc.name, int(seed), prof, mnt, float(rate_hz), m, kept_t, acc[idx], gyro[idx], saturated,
                      t_device, seq, temp, make_events(events), truth, steps, attrs, traj)
 
@@ -222,7 +284,8 @@ class LongSimulation:
 
     def __init__(self, duration_s: float, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
                  rate_hz: float = 200.0, mount: str | Mount = "right_boot", block_s: float = 600.0,
-                 segment=shift_segment):
+                 segment=shift_segment, device: int | str | None = None, device_model: DeviceModel | None = None,
+                 temperature: TemperatureProfile | None = None):
         if not (rate_hz > 0 and math.isfinite(rate_hz)):
             raise ValueError(f"rate must be a positive number of Hz, got {rate_hz}")
         if not (duration_s > 20.0 and block_s > 0):
@@ -230,13 +293,14 @@ class LongSimulation:
         self.duration_s, self.block_s, self.segment = float(duration_s), float(block_s), segment
         self.scenario, self.seed = "shift", int(seed)
         self.profile = get_profile(profile)
+        self.unit, self.temperature = device_setup(self.profile, device, device_model, temperature)
         self.mount = MOUNTS[mount] if isinstance(mount, str) else mount
         self.rate_hz = float(rate_hz)
         self.decimation = 1 if self.profile.ideal else max(1, int(round(self.profile.internal_rate_hz / rate_hz)))
         self.rng_path, rng_model, self.rng_clock = (np.random.default_rng(s)
                                                     for s in np.random.SeedSequence(seed).spawn(3))
         f_int = self.rate_hz * self.decimation
-        self.model = None if self.profile.ideal else ErrorModel(self.profile, f_int, rng_model)
+        self.model = None if self.profile.ideal else ErrorModel(self.profile, f_int, rng_model, self.unit)
         self.steps: dict[str, np.ndarray] = {}
         self.gaits: dict = {}
         self.attrs = {"scenario": self.scenario, "scenario_description": "long shift: laps of a 20 m x 10 m loop "
@@ -245,6 +309,9 @@ class LongSimulation:
                       "block_s": self.block_s, "sensor_profile": json.dumps(self.profile.to_dict()),
                       "drawn_constants": json.dumps(self.model.constants() if self.model else {}),
                       "step_kind_codes": json.dumps(GAIT_CODES), **describe_mount(self.mount)}
+        if self.unit is not None:
+            self.attrs.update(device_id=self.unit.device_id, temperature_profile=json.dumps(self.temperature.to_dict()),
+                              device_model=json.dumps((device_model or DeviceModel()).to_dict()))
 
     @property
     def counts(self) -> bool:
@@ -256,7 +323,8 @@ class LongSimulation:
 
         prof, rate, m = self.profile, self.rate_hz, self.decimation
         f_int = rate * m
-        drift = self.rng_clock.normal() * prof.clock_error_ppm_sigma * 1e-6
+        drift = (self.rng_clock.normal() * prof.clock_error_ppm_sigma * 1e-6 if self.unit is None
+                 else self.unit.clock_error)
         offset_us = int(self.rng_clock.integers(1_000_000, 4_000_000))
         res_us = max(prof.timestamp_resolution_s, 1e-6) * 1e6
         p_drop = 0.0 if prof.ideal else prof.drop_burst_rate_hz / rate
@@ -290,7 +358,8 @@ class LongSimulation:
                 acc, gyro = kin.f_b[sl], kin.omega_b[sl]
                 saturated = np.zeros(j1 - j0, np.uint8)
             else:
-                a, g, _, _ = self.model.process(kin.f_b, kin.omega_b)
+                a, g, _, _ = self.model.process(kin.f_b, kin.omega_b, None if self.unit is None
+                                                else self.temperature.chip(np.arange(j0 * m, i_end) / f_int))
                 acc, sat_a = quantize(a[sl], prof.accel_lsb_mps2)
                 gyro, sat_g = quantize(g[sl], prof.gyro_lsb_radps)
                 saturated = np.zeros(j1 - j0, dtype=np.uint8)
@@ -334,8 +403,8 @@ class LongSimulation:
             events.sort(key=lambda e: e["sample_index"])
             temp = t_device = seq = None
             if not prof.ideal:
-                warm = prof.temp_degc + 3.0 * (1 - np.exp(-t_true[sel] / 300.0))
-                temp = np.rint((warm - 36.53) * 340.0).astype(np.int16)
+                warm = self.temperature.chip(t_true[sel])
+                temp = temp_counts(warm)
                 t_device = (t_us[sel] % (1 << 32)).astype(np.uint32)
                 seq = (idx % (1 << 16)).astype(np.uint16)
             n_kept += sel.size

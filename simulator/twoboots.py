@@ -129,6 +129,8 @@ def simulate_two_boots(scenario: str | Scenario, seed: int = 0, profile="mpu6050
     geo = geometry or WalkerGeometry()
     sc = get_scenario(scenario)
     builder = sc.make(np.random.default_rng(seed), duration_s)
+    if not hasattr(builder, "steps"):
+        raise ValueError(f"scenario {sc.name!r} is not a walk; two boots need a walking scenario")
     walk = builder.build()
     paths = {"left": _FootPath(builder, left_foot(walk, geo), 0.0),
              "right": _FootPath(builder, right_foot(walk, geo), geo.phase_s)}

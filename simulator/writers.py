@@ -14,6 +14,7 @@ from bootnav.errors import InputError
 from bootnav.logger.crc import crc16_ccitt_false_rows
 from bootnav.logger.mpu6050 import TEMP_LSB_PER_DEGC, accel_code, gyro_code
 from bootnav.logger.recording import counts_channel, si_channel, write_group, write_recording
+from bootnav.simulator.calibration import TRUTH_UNITS as CALIBRATION_TRUTH_UNITS
 from bootnav.simulator.simulate import LongSimulation, SimResult
 
 SIM_DEVICE_ID = 0x00051A00  # "SIM" device id in headers
@@ -26,6 +27,16 @@ TRUTH_UNITS = {
     "step_length_m": "m", "step_dz_m": "m", "step_heading_rad": "rad", "step_turn_rad": "rad",
     "step_chord_heading_rad": "rad", "step_gait": "1 (index into attrs gait_parameters)",
     "step_kind": "1 (attrs step_kind_codes)", "step_foot_pos_n_m": "m",
+    **CALIBRATION_TRUTH_UNITS,
+    # with a device (--device): the constants this recording got (docs/simulator.md, "Device truth")
+    "temp_degc": "degC (true chip temperature)", "ambient_degc": "degC",
+    "acc_sensitivity_matrix": "1 (y = M f at temp_reference_degc)", "gyro_sensitivity_matrix": "1 (y = M w)",
+    "acc_bias_turn_on_b_mps2": "m/s^2 (this power-on, at temp_reference_degc)",
+    "gyro_bias_turn_on_b_radps": "rad/s (this power-on, at temp_reference_degc)",
+    "acc_bias_device_mean_b_mps2": "m/s^2", "gyro_bias_device_mean_b_radps": "rad/s",
+    "acc_bias_tempco_b_mps2_per_degc": "m/s^2/degC", "gyro_bias_tempco_b_radps_per_degc": "rad/s/degC",
+    "acc_scale_tempco_per_degc": "1/degC", "gyro_scale_tempco_per_degc": "1/degC",
+    "clock_error": "1 (device clock = true time x (1 + e))", "temp_reference_degc": "degC",
 }
 TRUTH_DESCRIPTION = (
     "Exact truth, row i belongs to /imu row i. pos_n_m/vel_n_mps/q_nb: sensor (body) origin and attitude, ENU, "
@@ -49,17 +60,23 @@ def step_arrays(res: SimResult) -> dict[str, np.ndarray]:
     return out
 
 
+def device_id(res) -> int:
+    """The id in the header: the simulated unit's (``--device``), else the generic simulator id."""
+    return int(res.attrs.get("device_id", SIM_DEVICE_ID))
+
+
 def recording_meta(res: SimResult) -> dict:
     p = res.profile
     meta = {
         "device": "MPU6050 (simulated)" if not p.ideal else "ideal IMU (simulated)",
-        "device_id": f"0x{SIM_DEVICE_ID:08X}",
+        "device_id": f"0x{device_id(res):08X}",  # as the recorder stores the header's id (serial_recorder)
         "firmware_version": f"bootnav-simulator {__version__}",
         "rate_nominal_hz": res.rate_hz,
         "smplrt_div": res.decimation - 1,
         "mount": res.mount.name,
         "subject": "simulated",
-        "session_notes": f"simulated scenario {res.scenario} (seed {res.seed}, profile {p.name})",
+        "session_notes": f"simulated scenario {res.scenario} (seed {res.seed}, profile {p.name}"
+                         + (f", device 0x{device_id(res):08X})" if "device_id" in res.attrs else ")"),
         "simulator": json.dumps({k: res.attrs[k] for k in ("scenario", "seed", "rate_hz", "internal_rate_hz")}),
         "sensor_profile": p.name,
         "sensor_profile_parameters": json.dumps(p.to_dict()),
@@ -167,7 +184,7 @@ def write_sd_txt(res: SimResult, path: str | os.PathLike) -> Path:
     p = res.profile
     header = (f"# bootnav-sd v1 accel_fs={accel_code(p.accel_range_g)} gyro_fs={gyro_code(p.gyro_range_dps)} "
               f"dlpf={0 if p.dlpf_cfg is None else p.dlpf_cfg} smplrt_div={res.decimation - 1} fw={__version__} "
-              f"device_id=0x{SIM_DEVICE_ID:08X}")
+              f"device_id=0x{device_id(res):08X}")
     path = Path(path)
     with atomic.replacing(path) as f:  # crash-safe: complete or absent
         f.write(header.encode("ascii") + b"\n")

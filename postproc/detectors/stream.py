@@ -25,7 +25,7 @@ the whole-array detector's; with the running floor it differs only where F + δ 
 floor being that of the walk so far).
 
 What ``detect_stance`` adds on the whole record and a stream cannot: the clipping plateaus
-(``detect_clipping``, ``_common.clipped_samples``) are found from the extremes of the whole record; the stream
+(``detect_clipping``, ``bootnav.core.arrays.clipped_samples``) are found from the extremes of the whole record; the stream
 excludes the samples the pushed ``saturated`` mask flags (the firmware's saturation bits). The sample period
 is the device's nominal one (``rate_hz``); ``detect_stance`` uses the record's median step.
 """
