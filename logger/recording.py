@@ -717,6 +717,7 @@ def _open_for_read(path: Path) -> h5py.File:
 
 
 def decode_attr(value):
+    """An HDF5 attribute as a plain Python value (bytes -> str, numpy scalar -> Python scalar, array -> list)."""
     if isinstance(value, bytes):
         return value.decode("utf-8", "replace")
     if isinstance(value, np.generic):
@@ -724,6 +725,10 @@ def decode_attr(value):
     if isinstance(value, np.ndarray):
         return value.tolist()
     return value
+
+
+#: the name before issue #25 made it public, for code of this module written against it (use ``decode_attr``)
+_decode = decode_attr
 
 
 def _finite_number(value) -> bool:

@@ -238,6 +238,10 @@ def write_csv(path: Path, header: tuple[str, ...], columns: list[np.ndarray], fm
         append_csv_rows(f, columns, fmts)
 
 
+#: the name before issue #25 made it public, for code of this module written against it (use ``write_csv``)
+_write_csv = write_csv
+
+
 def append_csv_rows(f, columns: list[np.ndarray], fmts: list[str]) -> None:
     """Append rows (one per element of the equal-length ``columns``) to the open binary file ``f``."""
     for i in range(0, len(columns[0]), _BLOCK_ROWS):

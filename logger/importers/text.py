@@ -195,22 +195,7 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
     """Split ``text`` into a table. ``delimiter``/``header`` None = auto-detect."""
     ends_without_newline = not text.endswith("\n")
     n_total_lines = text.count("\n") + (1 if ends_without_newline else 0)
-    head = text.split("\n", HEAD_LINES)[:HEAD_LINES]
-    candidates: list[tuple[int, str]] = []  # (line, text) non-blank, non-comment lines of the head
-    preamble: list[tuple[int, str]] = []
-    for i, raw_line in enumerate(head):
-        ln = raw_line.rstrip("\r")
-        if i < skip_lines:
-            preamble.append((i + 1, ln))
-            continue
-        s = ln.strip()
-        if not s:
-            continue
-        if s.startswith(COMMENT_PREFIXES):
-            if not candidates:
-                preamble.append((i + 1, ln))
-            continue
-        candidates.append((i + 1, ln))
+    candidates, preamble = _head_lines(text, skip_lines)
     if not candidates:
         raise InputError(f"{path}: no data lines (only blank or comment lines)")
 
@@ -236,19 +221,10 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
         head_rows = [r[:-1] if r and r[-1] == "" else r for r in head_rows]
     lengths = [len(r) for r in head_rows]
     n_fields = max(set(lengths), key=lengths.count)
-    # Header: the last non-numeric line before the data with as many fields as the data (a stray line
-    # such as "logger started" between header and data is preamble, not the header).
-    hdr: list[str] | None = None
-    header_line = -1
-    header_k = -1
+    # header: the last line before the data with as many fields as the data (``_header_line``)
+    hdr, header_line, header_k = None, -1, -1
     if header is not False:
-        for k in range(first_data - 1, -1, -1):
-            fields = [h.strip().strip('"').strip("'").strip() for h in split_line(candidates[k][1], delim, True)]
-            if trailing and fields and fields[-1] == "":
-                fields = fields[:-1]
-            if len(fields) == n_fields:
-                hdr, header_line, header_k = fields, candidates[k][0], k
-                break
+        hdr, header_line, header_k = _header_line(candidates[:first_data], delim, trailing, n_fields)
         if header is True and hdr is None:
             raise InputError(f"{path}: a header line with {n_fields} fields was expected before line {first_line_no}")
     stray: list[tuple[int, str]] = []  # non-data lines between the header and the data: reported, not hidden
@@ -275,7 +251,49 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
             matrix, lines_no, bad = parsed
             return TextTable(rows=None, line_numbers=lines_no, matrix=matrix, bad_lines=stray + list(bad), **common)
 
-    # Careful path: line by line, every malformed line reported with its number.
+    good_rows, good_lines, bad = _careful_rows(lines, first_line_no, delim, quoted, trailing, n_fields)
+    return TextTable(rows=good_rows, line_numbers=np.asarray(good_lines, dtype=np.int64), bad_lines=stray + bad,
+                     **common)
+
+
+def _head_lines(text: str, skip_lines: int) -> tuple[list[tuple[int, str]], list[tuple[int, str]]]:
+    """(candidates, preamble) of the first ``HEAD_LINES`` lines: the non-blank, non-comment lines (1-based
+    line number, text) where the header and the data are looked for, and the skipped / leading comment lines."""
+    candidates: list[tuple[int, str]] = []
+    preamble: list[tuple[int, str]] = []
+    for i, raw_line in enumerate(text.split("\n", HEAD_LINES)[:HEAD_LINES]):
+        ln = raw_line.rstrip("\r")
+        if i < skip_lines:
+            preamble.append((i + 1, ln))
+            continue
+        s = ln.strip()
+        if not s:
+            continue
+        if s.startswith(COMMENT_PREFIXES):
+            if not candidates:
+                preamble.append((i + 1, ln))
+            continue
+        candidates.append((i + 1, ln))
+    return candidates, preamble
+
+
+def _header_line(before_data: list[tuple[int, str]], delim: str, trailing: bool,
+                 n_fields: int) -> tuple[list[str] | None, int, int]:
+    """The header among the lines before the data: the last one with as many fields as the data (a stray line
+    such as "logger started" between header and data is preamble, not the header). Returns (names, line
+    number, index in ``before_data``), or (None, -1, -1)."""
+    for k in range(len(before_data) - 1, -1, -1):
+        fields = [h.strip().strip('"').strip("'").strip() for h in split_line(before_data[k][1], delim, True)]
+        if trailing and fields and fields[-1] == "":
+            fields = fields[:-1]
+        if len(fields) == n_fields:
+            return fields, before_data[k][0], k
+    return None, -1, -1
+
+
+def _careful_rows(lines: list[str], first_line_no: int, delim: str, quoted: bool, trailing: bool, n_fields: int):
+    """The careful path: line by line, every malformed line reported with its number. Returns (rows of
+    field strings, their line numbers, [(line, why)] of the bad ones)."""
     good_rows, good_lines, bad = [], [], []
     gc_was = gc.isenabled()
     gc.disable()  # millions of small lists: the cyclic GC would rescan them again and again
@@ -296,5 +314,4 @@ def parse_table(path: Path, text: str, *, delimiter: str | None = None, header: 
     finally:
         if gc_was:
             gc.enable()
-    return TextTable(rows=good_rows, line_numbers=np.asarray(good_lines, dtype=np.int64), bad_lines=stray + bad,
-                     **common)
+    return good_rows, good_lines, bad
