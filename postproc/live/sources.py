@@ -3,11 +3,11 @@
 ``GrowingRecording`` tails the SWMR file a running ``bootnav record`` flushes (``docs/recording-format.md``,
 "Crash safety"): it opens the file read-only in SWMR mode once the recorder has created it, and each ``poll``
 refreshes the datasets and returns the rows flushed since the last one, in SI units (read through
-``recording.RecordingReader``, the one decoder of the layout: exactly what ``recording.load`` computes). It runs in the view's own process and never
-writes, so the recorder cannot lose a frame because of it.
+``recording.RecordingReader``, the one decoder of the layout: exactly what ``recording.load`` computes). It
+runs in the view's own process and never writes, so the recorder cannot lose a frame because of it.
 
-``ReplayRecording`` serves a finished recording (``recording.load``; one boot of a multi-boot recording)
-in the same chunks, paced by its own time stamps divided by ``speed``.
+``ReplayRecording`` serves a finished recording (``recording.RecordingReader``, block by block as they are
+due; one boot of a multi-boot recording) in the same chunks, paced by its own time stamps divided by ``speed``.
 
 Both return ``Chunk`` objects: the new samples, the new ``/events`` rows, and the recording's ``/meta``.
 """
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.logger.recording import EVENT_DTYPE, RecordingReader, load
+from bootnav.logger.recording import EVENT_DTYPE, RecordingReader
 
 #: per-sample datasets read by the view (every recorder-written file has them)
 _IMU = ("t_s", "acc", "gyro", "saturated")
@@ -92,7 +92,7 @@ class ReplayRecording:
 
     Parameters
     ----------
-    path : recording to replay (anything ``recording.load`` reads)
+    path : recording to replay (a bootnav HDF5 recording)
     speed : float
         Recording seconds per wall-clock second.
     boot : str, optional
@@ -102,30 +102,28 @@ class ReplayRecording:
 
     def __init__(self, path: str | Path, speed: float = 1.0, boot: str | None = None):
         self.path = Path(path)
-        rec = load(self.path, with_truth=False, boot=boot)
-        self.meta = rec.meta
-        self._rec = rec
+        self._reader = RecordingReader(self.path, boot)  # blocks read as they are due: memory bounded by them
+        self.meta = self._reader.meta
+        self._t = self._reader.times()
         self.speed = float(speed)
         self._n = 0
         self._start: float | None = None
-        ev = rec.events
+        ev = self._reader.events()
         self._events = ev[np.argsort(ev["sample_index"], kind="stable")]
         self._n_events = 0
 
     @property
     def finished(self) -> bool:
-        return self._n >= self._rec.n
+        return self._n >= self._reader.n
 
     def poll(self) -> Chunk:
         """The samples whose time has come since the last call."""
-        rec = self._rec
         now = time.monotonic()
         if self._start is None:
             self._start = now
-        t_due = rec.t_s[0] + (now - self._start) * self.speed
-        n = rec.n if not np.isfinite(t_due) else int(np.searchsorted(rec.t_s, t_due, side="right"))
-        sl = slice(self._n, max(n, self._n))
-        chunk = Chunk(rec.t_s[sl], rec.acc_mps2[sl], rec.gyro_radps[sl], rec.saturated[sl])
+        t_due = self._t[0] + (now - self._start) * self.speed
+        n = self._reader.n if not np.isfinite(t_due) else int(np.searchsorted(self._t, t_due, side="right"))
+        chunk = Chunk(*self._reader.block(self._n, n)) if n > self._n else _empty_chunk()
         self._n = max(n, self._n)
         k = int(np.searchsorted(self._events["sample_index"], self._n, side="left"))
         if k > self._n_events:
@@ -134,4 +132,4 @@ class ReplayRecording:
         return chunk
 
     def close(self) -> None:
-        pass
+        self._reader.close()
