@@ -304,34 +304,14 @@ def process_chunked(source: str | Path, settings: ProcessSettings | None, out_di
     return summary, files
 
 
-def _check_units_chunked(f, imu, n: int, path) -> None:
-    """The recording loader's unit check (``recording.check_recording_units``) on the first rows of a recording
-    read block by block: acc in g or counts, gyro in deg/s refused as ``import`` and ``load`` refuse them."""
-    from bootnav.logger.recording import UNIT_CHECK_ROWS, Recording, check_recording_units, decode_attr, make_events
-
-    k = min(n, UNIT_CHECK_ROWS)
-
-    def si(key):
-        ds = imu[key]
-        return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
-            + float(ds.attrs.get("offset_to_si", 0.0))
-
-    meta = {key: decode_attr(v) for key, v in f["meta"].attrs.items()} if "meta" in f else {}
-    head = Recording(path=path, t_s=imu["t_s"][:k].astype(np.float64), acc_mps2=si("acc"), gyro_radps=si("gyro"),
-                     saturated=np.zeros(k, np.uint8), events=make_events([]), meta=meta, attrs={})
-    check_recording_units(head, path)
-
-
 def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: float, warnings: list[str], lap,
                     worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
     import json
 
-    import h5py
-
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group
+    from bootnav.logger.recording import RecordingReader, attach_dimension_scales, start_results_file, write_group
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
@@ -343,21 +323,18 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
 
     name = str(path)
     timings = lap.timings
-    with h5py.File(path, "r") as f:
-        if "imu" not in f:
-            raise InputError(f"{path}: no /imu group; not a bootnav recording")
-        imu = f["imu"]
-        device = f["meta"].attrs.get("device") if "meta" in f else None
-        sensor_cal = resolve_calibration(settings.calibration, f["meta"].attrs.get("device_id") if "meta" in f else None)
+    with RecordingReader(path) as rec:
+        device = rec.meta.get("device")
+        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"))
         warnings += sensor_cal.warnings
-        n = min(imu[k].shape[0] for k in ("t_s", "acc", "gyro"))
-        t_all = imu["t_s"]
+        n = rec.n
+        t_first, t_last = (float(rec.times(i, i + 1)[0]) for i in (0, n - 1)) if n else (0.0, 0.0)
         if n < 3:
             raise InputError(f"{name}: only {n} samples; nothing to process")
-        _check_units_chunked(f, imu, n, path)
+        rec.check_units()
         cal = settings.calibration
         gravity = cal.gravity()
-        t_head = t_all[: min(n, 1 << 16)].astype(np.float64)
+        t_head = rec.times(0, min(n, 1 << 16))
         dt0 = float(np.median(np.diff(t_head)))
         rows = max(int(round(chunk_s / dt0)), 2)
         n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
@@ -365,15 +342,9 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
 
         def read(i0: int, i1: int):
-            def si(k):
-                return (imu[k][i0:i1].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
-                        + float(imu[k].attrs.get("offset_to_si", 0.0)))
-
-            sat = np.asarray(imu["saturated"][i0:i1] if "saturated" in imu else np.zeros(i1 - i0), np.uint8)
-            t, acc, gyro = imu["t_s"][i0:i1].astype(np.float64), si("acc"), si("gyro")
+            t, acc, gyro, sat = rec.block(i0, i1)
             if sensor_cal.calibration is not None:
-                temp = si("temp") if "temp" in imu else None
-                acc, gyro = apply_calibration(sensor_cal, acc, gyro, temp)
+                acc, gyro = apply_calibration(sensor_cal, acc, gyro, rec.temp_degc(i0, i1))
                 warnings.extend(w for w in sensor_cal.warnings if w not in warnings)
             if rails is not None and rails.rail_pos is not None:
                 sat = sat | rails.bits(acc, gyro)
@@ -387,7 +358,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
             for i0, i1 in blocks:
                 rails.add_counts(*read(i0, i1)[1:3])
             rails.finish()
-        duration = float(t_all[n - 1] - t_all[0])
+        duration = t_last - t_first
         if duration < settings.checks.min_duration_s:  # as check_samples refuses it
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
@@ -456,7 +427,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         if opts.plots:
             from .plots import ChartStream
 
-            charts = ChartStream(float(t_all[0]), float(t_all[n - 1]), n, gravity, opts.plot_max_points)
+            charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
         units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
                  "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m"}
         n_rows = n_stance = 0
@@ -509,7 +480,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
             lap("strides")
             summary = {
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
-                          "duration_s": float(t_all[n - 1] - t_all[0]), "rate_hz": float(rate),
+                          "duration_s": t_last - t_first, "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
                 "calibration": to_jsonable(sensor_cal.provenance),
                 "software": dict(SOFTWARE),
