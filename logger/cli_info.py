@@ -229,16 +229,14 @@ def _unit_warnings(imu, n: int) -> list[str]:
     shows such a file, ``process`` refuses it."""
     import numpy as np
 
-    from bootnav.logger.recording import UNIT_CHECK_ROWS, unit_problems
+    from bootnav.logger.recording import UNIT_CHECK_ROWS, si_values, unit_problems
 
     k = min(n, UNIT_CHECK_ROWS)
     if k < 2:
         return []
 
     def si(name):
-        ds = imu[name]
-        return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
-            + float(ds.attrs.get("offset_to_si", 0.0))
+        return si_values(imu[name], slice(0, k))
 
     t = imu["t_s"][:k].astype(np.float64)
     dt = np.diff(t)
