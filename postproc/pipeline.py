@@ -219,94 +219,97 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
 # Chunked run: bounded memory for recordings of a whole shift
 
 
-def process_chunked(source: str | Path, settings: ProcessSettings | None, out_dir: str | Path, chunk_s: float,
-                    force: bool = False, progress: Progress | None = None) -> tuple[dict, dict[str, str]]:
-    """``process`` + ``outputs.write_outputs`` of an HDF5 recording in chunks of ``chunk_s`` seconds.
+def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: str | Path, force: bool = False,
+               progress: Progress | None = None, into_recording: bool = False) -> tuple[dict, dict[str, str]]:
+    """``process`` and its outputs in ``out_dir`` (``outputs.check_outputs`` rules): what ``bootnav process`` runs.
 
-    Memory is bounded by the chunk (and the smoother's open segment), not by the recording's length: the
-    recording is read block by block from the file, and every per-sample output is appended to
-    ``trajectory.csv`` and ``results.h5`` as the navigator makes it final. The path is the same for every
-    chunk size (to rounding, 1e-9 m: ``tests/test_long_chunked.py``). The decisions ``process`` makes on the
-    whole arrays are made by passes over the blocks before the final one:
-
-    1. the adaptive detector's noise floor F: one pass of ``StreamStance`` (its histogram quantile over the
-       whole recording, then fixed, so every chunking gets the same stance mask);
-    2. the vertical timing calibration τ (``selftune.level_timing_offset``): one pass of the two probe
-       filters (±δ, no smoother) with their footprints accumulated (``strides.FootprintAccumulator``);
-    3. the final pass: stance, the filter + smoother on the specific force rotated by τ, the outputs.
-
-    The clipping rails (``checks.ClipRails``) take two cheap passes (extremes, then the samples at them); the
-    checks run per block; the initial alignment reads the first seconds (``calibration.still_search_s`` +
-    ``max_still_s``); the nominal period is the median step of the first 65 536 samples. Not done in chunks
-    (refused, or left out with a warning): the plausibility checks of the stance mask, the truth-free
-    fallback and its confidence figure (the configured detector is always used), the per-stride quality
-    flags, the detector statistic in ``results.h5``, crop, reference, non-HDF5 inputs. The sensor calibration
-    (``calibration.resolve_calibration``) is applied to every block as it is read, with its temperature. Charts 1-7 and path.html are drawn from the decimated stream of the final pass
-    (``plots.ChartStream``: bounded memory), as the whole run draws them. F is a histogram quantile (1e-3
-    decade bins): the stance mask can differ from the whole-array run's in samples where F + δ decides (none on the test walks).
-
-    Parameters
-    ----------
-    source
-        A bootnav HDF5 recording.
-    settings
-        Every tunable (defaults when None).
-    out_dir
-        Output directory (``check_outputs`` rules).
-    chunk_s
-        Seconds of samples per block (> 0).
-    force
-        Replace existing output files.
-    progress
-        ``progress(stage, fraction)``.
+    The recording is read in blocks of ``settings.block_s`` seconds (``RecordingReader``). A recording of one
+    block (every recording up to 15 min at the default) runs the stages of ``process`` on it and writes it
+    with ``outputs.write_outputs``; a longer HDF5 recording runs the same stages as passes over its blocks
+    (``_block_passes``), memory bounded by the block. Options whose stage needs the whole record in memory (crop,
+    a reference, ``--into-recording``, a non-HDF5 input, ``heading_aid="auto"``, revisits, a detector that cannot
+    stream) run as one block whatever the length, with a warning when that is longer than ``block_s``.
 
     Returns
     -------
     (summary, files)
         The summary written to summary.json and {kind: path} of every file written.
-
-    Raises
-    ------
-    InputError
-        As ``process``, plus an option not available in chunks or a detector that cannot stream.
     """
     import json
 
     from bootnav.core.jsonio import to_jsonable
+    from bootnav.logger.recording import RecordingReader
 
-    from .outputs import ChartWorker, check_outputs
+    from .outputs import ChartWorker, check_outputs, planned_files, write_outputs
 
     settings = settings or ProcessSettings()
     settings.validate()
     path, out = Path(source), Path(out_dir)
-    name = str(path)
-    if not (chunk_s > 0 and np.isfinite(chunk_s)):
-        raise InputError(f"--chunk-s must be a positive number of seconds, got {chunk_s}")
-    for what, bad in (("--crop", settings.crop_s), ("--reference/--closed-loop", settings.reference)):
-        if bad:
-            raise InputError(f"{name}: {what} is not available with --chunk-s; run without --chunk-s")
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
-    if not is_hdf5(path):
-        raise InputError(f"{path}: --chunk-s reads HDF5 recordings; `bootnav import` it first")
-    warnings: list[str] = []
-    check_outputs(settings, out, [path], False, force)
-    lap = _StageClock(progress)
+    blocks, whole_why = 1, None
+    if path.is_file() and is_hdf5(path):
+        with RecordingReader(path) as rec:
+            n = rec.n
+            t_head = rec.times(0, min(n, 1 << 16))
+        rows = block_rows(t_head, settings.block_s)
+        blocks = -(-n // rows) if n else 1
+        whole_why = _needs_whole_record(settings, into_recording)
+    elif path.is_file():
+        whole_why = "not an HDF5 recording (`bootnav import` it for bounded memory)"
+    check_outputs(settings, out, [path], into_recording, force)
     worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
     try:
-        summary, files = _chunked_passes(path, settings, out, chunk_s, warnings, lap, worker, progress)
+        with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
+            if blocks <= 1 or whole_why is not None:
+                result = process(path, settings, progress=progress)
+                if blocks > 1:
+                    result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
+                                           f"since {whole_why}: memory grows with the recording's length")
+                    result.summary["warnings"] = result.warnings
+                files = write_outputs(result, out, into_recording, force, charts=worker)
+                return result.summary, files
+            warnings: list[str] = []
+            summary, files = _block_passes(path, settings, out, warnings, _StageClock(progress), worker, progress)
+            files["summary"] = str(out / "summary.json")
+            summary["files"] = files
+            atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     finally:
         if worker is not None:
             worker.close()
-    files["summary"] = str(out / "summary.json")
-    summary["files"] = files
-    atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     return summary, files
 
 
-def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: float, warnings: list[str], lap,
-                    worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
-    """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
+def block_rows(t_head: np.ndarray, block_s: float) -> int:
+    """Samples per block: ``block_s`` seconds at the nominal period (median step of the first samples)."""
+    dt0 = float(np.median(np.diff(t_head))) if len(t_head) > 1 else 1.0
+    if not (dt0 > 0 and np.isfinite(dt0)):
+        return max(len(t_head), 2)  # time not increasing: the checks of ``process`` name it
+    return max(int(round(block_s / dt0)), 2)
+
+
+def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str | None:
+    """Why a stage of this run needs the whole record in memory (None: it runs in blocks)."""
+    if settings.crop_s:
+        return "--crop selects its window from the loaded recording"
+    if settings.reference:
+        return "a reference is compared with the whole path"
+    if into_recording:
+        return "--into-recording rewrites the recording"
+    if settings.filter.heading_aid == "auto":
+        return "heading_aid 'auto' decides on the whole unaided path"
+    if settings.filter.revisits != "none":
+        return "revisits solve a pose graph over all strides"
+    from .detectors.stream import stream_refusal
+
+    why = stream_refusal(settings.detector)
+    if why:
+        return f"the stance detector '{settings.detector.method}' cannot run block by block ({why})"
+    return None
+
+
+def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: list[str], lap,
+                  worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
+    """``process_to``'s passes over the blocks of a recording longer than one block (module docstring) and its
+    outputs but summary.json; (summary, files)."""
     import json
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
@@ -319,7 +322,9 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
+    from .floors import storey_offsets
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
+    from .summary import final_uncertainty
 
     name = str(path)
     timings = lap.timings
@@ -336,7 +341,8 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         gravity = cal.gravity()
         t_head = rec.times(0, min(n, 1 << 16))
         dt0 = float(np.median(np.diff(t_head)))
-        rows = max(int(round(chunk_s / dt0)), 2)
+        rows = block_rows(t_head, settings.block_s)
+        chunk_s = settings.block_s
         n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
                                 + 1)))
         blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
@@ -415,7 +421,27 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
             tau = timing["tau_s"]
         lap("timing")
 
-        # pass 3: the final filter + smoother, outputs appended as rows become final
+        def acc_used(ch):
+            return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
+
+        floors = settings.floor_settings()
+        storeys = None
+        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
+            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
+            path_fp = FootprintAccumulator()
+            for ch in stance_stream():
+                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated)
+                path_fp.push(r.t_s, r.pos_n, r.stance)
+            r = path_nav.finish()
+            path_fp.push(r.t_s, r.pos_n, r.stance)
+            storey_t, storey_fp = path_fp.finish()
+            storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                     floors.riser_max_m, settings.filter.level_min_stride_m)
+            del path_nav, path_fp
+            lap("storeys")
+        snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
+
+        # the final pass: the filter + smoother, outputs appended as rows become final
         out.mkdir(parents=True, exist_ok=True)
         opts = settings.output
         group = f"/results/{opts.results_name}"
@@ -423,6 +449,8 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         tmp = atomic.temporary_beside(target)
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
         fp_acc = FootprintAccumulator()
+        quality_acc = selftune.StrideQualityAccumulator()
+        gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
         charts = None
         if opts.plots:
             from .plots import ChartStream
@@ -445,13 +473,19 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                         return
                     if not np.all(np.isfinite(r.pos_n)):
                         check_path_finite(name, r.t_s, r.pos_n, r.start)
+                    quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
+                                     r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
+                    if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
+                        r.pos_n = r.pos_n.copy()
+                        r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
                     append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
                                     TRAJECTORY_FORMATS)
                     if writer is not None:
                         writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
                                        "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n})
-                    fp_acc.push(r.t_s, r.pos_n, r.stance)
+                    fp_acc.push(r.t_s, r.pos_n, r.stance,
+                                np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
                     if charts is not None:
                         charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
                     n_rows += len(r)
@@ -460,23 +494,32 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 for ch in stance_stream():
                     if charts is not None:
                         charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
-                    acc_used = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
-                    emit(nav.push(ch.t_s, acc_used, ch.gyro_b, ch.stance, ch.saturated))
+                    gyro_rows.put(ch.start, ch.gyro_b)
+                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated))
                     _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
                 emit(nav.finish())
             lap("navigation")
 
             t_mid, fp = fp_acc.finish()
             min_stride = settings.selftune.min_stride_m
-            steps = footprint_strides(t_mid, fp, min_stride, floors=settings.floor_settings())
+            period = float("nan")  # not estimated over blocks (module docstring): no MISSED flag
+            quality = quality_acc.finish(period, settings.selftune)
+            cov_h = np.asarray(fp_acc.cov, float).reshape(-1, 3) if len(fp_acc.cov) == len(fp) else None
+            steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
+                                      cov_h)
             if len(steps["t_s"]) == 0:
                 raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
                                  "(is the sensor on a walking foot?)")
-            path_stats = footprint_summary(fp, settings.floor_settings(), min_stride, fp_acc.walked_s)
-            path_stats["storeys"] = None
-            if settings.floor_storeys:  # a look-back stage: a flight's landing corrects the samples before it
-                warnings.append("chunked run: the storeys (floors.snap_storeys) need the whole path and were not "
-                                "applied; the filter's level-stride height hold was")
+            choice = f"configured ({settings.detector.method})"
+            if quality.bad_fraction > settings.selftune.max_bad_fraction:
+                warnings.append(f"stance detector '{settings.detector.method}': {quality.bad_fraction:.0%} of its "
+                                f"{len(quality.flags)} strides are implausible (longer or faster than a foot moves, "
+                                "a missed stance, or a climb steeper than stairs); a recording of more than one "
+                                "block (settings block_s) has no stance fallback: process a part with --crop")
+            findings = stride_findings(steps, settings.checks, choice)
+            warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
+            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s)
+            path_stats["storeys"] = storeys.summary() if storeys is not None else None
             lap("strides")
             summary = {
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
@@ -486,10 +529,15 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                            "phases": int(len(fp)), "noise_floor_log10": floor},
-                "navigation": {"stance_choice": f"configured ({settings.detector.method})", "chunked": True,
+                "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
+                               "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
+                               "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
+                                                for bit, nm in selftune.FLAG_NAMES.items()},
+                               "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                "timing_offset": to_jsonable(timing)},
                 "filter": to_jsonable(nav.info),
                 "path": path_stats,
+                "uncertainty": final_uncertainty(steps),
                 **{k: path_stats[k] for k in ("distance_m", "closure_pct") if k in path_stats},
                 "timings_s": timings,
                 "conventions": dict(CONVENTIONS),
@@ -530,6 +578,32 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 writer.close()
             tmp.unlink(missing_ok=True)
     return summary, files
+
+
+class _RowQueue:
+    """Per-sample rows pushed in order by absolute index and taken back in order (bounded memory: what was
+    put and not yet taken)."""
+
+    def __init__(self):
+        self._parts: list[tuple[int, np.ndarray]] = []
+
+    def put(self, start: int, rows: np.ndarray) -> None:
+        if len(rows):
+            self._parts.append((start, rows))
+
+    def take(self, i0: int, i1: int) -> np.ndarray:
+        """Rows i0..i1-1 (put before); everything before i1 is dropped."""
+        out = []
+        while self._parts and i0 < i1:
+            start, rows = self._parts[0]
+            a, b = i0 - start, min(i1 - start, len(rows))
+            out.append(rows[a:b])
+            i0 = start + b
+            if b == len(rows):
+                self._parts.pop(0)
+            else:
+                self._parts[0] = (start + b, rows[b:])
+        return np.concatenate(out) if len(out) != 1 else out[0]
 
 
 def _stream_noise_floor(stance) -> float | None:

@@ -83,18 +83,21 @@ class FootprintAccumulator:
     """``footprints`` of a path pushed in consecutive chunks (bounded memory: one open stance phase).
 
     Each phase's sum of positions is accumulated chunk by chunk, so its mean equals ``footprints``' (a
-    difference of cumulative sums over the whole path) to rounding (1e-12 m at hours of walking).
+    difference of cumulative sums over the whole path) to rounding (1e-12 m at hours of walking). Pushed with
+    ``cov_h``, it keeps each phase's value at its last sample (``segment_strides``' ellipse covariances).
     """
 
     def __init__(self):
         self.t_mid: list[float] = []
         self.fp: list[np.ndarray] = []
+        self.cov: list[np.ndarray] = []  # (3,) per phase when pushed with cov_h
+        self._open_cov: np.ndarray | None = None
         self._open: tuple | None = None  # (first time, position sum, samples, last time) of the open phase
         self.first_stop_t: float | None = None  # time of the last sample of the first stance phase
         self.last_start_t: float | None = None  # time of the first sample of the last stance phase
 
-    def push(self, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> None:
-        """Add consecutive samples (s, m ENU, bool)."""
+    def push(self, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, cov_h: np.ndarray | None = None) -> None:
+        """Add consecutive samples (s, m ENU, bool; ``cov_h`` (m, 3): horizontal covariance P_EE, P_NN, P_EN, m²)."""
         m = len(t_s)
         if m == 0:
             return
@@ -109,6 +112,8 @@ class FootprintAccumulator:
             else:
                 self._open = (float(t_s[a]), psum, b - a, float(t_s[b - 1]))
                 self.last_start_t = float(t_s[a])
+            if cov_h is not None:
+                self._open_cov = np.array(cov_h[b - 1], float)
             if b < m:
                 self._close()
 
@@ -118,6 +123,9 @@ class FootprintAccumulator:
         t0, psum, n, t1 = self._open
         self.t_mid.append(0.5 * (t0 + t1))
         self.fp.append(psum / n)
+        if self._open_cov is not None:
+            self.cov.append(self._open_cov)
+            self._open_cov = None
         if self.first_stop_t is None:
             self.first_stop_t = t1
         self._open = None

@@ -269,6 +269,11 @@ def _as_bits(saturated, m: int, at: int) -> np.ndarray:
     return s.astype(np.uint8)
 
 
+def stream_refusal(settings) -> str | None:
+    """Why ``StreamStance`` refuses these ``DetectorSettings`` (None: it runs them exactly)."""
+    return _unsupported(settings.build())
+
+
 def streamable_detectors() -> list[str]:
     """Names of the registered detectors ``StreamStance`` runs with their default settings."""
     from . import DETECTORS, DetectorSettings
@@ -280,4 +285,4 @@ def streamable_detectors() -> list[str]:
     return out
 
 
-__all__ = ["StanceChunk", "StreamStance", "streamable_detectors"]
+__all__ = ["StanceChunk", "StreamStance", "stream_refusal", "streamable_detectors"]
