@@ -32,7 +32,7 @@ def _run(*argv) -> None:
 def summaries(tmp_path_factory) -> dict[str, dict]:
     d = tmp_path_factory.mktemp("schema")
     _run("process", STAIRS, "--out", d / "whole", "--no-plots", "--jobs", "1", "--quiet")
-    _run("process", STAIRS, "--out", d / "chunked", "--chunk-s", "10", "--no-plots", "--quiet")
+    _run("process", STAIRS, "--out", d / "chunked", "--block-s", "10", "--no-plots", "--quiet")
     walk = custom("short", lambda pb: pb.stand(3).walk(6).stand(3))
     both = write_two_boots_h5(simulate_two_boots(walk, seed=1), d / "both.h5")
     _run("process", both, "--two-boots", "--out", d / "two", "--no-plots", "--jobs", "1", "--quiet")
