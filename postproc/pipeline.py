@@ -325,6 +325,10 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
     from .floors import storey_offsets
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
     from .summary import final_uncertainty
+    from bootnav.core.arrays import row_norm
+    from .checks import stance_findings_of
+    from .navigate import implausible_strides, not_a_foot
+    from bootnav.core.timebase import sample_period
 
     name = str(path)
     timings = lap.timings
@@ -401,24 +405,58 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         st = settings.selftune
         timing: dict = {}
         tau = 0.0
-        if st.timing_calibration:  # pass 2: the two probe filters of the vertical timing calibration
-            probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
-            navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, probe_filter) for s in (-1, 1)}
-            fps = {s: FootprintAccumulator() for s in (-1, 1)}
-            for ch in stance_stream():
-                for s in (-1, 1):
-                    f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s)
-                    r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
-                    fps[s].push(r.t_s, r.pos_n, r.stance)
-            for s in (-1, 1):
-                r = navs[s].finish()
+        # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
+        # it off, the one forward run that scores the path (``selftune.innovation_rms``)
+        signs = (-1, 1) if st.timing_calibration else (0,)
+        probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
+        forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
+        navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs}
+        fps = {s: FootprintAccumulator() for s in signs}
+        onsets = {s: _OnsetInnovations() for s in signs}
+        gait = selftune.GaitPeriodAccumulator(sample_period(t_head))
+        phase_starts = _RunStarts()
+        stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
+        n_stance_all = 0
+        for ch in stance_stream():
+            gait.push(ch.gyro_b)
+            phase_starts.push(ch.start, ch.stance)
+            stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
+            n_stance_all += int(np.count_nonzero(ch.stance))
+            for s in signs:
+                f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s) if s else ch.acc_b
+                r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
                 fps[s].push(r.t_s, r.pos_n, r.stance)
+                onsets[s].push(r)
+        for s in signs:
+            r = navs[s].finish()
+            fps[s].push(r.t_s, r.pos_n, r.stance)
+            onsets[s].push(r)
+        period = gait.finish()
+        fp_probe = {s: fps[s].finish() for s in signs}
+        if st.timing_calibration:
             cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
-            timing["m_minus"], n_level = selftune.footprint_level_dz(*fps[-1].finish(), **cap)
-            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fps[1].finish(), **cap)
+            timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
+            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
+            cut = _probe_cut(phase_starts.starts, n, fp_probe, st.timing_max_level_strides)
+            timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
+            timing["probe_s"] = float(rec.times(cut - 1, cut)[0] - t_first)
             timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
                                                  st.timing_min_level_strides)
             tau = timing["tau_s"]
+            innovation = timing["innovation_rms_mps"]
+        else:
+            innovation = float(np.sqrt(onsets[0].mean_square(n)))
+        del navs, fps, fp_probe, onsets
+        method = settings.detector.method
+        findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
+                                      stance_rate.median() if n_stance_all else None, settings.checks, method)
+        warnings += [f.message for f in findings if not f.fatal]
+        fatal = [f.message for f in findings if f.fatal]
+        failed = fatal[0] if fatal else None
+        if failed and not st.fallback:
+            raise InputError(f"{name}: {failed}")
+        if failed and not np.isfinite(period):
+            raise not_a_foot(name, failed)
         lap("timing")
 
         def acc_used(ch):
@@ -502,20 +540,29 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
 
             t_mid, fp = fp_acc.finish()
             min_stride = settings.selftune.min_stride_m
-            period = float("nan")  # not estimated over blocks (module docstring): no MISSED flag
             quality = quality_acc.finish(period, settings.selftune)
+            confidence = selftune.confidence(innovation, quality.bad_fraction, period, st)
+            split = selftune.split_strides(quality, period, st)
+            if split:
+                warnings.append(split)
+            if not np.isfinite(period):
+                warnings.append("no periodic gait found: the confidence of this path is 0")
             cov_h = np.asarray(fp_acc.cov, float).reshape(-1, 3) if len(fp_acc.cov) == len(fp) else None
             steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
                                       cov_h)
-            if len(steps["t_s"]) == 0:
-                raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
-                                 "(is the sensor on a walking foot?)")
+            if len(steps["t_s"]) == 0 and not np.isfinite(period):
+                raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
+                                 f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
             choice = f"configured ({settings.detector.method})"
-            if quality.bad_fraction > settings.selftune.max_bad_fraction:
-                warnings.append(f"stance detector '{settings.detector.method}': {quality.bad_fraction:.0%} of its "
-                                f"{len(quality.flags)} strides are implausible (longer or faster than a foot moves, "
-                                "a missed stance, or a climb steeper than stairs); a recording of more than one "
-                                "block (settings block_s) has no stance fallback: process a part with --crop")
+            if failed is None and quality.bad_fraction > st.max_bad_fraction:
+                failed = implausible_strides(quality)
+                if st.fallback and not np.isfinite(period):
+                    raise not_a_foot(name, failed)
+            if failed is not None:
+                warnings.append(f"stance detector '{method}': {failed}" + (
+                    f"; the fallback to another stance detection (selftune.select_stance) runs on a recording of "
+                    f"one block only, this one has {len(blocks)} blocks of {settings.block_s:g} s (settings block_s):"
+                    f" the path is the configured detector's, confidence {confidence:.2f}" if st.fallback else ""))
             findings = stride_findings(steps, settings.checks, choice)
             warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
             path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s)
@@ -530,6 +577,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                            "phases": int(len(fp)), "noise_floor_log10": floor},
                 "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
+                               "fallback_used": False, "configured_failed": failed,
+                               "confidence": float(confidence), "gait_period_s": to_jsonable(float(period)),
                                "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
                                "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
                                                 for bit, nm in selftune.FLAG_NAMES.items()},
@@ -538,6 +587,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 "filter": to_jsonable(nav.info),
                 "path": path_stats,
                 "uncertainty": final_uncertainty(steps),
+                "confidence": float(confidence),
                 **{k: path_stats[k] for k in ("distance_m", "closure_pct") if k in path_stats},
                 "timings_s": timings,
                 "conventions": dict(CONVENTIONS),
@@ -578,6 +628,87 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 writer.close()
             tmp.unlink(missing_ok=True)
     return summary, files
+
+
+class _LogHistogram:
+    """Median of positive values added in chunks, from a histogram of log10 in 1e-3-decade bins (bounded memory;
+    within 0.12 % of the exact median, as ``detectors.stream``'s noise floor)."""
+
+    LO, STEP, N = -8.0, 1e-3, 12_000
+
+    def __init__(self):
+        self._hist = np.zeros(self.N, np.int64)
+
+    def add(self, values: np.ndarray) -> None:
+        if len(values):
+            x = np.log10(np.maximum(values, 1e-300))
+            self._hist += np.bincount(np.clip(np.floor((x - self.LO) / self.STEP).astype(np.int64), 0, self.N - 1),
+                                      minlength=self.N)
+
+    def median(self) -> float:
+        cum = np.cumsum(self._hist)
+        k = int(np.searchsorted(cum, 0.5 * cum[-1], side="left"))
+        return float(10 ** (self.LO + (k + 0.5) * self.STEP))
+
+
+class _RunStarts:
+    """Absolute indices of the first sample of every run of True in a mask pushed in consecutive chunks."""
+
+    def __init__(self):
+        self.starts: list[int] = []
+        self._prev = False
+
+    def push(self, start: int, mask: np.ndarray) -> None:
+        if len(mask):
+            rise = np.flatnonzero(mask & ~np.concatenate(([self._prev], mask[:-1])))
+            self.starts.extend((start + rise).tolist())
+            self._prev = bool(mask[-1])
+
+
+class _OnsetInnovations:
+    """``selftune.onset_innovations`` of a forward filter's rows pushed in order (``NavRows``: ``zupt`` is the
+    mask after the onset delay): |v|² one sample before each ZUPT onset (the first phase, at sample 0, has no
+    swing before it), with the onset's sample index."""
+
+    def __init__(self):
+        self._k0: list[np.ndarray] = []
+        self._e2: list[np.ndarray] = []
+        self._prev_zupt = True  # a phase at sample 0 is not an onset
+        self._prev_v = np.zeros(3)
+
+    def push(self, r) -> None:
+        if not len(r):
+            return
+        z = np.asarray(r.zupt, bool)
+        rise = np.flatnonzero(z & ~np.concatenate(([self._prev_zupt], z[:-1])))
+        v_before = np.vstack((self._prev_v[None, :], r.vel_n[:-1]))[rise]
+        self._k0.append(r.start + rise)
+        self._e2.append(np.sum(v_before**2, axis=1))
+        self._prev_zupt, self._prev_v = bool(z[-1]), np.array(r.vel_n[-1], float)
+
+    def mean_square(self, cut: int) -> float:
+        """Mean |v|² over the onsets before sample ``cut``, (m/s)²; inf without one."""
+        k0 = np.concatenate(self._k0) if self._k0 else np.zeros(0, np.int64)
+        e2 = np.concatenate(self._e2) if self._e2 else np.zeros(0)
+        e2 = e2[k0 < cut]
+        return float(np.mean(e2)) if len(e2) else float("inf")
+
+
+def _probe_cut(starts: list[int], n: int, fp_probe: dict, max_level_strides: int | None) -> int:
+    """The samples ``selftune.level_timing_offset`` probes: whole stance phases, the first 2K + 1, doubled while
+    either probe has fewer than K level strides in them, up to the whole record (its docstring); n = all."""
+    from . import selftune
+
+    if max_level_strides is None:
+        return n
+    phases = 2 * max_level_strides + 1
+    while phases < len(starts):
+        n_level = min(selftune.footprint_level_dz(t[:phases], fp[:phases], max_level_strides=max_level_strides)[1]
+                      for t, fp in fp_probe.values())
+        if n_level >= max_level_strides:
+            return int(starts[phases])
+        phases *= 2
+    return n
 
 
 class _RowQueue:

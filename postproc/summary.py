@@ -1,7 +1,7 @@
 """The layout of ``summary.json``: what one ``process`` run did and found, in plain JSON types.
 
 The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: this one,
-``pipeline.process_chunked``, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
+``pipeline._block_passes`` for a recording of many blocks, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
 ``calibration`` (which sensor calibration ran: file, device id, date, residuals; or "none" and why),
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``
 (``strides.path_summary``), ``metrics`` (reference metrics or null), ``saturation_intervals``, ``warnings``,

@@ -9,6 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
+from bootnav.errors import InputError
 from bootnav.postproc.outputs import write_outputs
 from bootnav.postproc.pipeline import process, process_to
 from bootnav.postproc.settings import ProcessSettings
@@ -77,6 +78,12 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
     assert summary["uncertainty"]["final_ellipse_major_m"] == pytest.approx(
         whole.summary["uncertainty"]["final_ellipse_major_m"], rel=1e-9)
     assert summary["navigation"].get("blocks", 1) == n_blocks(whole.t_s, block_s)
+    # the whole-record decisions: gait period, confidence, the timing probes' innovation (the same arithmetic)
+    for key in ("gait_period_s", "confidence"):
+        assert summary["navigation"][key] == pytest.approx(whole.summary["navigation"][key], rel=1e-9), key
+    assert summary["navigation"]["configured_failed"] is whole.summary["navigation"]["configured_failed"] is None
+    assert summary["navigation"]["timing_offset"]["innovation_rms_mps"] == pytest.approx(
+        whole.navigation.timing["innovation_rms_mps"], rel=1e-9)
 
 
 def test_many_blocks_flag_the_strides_one_block_flags(walk, tmp_path):
@@ -127,3 +134,20 @@ def test_a_stage_that_needs_the_whole_record_runs_one_block_with_a_warning(walk,
     assert "confidence" in summary  # the whole-record stages ran
     p = _cli(rec, "--out", tmp_path / "b", "--block-s", "-1")
     assert p.returncode == 1 and "block_s" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_a_failed_detector_in_many_blocks_is_a_warning_with_a_confidence(walk, tmp_path):
+    """More stance phases required than the walk has: the configured detector fails (``checks.stance_findings``);
+    one block falls back to another stance detection, many blocks keep the configured path and say so."""
+    d, rec, whole = walk
+    settings = _settings()
+    settings.checks.min_stance_phases = 10_000
+    settings.block_s = 20.0
+    summary, _ = process_to(rec, settings, tmp_path / "o")
+    nav = summary["navigation"]
+    assert nav["configured_failed"].startswith("stance detector 'adaptive' found") and not nav["fallback_used"]
+    assert any("runs on a recording of one block only" in w for w in summary["warnings"])
+    assert 0 < summary["confidence"] <= 1
+    settings.selftune.fallback = False  # as the one-block run: the failure refused
+    with pytest.raises(InputError, match="stance phase"):
+        process_to(rec, settings, tmp_path / "o2")
