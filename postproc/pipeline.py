@@ -385,6 +385,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         lap("load")
         rate = 1.0 / dt0
         bias_det, gravity_det = stance_reference(init, gravity)  # as ``navigate`` gives the detector
+        probe_detector = settings.detector.build(gravity_det)
 
         floor = None
         if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
@@ -495,7 +496,9 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
 
             charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
         units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
-                 "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m"}
+                 "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m",
+                 "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
+        stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
         n_rows = n_stance = 0
         writer = None
         try:
@@ -521,7 +524,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     if writer is not None:
                         writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
-                                       "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n})
+                                       "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
+                                       "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
                     fp_acc.push(r.t_s, r.pos_n, r.stance,
                                 np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
                     if charts is not None:
@@ -533,6 +537,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     if charts is not None:
                         charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
                     gyro_rows.put(ch.start, ch.gyro_b)
+                    if writer is not None:
+                        stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
                     emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated))
                     _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
                 emit(nav.finish())
@@ -575,7 +581,9 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 "calibration": to_jsonable(sensor_cal.provenance),
                 "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
-                           "phases": int(len(fp)), "noise_floor_log10": floor},
+                           "phases": int(len(fp)), "noise_floor_log10": floor,
+                           # a fixed-threshold detector's γ; the adaptive one's varies per sample (null)
+                           "threshold": to_jsonable(getattr(probe_detector, "threshold", None))},
                 "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
                                "fallback_used": False, "configured_failed": failed,
                                "confidence": float(confidence), "gait_period_s": to_jsonable(float(period)),
@@ -604,7 +612,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 writer.close()
                 attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
                          "summary": json.dumps(to_jsonable(summary)), "sample_index_start": 0,
-                         "stance_method": settings.detector.method,
+                         "created_utc": _utc_now(), "stance_method": settings.detector.method,
+                         "stance_threshold": json.dumps(summary["stance"]["threshold"]),
                          "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
                          **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
                 write_group(tmp, group, {}, attrs, replace=False)
@@ -735,6 +744,12 @@ class _RowQueue:
             else:
                 self._parts[0] = (start + b, rows[b:])
         return np.concatenate(out) if len(out) != 1 else out[0]
+
+
+def _utc_now() -> str:
+    import datetime as _dt
+
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
 def _stream_noise_floor(stance) -> float | None:

@@ -38,7 +38,9 @@ def walk(tmp_path_factory):
 
 def results(folder):
     with h5py.File(folder / "results.h5", "r") as f:
-        return {k: f[f"results/default/{k}"][()] for k in ("t_s", "pos_n_m", "vel_n_mps", "q_nb", "stance")}
+        g = f["results/default"]
+        return {**{k: g[k][()] for k in ("t_s", "pos_n_m", "vel_n_mps", "q_nb", "stance", "stance_statistic")},
+                "created_utc": g.attrs["created_utc"]}
 
 
 def n_blocks(t_s, block_s):
@@ -63,6 +65,10 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
     np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
     assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9  # storeys applied in both (their offsets to rounding)
     assert np.abs(r["q_nb"] - whole.q_nb).max() <= 1e-9
+    # the statistic's moving sums are differences of running sums over another stretch of samples: rounding of
+    # the order of eps x the running sum
+    stat = whole.stance_result.statistic
+    np.testing.assert_allclose(r["stance_statistic"], stat, rtol=0, atol=4 * np.finfo(float).eps * np.abs(stat).sum())
     assert (out / "trajectory.csv").read_bytes() == (d / "whole" / "trajectory.csv").read_bytes()
     assert summary["navigation"]["timing_offset"]["tau_s"] == whole.navigation.timing["tau_s"]
     assert summary["path"]["distance_m"] == pytest.approx(whole.summary["path"]["distance_m"], abs=1e-9)
