@@ -24,9 +24,35 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
 
-``process_chunked`` (``bootnav process --chunk-s S``) is the same pipeline for recordings of many hours, with
-memory bounded by the chunk: it reads the recording block by block, makes the whole-recording decisions in
-passes over the blocks, and writes the outputs as it goes (its docstring says what it leaves out).
+**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The recording is read through
+``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) in blocks of ``settings.block_s``
+seconds, the memory budget (900 s: about 400 MB at 200 Hz). A recording of one block — every recording of the
+development datasets — runs the stages above on its arrays, exactly as they always ran, and is written by
+``outputs.write_outputs``. A longer HDF5 recording runs the same stages as passes over its blocks
+(``_block_passes``), each whole-record decision taken in a pass before the one that needs it, the last pass
+writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWriter``, ``plots.ChartStream``):
+
+1. checks and clipping rails: the rails' extremes, then the samples at them (``checks.ClipRails``); the sample
+   checks per block (with the last samples of the block before); the initial alignment on the first seconds;
+2. the adaptive detector's noise floor F: one pass of ``StreamStance``, its histogram quantile then fixed, so
+   every block length gives the same stance mask;
+3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.level_timing_offset``'s
+   rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
+   confidence), the gait period (``selftune.GaitPeriodAccumulator``), the stance findings
+   (``checks.stance_findings_of``; ‖ω‖'s median at rest from a 1e-3-decade histogram);
+4. the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
+   a flight's landing corrects the samples before it, so it needs the path before the one written;
+5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
+   interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
+   and the footprints' ellipses accumulated as it goes.
+
+Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
+the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
+(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, ``heading_aid="auto"``,
+revisits, a detector that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
+scores candidate detectors on the whole record): a configured detector that fails is a warning with the
+path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
+"""
 """
 
 from __future__ import annotations
