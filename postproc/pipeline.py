@@ -53,7 +53,6 @@ revisits, a detector that cannot stream. Missing in blocks: the stance fallback 
 scores candidate detectors on the whole record): a configured detector that fails is a warning with the
 path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
 """
-"""
 
 from __future__ import annotations
 
