@@ -578,7 +578,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 warnings.append(split)
             if not np.isfinite(period):
                 warnings.append("no periodic gait found: the confidence of this path is 0")
-            cov_h = np.asarray(fp_acc.cov, float).reshape(-1, 3) if len(fp_acc.cov) == len(fp) else None
+            cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
             steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
                                       cov_h)
             if len(steps["t_s"]) == 0 and not np.isfinite(period):

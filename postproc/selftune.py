@@ -410,7 +410,7 @@ class StrideQualityAccumulator:
         from bootnav.postproc.strides import FootprintAccumulator
 
         self._fp = FootprintAccumulator()
-        self._first: list[float] = []
+        self._first: list[float] = []  # per stance phase: ~100 B each, 9 MB at 24 h of walking
         self._last: list[float] = []
         self._med: list[float] = []
         self._open: list[np.ndarray] = []  # turning rates of the open phase, chunk by chunk
