@@ -349,7 +349,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .floors import storey_offsets
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
-    from .summary import final_uncertainty
+    from .summary import HEADLINE_KEYS, final_uncertainty
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
     from .navigate import implausible_strides, not_a_foot
@@ -415,10 +415,15 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         floor = None
         if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
             probe = StreamStance(settings.detector, rate, gravity_det, gyro_bias_b=bias_det)
+            lowest = _LowestValues(probe_detector.noise_quantile, n)
             for i0, i1 in blocks:
-                probe.push(*read(i0, i1))
-            probe.finish()
-            floor = _stream_noise_floor(probe)
+                for ch in probe.push(*read(i0, i1)):
+                    lowest.add_chunk(ch, probe_detector.rest_floor())
+            for ch in probe.finish():
+                lowest.add_chunk(ch, probe_detector.rest_floor())
+            floor = lowest.quantile()
+            if floor is None:  # every sample excluded (saturated): the stream's own floor
+                floor = _stream_noise_floor(probe)
         lap("stance_floor")
 
         def stance_stream():
@@ -621,7 +626,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 "path": path_stats,
                 "uncertainty": final_uncertainty(steps),
                 "confidence": float(confidence),
-                **{k: path_stats[k] for k in ("distance_m", "closure_pct") if k in path_stats},
+                **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
                 "timings_s": timings,
                 "conventions": dict(CONVENTIONS),
                 "settings": settings.to_dict(),
@@ -662,6 +667,36 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 writer.close()
             tmp.unlink(missing_ok=True)
     return summary, files
+
+
+class _LowestValues:
+    """The ``q`` quantile of log10 T over the usable samples, as ``adaptive.AdaptiveDetector`` takes its noise
+    floor (``np.quantile``, linear between order statistics), from chunks: only the smallest ⌊q (n − 1)⌋ + 2
+    values can be those order statistics, n the samples of the record, so only they are kept (8 q bytes per
+    sample: 7 MB at 24 h at 200 Hz). Equal to the whole-array floor to the last bit of the interpolation."""
+
+    def __init__(self, q: float, n: int):
+        self.q = float(q)
+        self.k = int(np.floor(self.q * max(n - 1, 0))) + 2
+        self._low = np.zeros(0)
+        self._n = 0
+
+    def add_chunk(self, ch, rest_floor: float) -> None:
+        bad = (ch.saturated > 0) | ~np.all(np.isfinite(ch.acc_b), axis=1) | ~np.all(np.isfinite(ch.gyro_b), axis=1)
+        L = np.log10(np.maximum(np.asarray(ch.statistic)[~bad], rest_floor))
+        self._n += len(L)
+        low = np.concatenate((self._low, L))
+        self._low = np.partition(low, self.k - 1)[: self.k] if len(low) > self.k else low
+
+    def quantile(self) -> float | None:
+        if self._n == 0:
+            return None
+        s = np.sort(self._low)
+        pos = self.q * (self._n - 1)
+        lo = int(np.floor(pos))
+        hi = min(lo + 1, len(s) - 1)
+        t = pos - lo
+        return float(s[lo] + (s[hi] - s[lo]) * t if t < 0.5 else s[hi] - (s[hi] - s[lo]) * (1 - t))
 
 
 class _LogHistogram:

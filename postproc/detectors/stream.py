@@ -238,7 +238,7 @@ class StreamStance:
         det, dt = self.detector, self.dt_s
         n = window_samples(det.window_s, dt, 3)
         T = shoe_statistic(acc, gyro, n, det.sigma_acc_mps2, det.sigma_gyro_radps, det.gravity_mps2)
-        L = np.log10(np.maximum(T, 1e-300))
+        L = np.log10(np.maximum(T, det.rest_floor()))  # as ``AdaptiveDetector._classify``
         span = window_samples(det.span_s, dt, 3)
         valley = minimum_filter1d(L, span, mode="nearest")
         peak = maximum_filter1d(L, span, mode="nearest")
