@@ -349,7 +349,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .floors import storey_offsets
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
-    from .summary import HEADLINE_KEYS, final_uncertainty
+    from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
     from .navigate import implausible_strides, not_a_foot
@@ -406,6 +406,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         t0_, a0_, g0_, _ = read(0, n_init)
         init = initial_alignment(t0_, a0_, g0_, cal, gravity)
         warnings += list(init.warnings)
+        alignment = alignment_summary(init, gravity, t0_)
         del t0_, a0_, g0_
         lap("load")
         rate = 1.0 / dt0
@@ -609,6 +610,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                           "duration_s": t_last - t_first, "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
                 "calibration": to_jsonable(sensor_cal.provenance),
+                "alignment": alignment,
                 "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                            "phases": int(len(fp)), "noise_floor_log10": floor,
