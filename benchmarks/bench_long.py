@@ -7,11 +7,11 @@ RSS come from ``os.wait4`` of that child. numba's cache is warmed first on a one
 time is not counted. Goals of the issue: <= 2 s per hour end to end, peak RSS < 1 GB at 24 h, `info` on
 24 h < 1 s. Prints a table; asserts nothing.
 
-    .venv/bin/python benchmarks/bench_long.py [--hours 1 3] [--long] [--cache DIR] [--chunk-s 600] [--no-whole]
+    .venv/bin/python benchmarks/bench_long.py [--hours 1 3] [--long] [--cache DIR] [--block-s S ...]
 
-Each length is processed twice: whole arrays (``process``, with the charts) and in chunks (``--chunk-s``,
-``pipeline.process_chunked``: bounded memory, charts from a decimated stream); a version without ``--chunk-s`` gets the first
-only. ``--long`` adds 12 and 24 h (generating them takes ~10 min on 2 cores, once). The `import` row reads a
+Each length is processed as ``bootnav process`` runs it without flags (``pipeline.process_to``: blocks of
+``settings.block_s`` seconds, charts included), and once more per ``--block-s`` length given (the row names the
+block length). ``--long`` adds 12 and 24 h (generating them takes ~10 min on 2 cores, once). The `import` row reads a
 canonical CSV of the 12 h recording (of the longest one generated without ``--long``; streamed in blocks);
 the `info` rows read the longest recording (scanned in blocks, or its writer's summary when it was generated
 with one) and the imported one (the import's writer stores a summary).
@@ -88,15 +88,13 @@ def main() -> None:
     parser.add_argument("--long", action="store_true", help="add 12 h and 24 h")
     parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "bootnav_bench_long")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--chunk-s", type=float, default=600.0, help="chunk of the chunked runs (--chunk-s), s")
-    parser.add_argument("--no-whole", action="store_true", help="only the chunked runs (the whole-array ones "
-                        "need ~270 MB per hour)")
+    parser.add_argument("--block-s", type=float, nargs="*", default=[],
+                        help="also run with these block lengths (bootnav process --block-s), s")
     parser.add_argument("--skip-import", action="store_true")
     args = parser.parse_args()
     hours = sorted(set(args.hours) | ({12.0, 24.0} if args.long else set()))
     args.cache.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix="bench_long_"))
-    chunked = "--chunk-s" in subprocess.run(BOOTNAV + ["process", "--help"], capture_output=True, text=True).stdout
 
     recs = {}
     for h in hours:
@@ -109,10 +107,9 @@ def main() -> None:
 
     rows = []
     for h in hours:
-        modes = ([] if args.no_whole else [("", [])]) + ([(" chunked", ["--chunk-s", str(args.chunk_s)])]
-                                                          if chunked else [])
+        modes = [("", [])] + [(f" block {b:g} s", ["--block-s", str(b)]) for b in args.block_s]
         for label, extra in modes:
-            fig = run(BOOTNAV + ["process", str(recs[h]), "--out", str(work / f"out_{h:g}h{label.strip()}"), "-q",
+            fig = run(BOOTNAV + ["process", str(recs[h]), "--out", str(work / f"out_{h:g}h{label.strip().replace(' ', '')}"), "-q",
                                  *extra])
             rows.append((f"process {h:g} h{label}", h, fig))
             print(f"  process {h:g} h{label} done: {fig['wall_s']:.1f} s", flush=True)

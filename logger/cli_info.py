@@ -79,12 +79,12 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     """``summarize`` of a recording file ``path``, reported under the name ``shown``."""
     import numpy as np
 
-    from bootnav.logger.recording import EVENT_DTYPE, decode_attr, recording_group
+    from bootnav.logger.recording import EVENT_DTYPE, IMU_DATASETS, decode_attr, recording_group, si_factors
     from bootnav.logger.samplestats import read_summary
 
     with recording_group(path, boot) as (_, g):
         imu = g["imu"]
-        names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
+        names = [k for k in IMU_DATASETS if k in imu]
         n = min(imu[k].shape[0] for k in names)  # a killed writer may leave unequal lengths: the common prefix
         lengths = {k: int(imu[k].shape[0]) for k in names}
         file_warnings = []
@@ -98,8 +98,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
         has_seq = "seq" in imu
         gyro_present = str(meta.get("gyro_present", 1)) not in ("0", "False")
-        si = {k: (float(imu[k].attrs.get("scale_to_si", 1.0)), float(imu[k].attrs.get("offset_to_si", 0.0)))
-              for k in ("acc", "gyro")}
+        si = {k: si_factors(imu[k].attrs) for k in ("acc", "gyro")}
         stored = read_summary(imu, n) if all(o == 0.0 for _, o in si.values()) else None
         fig = _Figures.of_summary(stored, si, gyro_present) if stored else _scan(imu, n, si, gyro_present, block_rows)
     med = fig.median
@@ -129,7 +128,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         fs = float(channel_attrs.get("full_scale", float("nan")))
         if not math.isfinite(fs):
             return float("nan")
-        si = fs * float(channel_attrs.get("scale_to_si", 1.0))
+        si = fs * si_factors(channel_attrs)[0]
         return si / 9.80665 if scale_name == "g" else math.degrees(si)
 
     summary = {
@@ -230,16 +229,14 @@ def _unit_warnings(imu, n: int) -> list[str]:
     shows such a file, ``process`` refuses it."""
     import numpy as np
 
-    from bootnav.logger.recording import UNIT_CHECK_ROWS, unit_problems
+    from bootnav.logger.recording import UNIT_CHECK_ROWS, si_values, unit_problems
 
     k = min(n, UNIT_CHECK_ROWS)
     if k < 2:
         return []
 
     def si(name):
-        ds = imu[name]
-        return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
-            + float(ds.attrs.get("offset_to_si", 0.0))
+        return si_values(imu[name], slice(0, k))
 
     t = imu["t_s"][:k].astype(np.float64)
     dt = np.diff(t)

@@ -1079,17 +1079,149 @@ def _missing_recording(f: h5py.File, path: Path) -> None:
                          "put it back there, or read the results alone with h5py (/results)") from None
 
 
+#: the per-sample datasets of /imu, in the order ``_read`` and ``RecordingReader`` look for them
+IMU_DATASETS = ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq")
+
+
+def si_factors(attrs) -> tuple[float, float]:
+    """(scale, offset) of a stored channel: SI = stored × scale + offset (``Channel``; 1 and 0 when absent)."""
+    return float(attrs.get("scale_to_si", 1.0)), float(attrs.get("offset_to_si", 0.0))
+
+
+def si_values(ds, sl=slice(None)) -> np.ndarray:
+    """Rows ``sl`` of a stored channel in SI units (``si_factors``), float64."""
+    scale, offset = si_factors(ds.attrs)
+    return ds[sl].astype(np.float64) * scale + offset
+
+
+class RecordingReader:
+    """Blocks of SI samples of one recording (or one boot of a multi-boot one): the only decoder of the
+    ``/imu`` layout besides ``load`` (which reads every row through the same ``si_values``).
+
+    Memory is bounded by the block: nothing is read before it is asked for. A recording still being written
+    (``swmr=True``, ``bootnav live``) grows: ``refresh`` sees the rows flushed since.
+
+    Parameters
+    ----------
+    path
+        A recording.
+    boot
+        The boot of a multi-boot recording (as ``load``).
+    swmr
+        Open for reading while a writer appends (single-writer/multiple-reader mode); the layout is not
+        checked (the writer may not have created every dataset yet: ``require`` names those that must be there,
+        KeyError otherwise).
+
+    Attributes
+    ----------
+    n : int
+        Rows readable now: the common prefix of ``t_s``, ``acc``, ``gyro`` (and ``saturated``), since a
+        killed or running writer may leave them of unequal length.
+    meta : dict
+        ``/meta`` attributes, decoded.
+    """
+
+    def __init__(self, path, boot: str | None = None, *, swmr: bool = False, require: tuple[str, ...] = ()):
+        self.path = Path(path)
+        self._swmr = swmr
+        self._ctx = None
+        self._file = None
+        try:
+            if swmr:
+                self._file = h5py.File(self.path, "r", libver="latest", swmr=True)
+                self._group = self._file if boot is None else self._file[f"boots/{boot}"]
+            else:
+                ctx = recording_group(self.path, boot)
+                self._file, self._group = ctx.__enter__()
+                self._ctx = ctx
+            imu = self._group["imu"]  # KeyError (swmr: not created yet)
+            missing = [k for k in require if k not in imu]
+            if missing:
+                raise KeyError(f"{self.path}: /imu has no {', '.join(missing)} yet")
+            self._imu = imu
+            self._names = [k for k in ("t_s", "acc", "gyro", "saturated") if k in imu]
+            g = self._group
+            self.meta = {k: decode_attr(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
+            self.n = self._common_rows()
+        except BaseException:
+            self.close()
+            raise
+
+    def _common_rows(self) -> int:
+        return int(min(self._imu[k].shape[0] for k in self._names))
+
+    def refresh(self) -> int:
+        """See the rows a writer flushed since (``swmr``); returns ``n``."""
+        for k in self._names:
+            self._imu[k].refresh()
+        self.n = self._common_rows()
+        return self.n
+
+    def block(self, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows i0..i1-1 as ``(t_s, acc_mps2, gyro_radps, saturated)``: float64 SI, saturation bits uint8
+        (zeros when the recording has no mask)."""
+        imu, sl = self._imu, slice(i0, i1)
+        t = imu["t_s"][sl].astype(np.float64)
+        sat = imu["saturated"][sl] if "saturated" in imu else np.zeros(t.shape[0], np.uint8)
+        return t, si_values(imu["acc"], sl), si_values(imu["gyro"], sl), np.asarray(sat, np.uint8)
+
+    def temp_degc(self, i0: int, i1: int) -> np.ndarray | None:
+        """Rows i0..i1-1 of the temperature channel in °C (float64), None when the recording has none (or,
+        growing, not that many rows yet)."""
+        if "temp" not in self._imu:
+            return None
+        ds = self._imu["temp"]
+        if self._swmr:
+            ds.refresh()
+        if ds.shape[0] < i1:
+            return None
+        return si_values(ds, slice(i0, i1))
+
+    def check_units(self) -> None:
+        """``load(check_units=True)``'s check (``check_recording_units``) on the first ``UNIT_CHECK_ROWS`` rows:
+        InputError when acc is in g or counts or gyro in deg/s."""
+        k = min(self.n, UNIT_CHECK_ROWS)
+        t, acc, gyro, sat = self.block(0, k)
+        head = Recording(path=self.path, t_s=t, acc_mps2=acc, gyro_radps=gyro, saturated=sat,
+                         events=make_events([]), meta=self.meta, attrs={})
+        check_recording_units(head, self.path)
+
+    def times(self, i0: int = 0, i1: int | None = None) -> np.ndarray:
+        """``t_s`` of rows i0..i1-1 (float64), without reading the samples."""
+        return self._imu["t_s"][i0:self.n if i1 is None else i1].astype(np.float64)
+
+    def events(self, start: int = 0) -> np.ndarray:
+        """``/events`` rows from ``start`` (refreshed first when the file is growing)."""
+        if "events" not in self._group:
+            return np.zeros(0, EVENT_DTYPE)
+        ev = self._group["events"]
+        if self._swmr:
+            ev.refresh()
+        return ev[start:]
+
+    def close(self) -> None:
+        if self._ctx is not None:
+            self._ctx.__exit__(None, None, None)
+            self._ctx = None
+        elif self._file is not None:
+            self._file.close()
+        self._file = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
 def _read(f: h5py.File, path: Path, with_truth: bool, g: h5py.Group | None = None) -> Recording:
     g = f if g is None else g
     imu = g["imu"]
     # A killed writer may leave datasets of unequal length; keep the common prefix.
-    names = [k for k in ("t_s", "acc", "gyro", "saturated", "temp", "t_device", "t_host", "seq") if k in imu]
+    names = [k for k in IMU_DATASETS if k in imu]
     n = min(imu[k].shape[0] for k in names)
     get = lambda k: imu[k][:n] if k in imu else None  # noqa: E731
-    scale = lambda k: (  # noqa: E731
-        imu[k][:n].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
-        + float(imu[k].attrs.get("offset_to_si", 0.0))
-    )
+    scale = lambda k: si_values(imu[k], slice(0, n))  # noqa: E731
     saturated = get("saturated")
     rec = Recording(
         path=path,

@@ -227,12 +227,18 @@ def stance_findings(t_s: np.ndarray, stance: np.ndarray, checks: InputChecks, me
     list of Finding
         In order of diagnostic value (the first explains the most); all fatal today. Empty: plausible.
     """
-    n_phases = len(runs(stance)[0])
-    frac = float(np.mean(stance))
-    span = t_s[-1] - t_s[0]
+    w = float(np.median(row_norm(gyro_b[stance]))) if gyro_b is not None and stance.any() else None
+    return stance_findings_of(len(runs(stance)[0]), float(np.mean(stance)), float(t_s[-1] - t_s[0]), w, checks,
+                              method)
+
+
+def stance_findings_of(n_phases: int, frac: float, span: float, w: float | None, checks: InputChecks,
+                       method: str) -> list[Finding]:
+    """``stance_findings`` from its figures: stance phases, fraction of samples at rest, the record's span (s) and
+    the median angular rate over the stance samples (rad/s; None: not checked). The one definition of the
+    findings: a recording read in blocks gives the figures from a pass over them (``pipeline._block_passes``)."""
     found = []
-    if gyro_b is not None and stance.any():
-        w = float(np.median(row_norm(gyro_b[stance])))
+    if w is not None:
         if w > checks.max_stance_gyro_radps:
             found.append(Finding("stance_gyro", f"stance detector '{method}' marks {100 * frac:.0f} % of samples as "
                                  f"stance, but the sensor turns at a median {w:.2f} rad/s there (a resting foot: < "

@@ -76,13 +76,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="overwrite existing output files (and an existing /results/NAME with --into-recording); "
                         "an input is never overwritten")
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
-    p.add_argument("--chunk-s", type=float, metavar="S",
-                   help="read and process an HDF5 recording in chunks of S seconds: memory bounded for recordings "
-                        "of many hours, the same path and charts; no stance fallback (pipeline.process_chunked; "
-                        "default: none, or 600 s when --memory-limit would be exceeded)")
-    p.add_argument("--memory-limit", type=float, metavar="MB",
-                   help="memory the whole-array run may use (default: half of the available memory); a recording "
-                        "that would need more is processed in chunks of 600 s, as with --chunk-s 600")
+    p.add_argument("--block-s", "--chunk-s", dest="block_s", type=float, metavar="S",
+                   help="seconds of samples held in memory at once (settings block_s, default 300): a longer "
+                        "recording runs as passes over blocks of S s, memory bounded by the block "
+                        "(docs/long-recordings.md); --chunk-s is its old name")
+    p.add_argument("--memory-limit", type=float, metavar="MB", help=argparse.SUPPRESS)  # deprecated: --block-s
     p.add_argument("--settings", metavar="FILE.json", help="ProcessSettings as JSON (full or partial)")
     p.add_argument("--save-settings", metavar="FILE.json", help="write the effective settings to this file")
     g = p.add_argument_group("algorithm")
@@ -180,6 +178,11 @@ def build_settings(args):
     apply_calibration_arguments(args, s.calibration)
     if args.crop:
         s.crop_s = tuple(args.crop)
+    if args.block_s is not None:
+        s.block_s = args.block_s
+    if getattr(args, "memory_limit", None) is not None:
+        print("bootnav process: warning: --memory-limit is deprecated and ignored: memory is bounded by the block "
+              "length (--block-s, settings block_s)", file=sys.stderr)
     if args.floor_height is not None:
         s.floor_height_m = args.floor_height
     if args.stair_min_dz is not None:
@@ -292,21 +295,9 @@ def format_summary(summary: dict, files: dict) -> str:
 
 def _one(input_path: str, settings, out_dir: str, progress, into_recording: bool = False,
          force: bool = False) -> tuple[dict, dict]:
-    from bootnav.postproc.outputs import ChartWorker, write_outputs
-    from bootnav.postproc.pipeline import process
+    from bootnav.postproc.pipeline import process_to
 
-    from bootnav.core import atomic
-    from bootnav.postproc.outputs import planned_files
-
-    charts = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the run
-    try:
-        result = process(input_path, settings, progress=progress)
-        with atomic.output_set(planned_files(settings, out_dir, into_recording)):  # all outputs or none
-            files = write_outputs(result, out_dir, into_recording, force, charts=charts)
-    finally:
-        if charts is not None:
-            charts.close()
-    return result.summary, files
+    return process_to(input_path, settings, out_dir, force, progress, into_recording)
 
 
 def _batch_job(job) -> tuple[str, dict | None, dict | None, str | None]:
@@ -378,61 +369,6 @@ def _check_save_settings(args, others) -> None:
     output_file(Path(args.save_settings), force=args.force, inputs=[*args.input, *others], flag="--save-settings")
 
 
-# Peak memory of the whole-array run: base + per sample (1, 3, 12 h at 200 Hz: 634, 1417, 4815 MB; the slope is
-# 377 MB per hour = 524 B per sample; docs/tuning-log.md "Long recordings")
-WHOLE_RUN_BASE_BYTES = 300e6
-WHOLE_RUN_BYTES_PER_SAMPLE = 530.0
-AUTO_CHUNK_S = 600.0
-
-
-def available_memory_bytes() -> float:
-    """Memory available to a new process (Linux ``MemAvailable``; else free physical pages), bytes."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024.0
-    except OSError:
-        pass
-    import os
-
-    try:
-        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):
-        return float("inf")
-
-
-def _auto_chunk_s(args, settings) -> float | None:
-    """Chunk length when the whole-array run of this one HDF5 input would exceed the memory limit, else None.
-
-    Only for what the chunked run supports (an HDF5 recording, no crop, reference, accelerometer calibration or
-    ``--into-recording``); it warns on stderr, because the chunked run uses no stance fallback.
-    """
-    from pathlib import Path
-
-    from bootnav.errors import InputError
-    from bootnav.logger.recording import sample_count
-    from bootnav.postproc.source import is_hdf5
-
-    if args.memory_limit is not None and not args.memory_limit > 0:
-        raise InputError(f"--memory-limit must be a positive number of MB, got {args.memory_limit}")
-    path = Path(args.input[0])
-    if (args.into_recording or settings.crop_s or settings.reference or not path.is_file() or not is_hdf5(path)):
-        return None
-    limit = (args.memory_limit * 1e6 if args.memory_limit is not None else 0.5 * available_memory_bytes())
-    try:
-        n = sample_count(path)
-    except InputError:
-        return None  # a damaged layout: the normal load names what is wrong
-    need = WHOLE_RUN_BASE_BYTES + WHOLE_RUN_BYTES_PER_SAMPLE * n
-    if need <= limit:
-        return None
-    print(f"bootnav process: warning: {path}: {n} samples would need about {need / 1e9:.1f} GB in one piece "
-          f"(limit {limit / 1e9:.1f} GB): processed in chunks of {AUTO_CHUNK_S:.0f} s with bounded memory (no "
-          "stance fallback); give --memory-limit MB to change the limit", file=sys.stderr)
-    return AUTO_CHUNK_S
-
-
 def run(args) -> int:
     """Process one input (report on stdout) or several in parallel (one line each); exit code 1 if any failed."""
     import os
@@ -468,21 +404,7 @@ def run(args) -> int:
         try:
             with compile_notice(progress.compiling):
                 warm_csv_writer(progress.compiling)
-                chunk_s = args.chunk_s if args.chunk_s is not None else _auto_chunk_s(args, settings)
-                if chunk_s is not None:
-                    if args.into_recording:
-                        raise InputError("--into-recording is not available with --chunk-s")
-                    from bootnav.postproc.pipeline import process_chunked
-
-                    from bootnav.core import atomic
-                    from bootnav.postproc.outputs import planned_files
-
-                    with atomic.output_set(planned_files(settings, args.out)):  # all outputs or none
-                        summary, files = process_chunked(args.input[0], settings, args.out, chunk_s, args.force,
-                                                         progress)
-                else:
-                    summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording,
-                                          args.force)
+                summary, files = _one(args.input[0], settings, args.out, progress, args.into_recording, args.force)
         finally:
             progress.done()
         print(format_summary(summary, files))

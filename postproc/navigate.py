@@ -105,8 +105,7 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
     if failed is None:
         run = _run(t_s, acc_b, gyro_b, stance, init, gravity, settings, saturated, period, filter_progress)
         if run[3].bad_fraction > st.max_bad_fraction:
-            failed = (f"{run[3].bad_fraction:.0%} of its {len(run[3].flags)} strides are implausible (longer or "
-                      "faster than a foot moves, a missed stance, or a climb steeper than stairs)")
+            failed = implausible_strides(run[3])
             if not st.fallback:
                 warnings.append(f"stance detector '{configured.method}': {failed}")
     if failed is not None and st.fallback:
@@ -150,6 +149,12 @@ def navigate(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, 
     return Navigation(configured=configured, stance=stance, nav=nav, acc_used_b=acc_used, choice=choice,
                       failed=failed, timing=timing, confidence=conf, period_s=period, quality=quality,
                       candidates=candidates, warnings=warnings)
+
+
+def implausible_strides(quality) -> str:
+    """Why the configured detector fails on its strides (``selftune.StrideQuality`` over ``max_bad_fraction``)."""
+    return (f"{quality.bad_fraction:.0%} of its {len(quality.flags)} strides are implausible (longer or faster than a "
+            "foot moves, a missed stance, or a climb steeper than stairs)")
 
 
 def _run(t_s, acc_b, gyro_b, stance, init, gravity, settings: ProcessSettings, saturated, period,

@@ -29,7 +29,7 @@
   HDF5 file to refer to). The first dimension of every array is the row index ``sample`` (``stride`` in
   ``steps``), ``t_s`` its coordinate, ``axis``/``q_component`` the second, so netCDF readers (xarray with
   h5netcdf) see named dimensions, as in ``/imu``. The per-sample arrays are resizable
-  (``ResultsWriter``: a chunked run appends them as they come); the float ones are stored uncompressed
+  (``ResultsWriter``: a run of many blocks appends them as they come); the float ones are stored uncompressed
   (``ResultsWriter``). The input itself is never written to,
   except with ``into_recording=True`` (``bootnav process --into-recording``), and then atomically: the
   results go into a copy beside it, which is flushed to disk and renamed over the original, so a crash or a

@@ -24,9 +24,34 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
 
-``process_chunked`` (``bootnav process --chunk-s S``) is the same pipeline for recordings of many hours, with
-memory bounded by the chunk: it reads the recording block by block, makes the whole-recording decisions in
-passes over the blocks, and writes the outputs as it goes (its docstring says what it leaves out).
+**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The recording is read through
+``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) in blocks of ``settings.block_s``
+seconds, the memory budget (300 s: about 330 MB at 200 Hz). A recording of one block — every recording of the
+development datasets — runs the stages above on its arrays, exactly as they always ran, and is written by
+``outputs.write_outputs``. A longer HDF5 recording runs the same stages as passes over its blocks
+(``_block_passes``), each whole-record decision taken in a pass before the one that needs it, the last pass
+writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWriter``, ``plots.ChartStream``):
+
+1. checks and clipping rails: the rails' extremes, then the samples at them (``checks.ClipRails``); the sample
+   checks per block (with the last samples of the block before); the initial alignment on the first seconds;
+2. the adaptive detector's noise floor F: one pass of ``StreamStance``, its histogram quantile then fixed, so
+   every block length gives the same stance mask;
+3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.level_timing_offset``'s
+   rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
+   confidence), the gait period (``selftune.GaitPeriodAccumulator``), the stance findings
+   (``checks.stance_findings_of``; ‖ω‖'s median at rest from a 1e-3-decade histogram);
+4. the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
+   a flight's landing corrects the samples before it, so it needs the path before the one written;
+5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
+   interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
+   and the footprints' ellipses accumulated as it goes.
+
+Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
+the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
+(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, ``heading_aid="auto"``,
+revisits, a detector that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
+scores candidate detectors on the whole record): a configured detector that fails is a warning with the
+path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
 """
 
 from __future__ import annotations
@@ -219,119 +244,102 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
 # Chunked run: bounded memory for recordings of a whole shift
 
 
-def process_chunked(source: str | Path, settings: ProcessSettings | None, out_dir: str | Path, chunk_s: float,
-                    force: bool = False, progress: Progress | None = None) -> tuple[dict, dict[str, str]]:
-    """``process`` + ``outputs.write_outputs`` of an HDF5 recording in chunks of ``chunk_s`` seconds.
+def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: str | Path, force: bool = False,
+               progress: Progress | None = None, into_recording: bool = False) -> tuple[dict, dict[str, str]]:
+    """``process`` and its outputs in ``out_dir`` (``outputs.check_outputs`` rules): what ``bootnav process`` runs.
 
-    Memory is bounded by the chunk (and the smoother's open segment), not by the recording's length: the
-    recording is read block by block from the file, and every per-sample output is appended to
-    ``trajectory.csv`` and ``results.h5`` as the navigator makes it final. The path is the same for every
-    chunk size (to rounding, 1e-9 m: ``tests/test_long_chunked.py``). The decisions ``process`` makes on the
-    whole arrays are made by passes over the blocks before the final one:
-
-    1. the adaptive detector's noise floor F: one pass of ``StreamStance`` (its histogram quantile over the
-       whole recording, then fixed, so every chunking gets the same stance mask);
-    2. the vertical timing calibration τ (``selftune.level_timing_offset``): one pass of the two probe
-       filters (±δ, no smoother) with their footprints accumulated (``strides.FootprintAccumulator``);
-    3. the final pass: stance, the filter + smoother on the specific force rotated by τ, the outputs.
-
-    The clipping rails (``checks.ClipRails``) take two cheap passes (extremes, then the samples at them); the
-    checks run per block; the initial alignment reads the first seconds (``calibration.still_search_s`` +
-    ``max_still_s``); the nominal period is the median step of the first 65 536 samples. Not done in chunks
-    (refused, or left out with a warning): the plausibility checks of the stance mask, the truth-free
-    fallback and its confidence figure (the configured detector is always used), the per-stride quality
-    flags, the detector statistic in ``results.h5``, crop, reference, non-HDF5 inputs. The sensor calibration
-    (``calibration.resolve_calibration``) is applied to every block as it is read, with its temperature. Charts 1-7 and path.html are drawn from the decimated stream of the final pass
-    (``plots.ChartStream``: bounded memory), as the whole run draws them. F is a histogram quantile (1e-3
-    decade bins): the stance mask can differ from the whole-array run's in samples where F + δ decides (none on the test walks).
-
-    Parameters
-    ----------
-    source
-        A bootnav HDF5 recording.
-    settings
-        Every tunable (defaults when None).
-    out_dir
-        Output directory (``check_outputs`` rules).
-    chunk_s
-        Seconds of samples per block (> 0).
-    force
-        Replace existing output files.
-    progress
-        ``progress(stage, fraction)``.
+    The recording is read in blocks of ``settings.block_s`` seconds (``RecordingReader``). A recording of one
+    block (every recording up to 5 min at the default) runs the stages of ``process`` on it and writes it
+    with ``outputs.write_outputs``; a longer HDF5 recording runs the same stages as passes over its blocks
+    (``_block_passes``), memory bounded by the block. Options whose stage needs the whole record in memory (crop,
+    a reference, ``--into-recording``, a non-HDF5 input, ``heading_aid="auto"``, revisits, a detector that cannot
+    stream) run as one block whatever the length, with a warning when that is longer than ``block_s``.
 
     Returns
     -------
     (summary, files)
         The summary written to summary.json and {kind: path} of every file written.
-
-    Raises
-    ------
-    InputError
-        As ``process``, plus an option not available in chunks or a detector that cannot stream.
     """
     import json
 
     from bootnav.core.jsonio import to_jsonable
+    from bootnav.logger.recording import RecordingReader
 
-    from .outputs import ChartWorker, check_outputs
+    from .outputs import ChartWorker, check_outputs, planned_files, write_outputs
 
     settings = settings or ProcessSettings()
     settings.validate()
     path, out = Path(source), Path(out_dir)
-    name = str(path)
-    if not (chunk_s > 0 and np.isfinite(chunk_s)):
-        raise InputError(f"--chunk-s must be a positive number of seconds, got {chunk_s}")
-    for what, bad in (("--crop", settings.crop_s), ("--reference/--closed-loop", settings.reference)):
-        if bad:
-            raise InputError(f"{name}: {what} is not available with --chunk-s; run without --chunk-s")
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
-    if not is_hdf5(path):
-        raise InputError(f"{path}: --chunk-s reads HDF5 recordings; `bootnav import` it first")
-    warnings: list[str] = []
-    check_outputs(settings, out, [path], False, force)
-    lap = _StageClock(progress)
+    blocks, whole_why = 1, None
+    if path.is_file() and is_hdf5(path):
+        with RecordingReader(path) as rec:
+            n = rec.n
+            t_head = rec.times(0, min(n, 1 << 16))
+        rows = block_rows(t_head, settings.block_s)
+        blocks = -(-n // rows) if n else 1
+        whole_why = _needs_whole_record(settings, into_recording)
+    elif path.is_file():
+        whole_why = "not an HDF5 recording (`bootnav import` it for bounded memory)"
+    check_outputs(settings, out, [path], into_recording, force)
     worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
     try:
-        summary, files = _chunked_passes(path, settings, out, chunk_s, warnings, lap, worker, progress)
+        with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
+            if blocks <= 1 or whole_why is not None:
+                result = process(path, settings, progress=progress)
+                if blocks > 1:
+                    result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
+                                           f"since {whole_why}: memory grows with the recording's length")
+                    result.summary["warnings"] = result.warnings
+                files = write_outputs(result, out, into_recording, force, charts=worker)
+                return result.summary, files
+            warnings: list[str] = []
+            summary, files = _block_passes(path, settings, out, warnings, _StageClock(progress), worker, progress)
+            files["summary"] = str(out / "summary.json")
+            summary["files"] = files
+            atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     finally:
         if worker is not None:
             worker.close()
-    files["summary"] = str(out / "summary.json")
-    summary["files"] = files
-    atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     return summary, files
 
 
-def _check_units_chunked(f, imu, n: int, path) -> None:
-    """The recording loader's unit check (``recording.check_recording_units``) on the first rows of a recording
-    read block by block: acc in g or counts, gyro in deg/s refused as ``import`` and ``load`` refuse them."""
-    from bootnav.logger.recording import UNIT_CHECK_ROWS, Recording, check_recording_units, decode_attr, make_events
-
-    k = min(n, UNIT_CHECK_ROWS)
-
-    def si(key):
-        ds = imu[key]
-        return ds[:k].astype(np.float64) * float(ds.attrs.get("scale_to_si", 1.0)) \
-            + float(ds.attrs.get("offset_to_si", 0.0))
-
-    meta = {key: decode_attr(v) for key, v in f["meta"].attrs.items()} if "meta" in f else {}
-    head = Recording(path=path, t_s=imu["t_s"][:k].astype(np.float64), acc_mps2=si("acc"), gyro_radps=si("gyro"),
-                     saturated=np.zeros(k, np.uint8), events=make_events([]), meta=meta, attrs={})
-    check_recording_units(head, path)
+def block_rows(t_head: np.ndarray, block_s: float) -> int:
+    """Samples per block: ``block_s`` seconds at the nominal period (median step of the first samples)."""
+    dt0 = float(np.median(np.diff(t_head))) if len(t_head) > 1 else 1.0
+    if not (dt0 > 0 and np.isfinite(dt0)):
+        return max(len(t_head), 2)  # time not increasing: the checks of ``process`` name it
+    return max(int(round(block_s / dt0)), 2)
 
 
-def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: float, warnings: list[str], lap,
-                    worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
-    """``process_chunked``'s passes over the recording and its outputs but summary.json; (summary, files)."""
+def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str | None:
+    """Why a stage of this run needs the whole record in memory (None: it runs in blocks)."""
+    if settings.crop_s:
+        return "--crop selects its window from the loaded recording"
+    if settings.reference:
+        return "a reference is compared with the whole path"
+    if into_recording:
+        return "--into-recording rewrites the recording"
+    if settings.filter.heading_aid == "auto":
+        return "heading_aid 'auto' decides on the whole unaided path"
+    if settings.filter.revisits != "none":
+        return "revisits solve a pose graph over all strides"
+    from .detectors.stream import stream_refusal
+
+    why = stream_refusal(settings.detector)
+    if why:
+        return f"the stance detector '{settings.detector.method}' cannot run block by block ({why})"
+    return None
+
+
+def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: list[str], lap,
+                  worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
+    """``process_to``'s passes over the blocks of a recording longer than one block (module docstring) and its
+    outputs but summary.json; (summary, files)."""
     import json
-
-    import h5py
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group
+    from bootnav.logger.recording import RecordingReader, attach_dimension_scales, start_results_file, write_group
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
@@ -339,41 +347,39 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
+    from .floors import storey_offsets
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
+    from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
+    from bootnav.core.arrays import row_norm
+    from .checks import stance_findings_of
+    from .navigate import implausible_strides
+    from bootnav.core.timebase import sample_period
 
     name = str(path)
     timings = lap.timings
-    with h5py.File(path, "r") as f:
-        if "imu" not in f:
-            raise InputError(f"{path}: no /imu group; not a bootnav recording")
-        imu = f["imu"]
-        device = f["meta"].attrs.get("device") if "meta" in f else None
-        sensor_cal = resolve_calibration(settings.calibration, f["meta"].attrs.get("device_id") if "meta" in f else None)
+    with RecordingReader(path) as rec:
+        device = rec.meta.get("device")
+        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"))
         warnings += sensor_cal.warnings
-        n = min(imu[k].shape[0] for k in ("t_s", "acc", "gyro"))
-        t_all = imu["t_s"]
+        n = rec.n
+        t_first, t_last = (float(rec.times(i, i + 1)[0]) for i in (0, n - 1)) if n else (0.0, 0.0)
         if n < 3:
             raise InputError(f"{name}: only {n} samples; nothing to process")
-        _check_units_chunked(f, imu, n, path)
+        rec.check_units()
         cal = settings.calibration
         gravity = cal.gravity()
-        t_head = t_all[: min(n, 1 << 16)].astype(np.float64)
+        t_head = rec.times(0, min(n, 1 << 16))
         dt0 = float(np.median(np.diff(t_head)))
-        rows = max(int(round(chunk_s / dt0)), 2)
+        rows = block_rows(t_head, settings.block_s)
+        chunk_s = settings.block_s
         n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
                                 + 1)))
         blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
 
         def read(i0: int, i1: int):
-            def si(k):
-                return (imu[k][i0:i1].astype(np.float64) * float(imu[k].attrs.get("scale_to_si", 1.0))
-                        + float(imu[k].attrs.get("offset_to_si", 0.0)))
-
-            sat = np.asarray(imu["saturated"][i0:i1] if "saturated" in imu else np.zeros(i1 - i0), np.uint8)
-            t, acc, gyro = imu["t_s"][i0:i1].astype(np.float64), si("acc"), si("gyro")
+            t, acc, gyro, sat = rec.block(i0, i1)
             if sensor_cal.calibration is not None:
-                temp = si("temp") if "temp" in imu else None
-                acc, gyro = apply_calibration(sensor_cal, acc, gyro, temp)
+                acc, gyro = apply_calibration(sensor_cal, acc, gyro, rec.temp_degc(i0, i1))
                 warnings.extend(w for w in sensor_cal.warnings if w not in warnings)
             if rails is not None and rails.rail_pos is not None:
                 sat = sat | rails.bits(acc, gyro)
@@ -387,7 +393,7 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
             for i0, i1 in blocks:
                 rails.add_counts(*read(i0, i1)[1:3])
             rails.finish()
-        duration = float(t_all[n - 1] - t_all[0])
+        duration = t_last - t_first
         if duration < settings.checks.min_duration_s:  # as check_samples refuses it
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
@@ -400,18 +406,25 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         t0_, a0_, g0_, _ = read(0, n_init)
         init = initial_alignment(t0_, a0_, g0_, cal, gravity)
         warnings += list(init.warnings)
+        alignment = alignment_summary(init, gravity, t0_)
         del t0_, a0_, g0_
         lap("load")
         rate = 1.0 / dt0
         bias_det, gravity_det = stance_reference(init, gravity)  # as ``navigate`` gives the detector
+        probe_detector = settings.detector.build(gravity_det)
 
         floor = None
         if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
             probe = StreamStance(settings.detector, rate, gravity_det, gyro_bias_b=bias_det)
+            lowest = _LowestValues(probe_detector.noise_quantile, n)
             for i0, i1 in blocks:
-                probe.push(*read(i0, i1))
-            probe.finish()
-            floor = _stream_noise_floor(probe)
+                for ch in probe.push(*read(i0, i1)):
+                    lowest.add_chunk(ch, probe_detector.rest_floor())
+            for ch in probe.finish():
+                lowest.add_chunk(ch, probe_detector.rest_floor())
+            floor = lowest.quantile()
+            if floor is None:  # every sample excluded (saturated): the stream's own floor
+                floor = _stream_noise_floor(probe)
         lap("stance_floor")
 
         def stance_stream():
@@ -424,27 +437,79 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         st = settings.selftune
         timing: dict = {}
         tau = 0.0
-        if st.timing_calibration:  # pass 2: the two probe filters of the vertical timing calibration
-            probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
-            navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, probe_filter) for s in (-1, 1)}
-            fps = {s: FootprintAccumulator() for s in (-1, 1)}
-            for ch in stance_stream():
-                for s in (-1, 1):
-                    f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s)
-                    r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
-                    fps[s].push(r.t_s, r.pos_n, r.stance)
-            for s in (-1, 1):
-                r = navs[s].finish()
+        # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
+        # it off, the one forward run that scores the path (``selftune.innovation_rms``)
+        signs = (-1, 1) if st.timing_calibration else (0,)
+        probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
+        forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
+        navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs}
+        fps = {s: FootprintAccumulator() for s in signs}
+        onsets = {s: _OnsetInnovations() for s in signs}
+        gait = selftune.GaitPeriodAccumulator(sample_period(t_head))
+        phase_starts = _RunStarts()
+        stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
+        n_stance_all = 0
+        for ch in stance_stream():
+            gait.push(ch.gyro_b)
+            phase_starts.push(ch.start, ch.stance)
+            stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
+            n_stance_all += int(np.count_nonzero(ch.stance))
+            for s in signs:
+                f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s) if s else ch.acc_b
+                r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
                 fps[s].push(r.t_s, r.pos_n, r.stance)
+                onsets[s].push(r)
+        for s in signs:
+            r = navs[s].finish()
+            fps[s].push(r.t_s, r.pos_n, r.stance)
+            onsets[s].push(r)
+        period = gait.finish()
+        fp_probe = {s: fps[s].finish() for s in signs}
+        if st.timing_calibration:
             cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
-            timing["m_minus"], n_level = selftune.footprint_level_dz(*fps[-1].finish(), **cap)
-            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fps[1].finish(), **cap)
+            timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
+            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
+            cut = _probe_cut(phase_starts.starts, n, fp_probe, st.timing_max_level_strides)
+            timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
+            timing["probe_s"] = float(rec.times(cut - 1, cut)[0] - t_first)
             timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
                                                  st.timing_min_level_strides)
             tau = timing["tau_s"]
+            innovation = timing["innovation_rms_mps"]
+        else:
+            innovation = float(np.sqrt(onsets[0].mean_square(n)))
+        del navs, fps, fp_probe, onsets
+        method = settings.detector.method
+        findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
+                                      stance_rate.median() if n_stance_all else None, settings.checks, method)
+        warnings += [f.message for f in findings if not f.fatal]
+        fatal = [f.message for f in findings if f.fatal]
+        failed = fatal[0] if fatal else None
+        if failed and not st.fallback:
+            raise InputError(f"{name}: {failed}")
         lap("timing")
 
-        # pass 3: the final filter + smoother, outputs appended as rows become final
+        def acc_used(ch):
+            return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
+
+        floors = settings.floor_settings()
+        storeys = None
+        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
+            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
+            path_fp = FootprintAccumulator()
+            for ch in stance_stream():
+                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated)
+                path_fp.push(r.t_s, r.pos_n, r.stance)
+            r = path_nav.finish()
+            path_fp.push(r.t_s, r.pos_n, r.stance)
+            storey_t, storey_fp = path_fp.finish()
+            storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                     floors.riser_max_m, settings.filter.level_min_stride_m)
+            del path_nav, path_fp
+            lap("storeys")
+        snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
+
+        # the final pass: the filter + smoother, outputs appended as rows become final
         out.mkdir(parents=True, exist_ok=True)
         opts = settings.output
         group = f"/results/{opts.results_name}"
@@ -452,13 +517,17 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
         tmp = atomic.temporary_beside(target)
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
         fp_acc = FootprintAccumulator()
+        quality_acc = selftune.StrideQualityAccumulator()
+        gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
         charts = None
         if opts.plots:
             from .plots import ChartStream
 
-            charts = ChartStream(float(t_all[0]), float(t_all[n - 1]), n, gravity, opts.plot_max_points)
+            charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
         units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
-                 "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m"}
+                 "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m",
+                 "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
+        stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
         n_rows = n_stance = 0
         writer = None
         try:
@@ -474,13 +543,20 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                         return
                     if not np.all(np.isfinite(r.pos_n)):
                         check_path_finite(name, r.t_s, r.pos_n, r.start)
+                    quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
+                                     r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
+                    if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
+                        r.pos_n = r.pos_n.copy()
+                        r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
                     append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
                                     TRAJECTORY_FORMATS)
                     if writer is not None:
                         writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
-                                       "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n})
-                    fp_acc.push(r.t_s, r.pos_n, r.stance)
+                                       "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
+                                       "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
+                    fp_acc.push(r.t_s, r.pos_n, r.stance,
+                                np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
                     if charts is not None:
                         charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
                     n_rows += len(r)
@@ -489,37 +565,66 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 for ch in stance_stream():
                     if charts is not None:
                         charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
-                    acc_used = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
-                    emit(nav.push(ch.t_s, acc_used, ch.gyro_b, ch.stance, ch.saturated))
+                    gyro_rows.put(ch.start, ch.gyro_b)
+                    if writer is not None:
+                        stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
+                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated))
                     _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
                 emit(nav.finish())
             lap("navigation")
 
             t_mid, fp = fp_acc.finish()
             min_stride = settings.selftune.min_stride_m
-            steps = footprint_strides(t_mid, fp, min_stride, floors=settings.floor_settings())
-            if len(steps["t_s"]) == 0:
-                raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m; nothing to navigate "
-                                 "(is the sensor on a walking foot?)")
-            path_stats = footprint_summary(fp, settings.floor_settings(), min_stride, fp_acc.walked_s)
-            path_stats["storeys"] = None
-            if settings.floor_storeys:  # a look-back stage: a flight's landing corrects the samples before it
-                warnings.append("chunked run: the storeys (floors.snap_storeys) need the whole path and were not "
-                                "applied; the filter's level-stride height hold was")
+            quality = quality_acc.finish(period, settings.selftune)
+            confidence = selftune.confidence(innovation, quality.bad_fraction, period, st)
+            split = selftune.split_strides(quality, period, st)
+            if split:
+                warnings.append(split)
+            if not np.isfinite(period):
+                warnings.append("no periodic gait found: the confidence of this path is 0")
+            cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
+            steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
+                                      cov_h)
+            if len(steps["t_s"]) == 0 and not np.isfinite(period):
+                raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
+                                 f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
+            choice = f"configured ({settings.detector.method})"
+            if failed is None and quality.bad_fraction > st.max_bad_fraction:
+                failed = implausible_strides(quality)
+            if failed is not None:
+                warnings.append(f"stance detector '{method}': {failed}" + (
+                    f"; the fallback to another stance detection (selftune.select_stance) runs on a recording of "
+                    f"one block only, this one has {len(blocks)} blocks of {settings.block_s:g} s (settings block_s):"
+                    f" the path is the configured detector's, confidence {confidence:.2f}" if st.fallback else ""))
+            findings = stride_findings(steps, settings.checks, choice)
+            warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
+            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s)
+            path_stats["storeys"] = storeys.summary() if storeys is not None else None
             lap("strides")
             summary = {
                 "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
-                          "duration_s": float(t_all[n - 1] - t_all[0]), "rate_hz": float(rate),
+                          "duration_s": t_last - t_first, "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
                 "calibration": to_jsonable(sensor_cal.provenance),
+                "alignment": alignment,
                 "software": dict(SOFTWARE),
                 "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
-                           "phases": int(len(fp)), "noise_floor_log10": floor},
-                "navigation": {"stance_choice": f"configured ({settings.detector.method})", "chunked": True,
+                           "phases": int(len(fp)), "noise_floor_log10": floor,
+                           # a fixed-threshold detector's γ; the adaptive one's varies per sample (null)
+                           "threshold": to_jsonable(getattr(probe_detector, "threshold", None))},
+                "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
+                               "fallback_used": False, "configured_failed": failed,
+                               "confidence": float(confidence), "gait_period_s": to_jsonable(float(period)),
+                               "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
+                               "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
+                                                for bit, nm in selftune.FLAG_NAMES.items()},
+                               "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                "timing_offset": to_jsonable(timing)},
                 "filter": to_jsonable(nav.info),
                 "path": path_stats,
-                **{k: path_stats[k] for k in ("distance_m", "closure_pct") if k in path_stats},
+                "uncertainty": final_uncertainty(steps),
+                "confidence": float(confidence),
+                **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
                 "timings_s": timings,
                 "conventions": dict(CONVENTIONS),
                 "settings": settings.to_dict(),
@@ -535,7 +640,8 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 writer.close()
                 attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
                          "summary": json.dumps(to_jsonable(summary)), "sample_index_start": 0,
-                         "stance_method": settings.detector.method,
+                         "created_utc": _utc_now(), "stance_method": settings.detector.method,
+                         "stance_threshold": json.dumps(summary["stance"]["threshold"]),
                          "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
                          **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
                 write_group(tmp, group, {}, attrs, replace=False)
@@ -559,6 +665,149 @@ def _chunked_passes(path: Path, settings: ProcessSettings, out: Path, chunk_s: f
                 writer.close()
             tmp.unlink(missing_ok=True)
     return summary, files
+
+
+class _LowestValues:
+    """The ``q`` quantile of log10 T over the usable samples, as ``adaptive.AdaptiveDetector`` takes its noise
+    floor (``np.quantile``, linear between order statistics), from chunks: only the smallest ⌊q (n − 1)⌋ + 2
+    values can be those order statistics, n the samples of the record, so only they are kept (8 q bytes per
+    sample: 7 MB at 24 h at 200 Hz). Equal to the whole-array floor to the last bit of the interpolation."""
+
+    def __init__(self, q: float, n: int):
+        self.q = float(q)
+        self.k = int(np.floor(self.q * max(n - 1, 0))) + 2
+        self._low = np.zeros(0)
+        self._n = 0
+
+    def add_chunk(self, ch, rest_floor: float) -> None:
+        bad = (ch.saturated > 0) | ~np.all(np.isfinite(ch.acc_b), axis=1) | ~np.all(np.isfinite(ch.gyro_b), axis=1)
+        L = np.log10(np.maximum(np.asarray(ch.statistic)[~bad], rest_floor))
+        self._n += len(L)
+        low = np.concatenate((self._low, L))
+        self._low = np.partition(low, self.k - 1)[: self.k] if len(low) > self.k else low
+
+    def quantile(self) -> float | None:
+        if self._n == 0:
+            return None
+        s = np.sort(self._low)
+        pos = self.q * (self._n - 1)
+        lo = int(np.floor(pos))
+        hi = min(lo + 1, len(s) - 1)
+        t = pos - lo
+        return float(s[lo] + (s[hi] - s[lo]) * t if t < 0.5 else s[hi] - (s[hi] - s[lo]) * (1 - t))
+
+
+class _LogHistogram:
+    """Median of positive values added in chunks, from a histogram of log10 in 1e-3-decade bins (bounded memory;
+    within 0.12 % of the exact median, as ``detectors.stream``'s noise floor)."""
+
+    LO, STEP, N = -8.0, 1e-3, 12_000
+
+    def __init__(self):
+        self._hist = np.zeros(self.N, np.int64)
+
+    def add(self, values: np.ndarray) -> None:
+        if len(values):
+            x = np.log10(np.maximum(values, 1e-300))
+            self._hist += np.bincount(np.clip(np.floor((x - self.LO) / self.STEP).astype(np.int64), 0, self.N - 1),
+                                      minlength=self.N)
+
+    def median(self) -> float:
+        cum = np.cumsum(self._hist)
+        k = int(np.searchsorted(cum, 0.5 * cum[-1], side="left"))
+        return float(10 ** (self.LO + (k + 0.5) * self.STEP))
+
+
+class _RunStarts:
+    """Absolute indices of the first sample of every run of True in a mask pushed in consecutive chunks."""
+
+    def __init__(self):
+        self.starts: list[int] = []
+        self._prev = False
+
+    def push(self, start: int, mask: np.ndarray) -> None:
+        if len(mask):
+            rise = np.flatnonzero(mask & ~np.concatenate(([self._prev], mask[:-1])))
+            self.starts.extend((start + rise).tolist())
+            self._prev = bool(mask[-1])
+
+
+class _OnsetInnovations:
+    """``selftune.onset_innovations`` of a forward filter's rows pushed in order (``NavRows``: ``zupt`` is the
+    mask after the onset delay): |v|² one sample before each ZUPT onset (the first phase, at sample 0, has no
+    swing before it), with the onset's sample index."""
+
+    def __init__(self):
+        self._k0: list[np.ndarray] = []
+        self._e2: list[np.ndarray] = []
+        self._prev_zupt = True  # a phase at sample 0 is not an onset
+        self._prev_v = np.zeros(3)
+
+    def push(self, r) -> None:
+        if not len(r):
+            return
+        z = np.asarray(r.zupt, bool)
+        rise = np.flatnonzero(z & ~np.concatenate(([self._prev_zupt], z[:-1])))
+        v_before = np.vstack((self._prev_v[None, :], r.vel_n[:-1]))[rise]
+        self._k0.append(r.start + rise)
+        self._e2.append(np.sum(v_before**2, axis=1))
+        self._prev_zupt, self._prev_v = bool(z[-1]), np.array(r.vel_n[-1], float)
+
+    def mean_square(self, cut: int) -> float:
+        """Mean |v|² over the onsets before sample ``cut``, (m/s)²; inf without one."""
+        k0 = np.concatenate(self._k0) if self._k0 else np.zeros(0, np.int64)
+        e2 = np.concatenate(self._e2) if self._e2 else np.zeros(0)
+        e2 = e2[k0 < cut]
+        return float(np.mean(e2)) if len(e2) else float("inf")
+
+
+def _probe_cut(starts: list[int], n: int, fp_probe: dict, max_level_strides: int | None) -> int:
+    """The samples ``selftune.level_timing_offset`` probes: whole stance phases, the first 2K + 1, doubled while
+    either probe has fewer than K level strides in them, up to the whole record (its docstring); n = all."""
+    from . import selftune
+
+    if max_level_strides is None:
+        return n
+    phases = 2 * max_level_strides + 1
+    while phases < len(starts):
+        n_level = min(selftune.footprint_level_dz(t[:phases], fp[:phases], max_level_strides=max_level_strides)[1]
+                      for t, fp in fp_probe.values())
+        if n_level >= max_level_strides:
+            return int(starts[phases])
+        phases *= 2
+    return n
+
+
+class _RowQueue:
+    """Per-sample rows pushed in order by absolute index and taken back in order (bounded memory: what was
+    put and not yet taken)."""
+
+    def __init__(self):
+        self._parts: list[tuple[int, np.ndarray]] = []
+
+    def put(self, start: int, rows: np.ndarray) -> None:
+        if len(rows):
+            self._parts.append((start, rows))
+
+    def take(self, i0: int, i1: int) -> np.ndarray:
+        """Rows i0..i1-1 (put before); everything before i1 is dropped."""
+        out = []
+        while self._parts and i0 < i1:
+            start, rows = self._parts[0]
+            a, b = i0 - start, min(i1 - start, len(rows))
+            out.append(rows[a:b])
+            i0 = start + b
+            if b == len(rows):
+                self._parts.pop(0)
+            else:
+                self._parts[0] = (start + b, rows[b:])
+        return np.concatenate(out) if len(out) != 1 else out[0]
+
+
+def _utc_now() -> str:
+    import datetime as _dt
+
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
 def _stream_noise_floor(stance) -> float | None:

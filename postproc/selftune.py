@@ -188,6 +188,12 @@ def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: 
     m = next_fast_len(2 * n, real=True)  # zero padding >= n: the circular correlation is the linear one
     f = rfft(w, m)
     ac = irfft(f * np.conj(f), m)[:n]
+    return _period_from_autocorrelation(ac, n, dt, min_s, max_s)
+
+
+def _period_from_autocorrelation(ac: np.ndarray, n: int, dt: float, min_s: float, max_s: float) -> float:
+    """``gait_period``'s choice from the autocorrelation ``ac`` (lags 0, 1, ... at least up to ``max_s``) of a
+    signal of ``n`` samples: the highest normalised peak >= 0.2 in [min_s, max_s], s; NaN without one."""
     ac = ac / ac[0]
     lo, hi = int(min_s / dt), min(int(max_s / dt), n - 1)
     if hi <= lo + 2:
@@ -197,6 +203,65 @@ def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: 
     if peaks.size == 0:
         return float("nan")
     return float((lo + peaks[np.argmax(ac[lo:hi][peaks])]) * dt)
+
+
+class GaitPeriodAccumulator:
+    """``gait_period`` of a record pushed in consecutive chunks, at a given sample period (bounded memory: the
+    last ``max_s`` of samples and one sum per lag).
+
+    The autocorrelation of w = ‖ω‖ − mean is expanded in sums of the raw x = ‖ω‖, so the mean need not be
+    known beforehand: Σᵢ wᵢ wᵢ₊ₗ = Sₗ − μ (Σ x − tailₗ + Σ x − headₗ) + (n − l) μ², with Sₗ = Σᵢ xᵢ xᵢ₊ₗ
+    accumulated chunk by chunk (each chunk's products with the carried tail) and headₗ, tailₗ the sums of the
+    first and last l samples. Equal to ``gait_period``'s to rounding, given the same sample period."""
+
+    def __init__(self, dt_s: float, min_s: float = 0.4, max_s: float = 3.0):
+        self.dt, self.min_s, self.max_s = float(dt_s), float(min_s), float(max_s)
+        self.lags = int(max_s / self.dt) + 1
+        self._s = np.zeros(self.lags)
+        self._tail = np.zeros(0)
+        self._head = np.zeros(0)
+        self._sum = 0.0
+        self._n = 0
+
+    def push(self, gyro_b: np.ndarray) -> None:
+        """The angular rate of the next samples, rad/s (m, 3)."""
+        from scipy.signal import fftconvolve
+
+        x = row_norm(np.asarray(gyro_b, float))
+        m = len(x)
+        if m == 0:
+            return
+        z = np.concatenate((self._tail, x))
+        c = len(self._tail)
+        # S_l += sum over the new samples j of z[j] z[j - l]: the correlation of z with the new part
+        full = fftconvolve(z, x[::-1])  # full[(m - 1) + k] = sum_j x[j] z[j + k]
+        for_lag = full[m - 1 + c - np.arange(self.lags)] if c + m - self.lags >= 0 else None
+        if for_lag is None:  # fewer samples than lags so far: the direct sums
+            for lag in range(min(self.lags, c + m)):
+                j = np.arange(max(c, lag), c + m)
+                self._s[lag] += float(np.dot(z[j], z[j - lag]))
+        else:
+            valid = c - np.arange(self.lags) >= -(m - 1)
+            self._s[valid] += for_lag[valid]
+        if len(self._head) < self.lags:
+            self._head = np.concatenate((self._head, x[: self.lags - len(self._head)]))
+        self._tail = z[-self.lags:]
+        self._sum += float(x.sum())
+        self._n += m
+
+    def finish(self) -> float:
+        """The gait period, s (NaN without a periodic gait)."""
+        n = self._n
+        if n < 4:
+            return float("nan")
+        mu = self._sum / n
+        lag = np.arange(min(self.lags, n))
+        head = np.concatenate(([0.0], np.cumsum(self._head)))[lag]
+        tail = np.concatenate(([0.0], np.cumsum(self._tail[::-1])))[lag]
+        ac = self._s[lag] - mu * (2 * self._sum - tail - head) + (n - lag) * mu * mu
+        if not ac[0] > 1e-12 * max(self._s[0], 1e-300):  # a constant rate: no rhythm
+            return float("nan")
+        return _period_from_autocorrelation(ac, n, self.dt, self.min_s, self.max_s)
 
 
 def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, detector_settings,
@@ -291,16 +356,11 @@ def stride_quality(t_s, pos_n, stance, gyro_b, gyro_bias_b, period_s: float,
     -------
     ``StrideQuality`` with one flag word per stride.
     """
-    s = settings or SelfTuneSettings()
     stance = np.asarray(stance, bool)
     starts, stops = runs(stance)
     if starts.size < 2:
-        return StrideQuality(np.zeros(0, np.uint8), np.zeros(0), np.zeros(0), np.zeros(0), 1.0)
+        return stride_flags(np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0), period_s, settings)
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
-    d = np.diff(fp, axis=0)
-    length = np.hypot(d[:, 0], d[:, 1])
-    dur = np.diff(t_mid)
-    swing = t_s[starts[1:]] - t_s[stops[:-1] - 1]
     rate = row_norm(gyro_b - gyro_bias_b)
     # median turning rate over each stance phase (sorted per phase via a lexsort on (phase, rate))
     ph = np.zeros(len(stance), np.int64)
@@ -312,6 +372,24 @@ def stride_quality(t_s, pos_n, stance, gyro_b, gyro_bias_b, period_s: float,
     counts = stops - starts
     offs = np.concatenate(([0], np.cumsum(counts)))
     med = 0.5 * (r_sorted[offs[:-1] + (counts - 1) // 2] + r_sorted[offs[:-1] + counts // 2])
+    return stride_flags(t_mid, fp, t_s[starts], t_s[stops - 1], med, period_s, settings)
+
+
+def stride_flags(t_mid, fp, t_first, t_last, med_rate, period_s: float,
+                 settings: SelfTuneSettings | None = None) -> StrideQuality:
+    """``stride_quality`` from per-stance-phase figures (K phases): mid times and footprints (``footprints``),
+    the times of each phase's first and last sample, s, and its median turning rate ‖ω − b_g‖, rad/s. The one
+    definition of the flags: the whole path gives them through ``stride_quality``, a path pushed in blocks
+    through ``StrideQualityAccumulator``."""
+    s = settings or SelfTuneSettings()
+    if len(t_mid) < 2:
+        return StrideQuality(np.zeros(0, np.uint8), np.zeros(0), np.zeros(0), np.zeros(0), 1.0)
+    fp = np.asarray(fp, float)
+    d = np.diff(fp, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    dur = np.diff(np.asarray(t_mid, float))
+    swing = np.asarray(t_first, float)[1:] - np.asarray(t_last, float)[:-1]
+    med = np.asarray(med_rate, float)
     flags = np.zeros(len(length), np.uint8)
     flags[(length > s.max_stride_m) | (length > s.max_speed_mps * np.maximum(dur, 1e-9))] |= FAST
     if np.isfinite(period_s):
@@ -321,6 +399,58 @@ def stride_quality(t_s, pos_n, stance, gyro_b, gyro_bias_b, period_s: float,
     flags[length < s.min_stride_m] |= TINY
     bad = float(np.mean((flags & IMPLAUSIBLE) > 0)) if len(flags) else 1.0
     return StrideQuality(flags, dur, swing, med[1:], bad)
+
+
+class StrideQualityAccumulator:
+    """The per-stance-phase figures of ``stride_flags`` from a path pushed in consecutive chunks (bounded
+    memory: the turning rates of the open stance phase). ``finish`` gives what ``stride_quality`` gives on the
+    whole path (the same medians; footprints to rounding: ``strides.FootprintAccumulator``)."""
+
+    def __init__(self):
+        from bootnav.postproc.strides import FootprintAccumulator
+
+        self._fp = FootprintAccumulator()
+        self._first: list[float] = []  # per stance phase: ~100 B each, 9 MB at 24 h of walking
+        self._last: list[float] = []
+        self._med: list[float] = []
+        self._open: list[np.ndarray] = []  # turning rates of the open phase, chunk by chunk
+        self._open_t: tuple[float, float] | None = None
+
+    def push(self, t_s, pos_n, stance, gyro_b, gyro_bias_b) -> None:
+        """Consecutive rows: s, m ENU, bool, rad/s (N, 3), rad/s ((3,) or (N, 3))."""
+        m = len(t_s)
+        if m == 0:
+            return
+        stance = np.asarray(stance, bool)
+        self._fp.push(t_s, pos_n, stance)
+        rate = row_norm(np.asarray(gyro_b) - gyro_bias_b)
+        starts, stops = runs(stance)
+        if self._open_t is not None and (starts.size == 0 or starts[0] > 0):
+            self._close()
+        for a, b in zip(starts.tolist(), stops.tolist()):  # one iteration per stance phase
+            if a == 0 and self._open_t is not None:
+                self._open_t = (self._open_t[0], float(t_s[b - 1]))
+            else:
+                self._open_t = (float(t_s[a]), float(t_s[b - 1]))
+            self._open.append(rate[a:b])
+            if b < m:
+                self._close()
+
+    def _close(self) -> None:
+        if self._open_t is None:
+            return
+        r = np.sort(np.concatenate(self._open))
+        c = len(r)
+        self._med.append(0.5 * (r[(c - 1) // 2] + r[c // 2]))
+        self._first.append(self._open_t[0])
+        self._last.append(self._open_t[1])
+        self._open, self._open_t = [], None
+
+    def finish(self, period_s: float, settings: SelfTuneSettings | None = None) -> StrideQuality:
+        """The flags of every stride pushed (``stride_flags``)."""
+        self._close()
+        t_mid, fp = self._fp.finish()
+        return stride_flags(t_mid, fp, self._first, self._last, self._med, period_s, settings)
 
 
 def split_strides(quality: StrideQuality, period_s: float, settings: SelfTuneSettings | None = None) -> str | None:

@@ -144,6 +144,14 @@ class ProcessSettings:
     reference : str or None
         Reference for the accuracy metrics (``reference_path``): a file, an inline JSON object, or ``"truth"``
         (a simulated recording's ``/truth``).
+    block_s : float, s
+        Seconds of samples ``bootnav process`` holds in memory at once (``pipeline.process_to``): the memory
+        budget. A recording up to this long is one block, processed whole; a longer one runs as passes over
+        blocks of this length, memory bounded by the block (``docs/long-recordings.md``). The whole-record
+        stages need about 300 MB + 530 B per sample (``docs/tuning-log.md``, "Long recordings"): 300 s at
+        200 Hz is about 330 MB, about what the block passes of a recording of many hours use in blocks of 300 s
+        (310 MB at 1 and 3 h at 200 Hz, 900 s blocks: 410-440 MB), and longer than every recording of the
+        development datasets (at most 227 s), so those run exactly as in one piece.
     """
 
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
@@ -160,6 +168,7 @@ class ProcessSettings:
     floor_riser_min_m: float = 0.15
     floor_riser_max_m: float = 0.20
     reference: str | None = None
+    block_s: float = 300.0
 
     def validate(self) -> None:
         """Raise InputError naming the first bad setting (before any work is done)."""
@@ -168,6 +177,7 @@ class ProcessSettings:
             ("calibration (latitude_deg, height_m, gravity_mps2)", self._check_gravity),
             ("filter", lambda: getattr(self.filter, "validate", lambda: None)()),
             ("crop_s", self._check_crop),
+            ("block_s", self._check_block),
             ("output.geo_anchor", self._check_anchor),
             ("output.results_name", self._check_results_name),
         ]
@@ -188,6 +198,10 @@ class ProcessSettings:
         g = self.calibration.gravity()
         if not 9.0 < g < 10.5:
             raise ValueError(f"gravity {g} m/s^2 is not an Earth value (9.78-9.84 at sea level)")
+
+    def _check_block(self):
+        if not (isinstance(self.block_s, (int, float)) and math.isfinite(self.block_s) and self.block_s > 0):
+            raise ValueError(f"expected a positive number of seconds, got {self.block_s!r}")
 
     def _check_crop(self):
         if self.crop_s is not None and not (len(self.crop_s) == 2 and float(self.crop_s[1]) > float(self.crop_s[0])):

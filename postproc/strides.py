@@ -83,18 +83,19 @@ class FootprintAccumulator:
     """``footprints`` of a path pushed in consecutive chunks (bounded memory: one open stance phase).
 
     Each phase's sum of positions is accumulated chunk by chunk, so its mean equals ``footprints``' (a
-    difference of cumulative sums over the whole path) to rounding (1e-12 m at hours of walking).
+    difference of cumulative sums over the whole path) to rounding (1e-12 m at hours of walking). Pushed with
+    ``cov_h``, it keeps each phase's value at its last sample (``segment_strides``' ellipse covariances).
     """
 
     def __init__(self):
-        self.t_mid: list[float] = []
-        self.fp: list[np.ndarray] = []
+        self._t_mid, self._fp, self._cov = _GrowingRows(1), _GrowingRows(3), _GrowingRows(3)  # 56 B per phase
+        self._open_cov: np.ndarray | None = None
         self._open: tuple | None = None  # (first time, position sum, samples, last time) of the open phase
         self.first_stop_t: float | None = None  # time of the last sample of the first stance phase
         self.last_start_t: float | None = None  # time of the first sample of the last stance phase
 
-    def push(self, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray) -> None:
-        """Add consecutive samples (s, m ENU, bool)."""
+    def push(self, t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, cov_h: np.ndarray | None = None) -> None:
+        """Add consecutive samples (s, m ENU, bool; ``cov_h`` (m, 3): horizontal covariance P_EE, P_NN, P_EN, m²)."""
         m = len(t_s)
         if m == 0:
             return
@@ -109,6 +110,8 @@ class FootprintAccumulator:
             else:
                 self._open = (float(t_s[a]), psum, b - a, float(t_s[b - 1]))
                 self.last_start_t = float(t_s[a])
+            if cov_h is not None:
+                self._open_cov = np.array(cov_h[b - 1], float)
             if b < m:
                 self._close()
 
@@ -116,8 +119,11 @@ class FootprintAccumulator:
         if self._open is None:
             return
         t0, psum, n, t1 = self._open
-        self.t_mid.append(0.5 * (t0 + t1))
-        self.fp.append(psum / n)
+        self._t_mid.append(0.5 * (t0 + t1))
+        self._fp.append(psum / n)
+        if self._open_cov is not None:
+            self._cov.append(self._open_cov)
+            self._open_cov = None
         if self.first_stop_t is None:
             self.first_stop_t = t1
         self._open = None
@@ -125,12 +131,45 @@ class FootprintAccumulator:
     def finish(self) -> tuple[np.ndarray, np.ndarray]:
         """Mid times (K,) and footprints (K, 3), as ``footprints`` returns them."""
         self._close()
-        return np.asarray(self.t_mid, float), np.asarray(self.fp, float).reshape(-1, 3)
+        return self.t_mid.copy(), self.fp.copy()
+
+    @property
+    def t_mid(self) -> np.ndarray:
+        """Mid times of the closed phases so far (K,), s (a view)."""
+        return self._t_mid.rows[:, 0]
+
+    @property
+    def fp(self) -> np.ndarray:
+        """Footprints of the closed phases so far (K, 3), m (a view)."""
+        return self._fp.rows
+
+    @property
+    def cov(self) -> np.ndarray:
+        """Horizontal covariance at the last sample of each closed phase (K, 3), m², when pushed with ``cov_h``."""
+        return self._cov.rows
 
     @property
     def walked_s(self) -> float:
         """From the end of the first stance phase to the start of the last one, s (``path_summary``)."""
         return 0.0 if self.first_stop_t is None else float(self.last_start_t - self.first_stop_t)
+
+
+class _GrowingRows:
+    """Rows of ``width`` floats appended one at a time into a buffer that doubles (no Python object per row)."""
+
+    def __init__(self, width: int):
+        self._buf = np.empty((64, width))
+        self._n = 0
+
+    def append(self, row) -> None:
+        if self._n == len(self._buf):
+            self._buf = np.concatenate((self._buf, np.empty_like(self._buf)))
+        self._buf[self._n] = row
+        self._n += 1
+
+    @property
+    def rows(self) -> np.ndarray:
+        return self._buf[:self._n]
 
 
 def stride_footprints(fp: np.ndarray, min_stride_m: float) -> np.ndarray:

@@ -1,7 +1,7 @@
 """The layout of ``summary.json``: what one ``process`` run did and found, in plain JSON types.
 
 The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: this one,
-``pipeline.process_chunked``, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
+``pipeline._block_passes`` for a recording of many blocks, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
 ``calibration`` (which sensor calibration ran: file, device id, date, residuals; or "none" and why),
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``
 (``strides.path_summary``), ``metrics`` (reference metrics or null), ``saturation_intervals``, ``warnings``,
@@ -69,14 +69,7 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
         },
         "calibration": to_jsonable(getattr(result.sensor_calibration, "provenance", None)
                                    or {"status": "none", "reason": "not resolved"}),
-        "alignment": {
-            "gravity_mps2": float(result.gravity_mps2),
-            "roll_deg": float(np.degrees(getattr(init, "roll_rad", 0.0))),
-            "pitch_deg": float(np.degrees(getattr(init, "pitch_rad", 0.0))),
-            "gyro_bias_radps": np.asarray(init.gyro_bias_b).tolist(),
-            "still_period_s": ([float(t_s[init.still.start]), float(t_s[init.still.stop - 1])]
-                               if init.still is not None else None),
-        },
+        "alignment": alignment_summary(init, result.gravity_mps2, t_s),
         "stance": {
             "method": stance_res.method,
             "threshold": to_jsonable(stance_res.threshold),
@@ -105,6 +98,19 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
     if not summary["mount"]["looks_like_foot"]:
         result.warnings.append(summary["mount"]["message"])
     return summary
+
+
+def alignment_summary(init: Any, gravity_mps2: float, t_s: np.ndarray) -> dict:
+    """The initial alignment (``calibration.InitialState``): gravity, roll, pitch, gyro bias, the still period
+    (times from ``t_s``, the samples the alignment read)."""
+    return {
+        "gravity_mps2": float(gravity_mps2),
+        "roll_deg": float(np.degrees(getattr(init, "roll_rad", 0.0))),
+        "pitch_deg": float(np.degrees(getattr(init, "pitch_rad", 0.0))),
+        "gyro_bias_radps": np.asarray(init.gyro_bias_b).tolist(),
+        "still_period_s": ([float(t_s[init.still.start]), float(t_s[init.still.stop - 1])]
+                           if init.still is not None else None),
+    }
 
 
 def final_uncertainty(steps: dict) -> dict | None:

@@ -1,5 +1,7 @@
-"""`process` in chunks (``pipeline.process_chunked``, ``--chunk-s``) gives the whole-array run's path."""
+"""The one pipeline (``pipeline.process_to``): a recording in many blocks (``settings.block_s``) gives the path,
+storeys, stride flags and ellipses of the same recording in one block (the whole-record stages)."""
 
+import json
 import subprocess
 import sys
 
@@ -9,79 +11,149 @@ import pytest
 
 from bootnav.errors import InputError
 from bootnav.postproc.outputs import write_outputs
-from bootnav.postproc.pipeline import process, process_chunked
+from bootnav.postproc.pipeline import process, process_to
 from bootnav.postproc.settings import ProcessSettings
 from bootnav.simulator.simulate import LongSimulation
 from bootnav.simulator.writers import write_long_h5
 
 
+def _settings(**selftune) -> ProcessSettings:
+    s = ProcessSettings()
+    s.output.plots = False
+    for k, v in selftune.items():
+        setattr(s.selftune, k, v)
+    return s
+
+
 @pytest.fixture(scope="module")
 def walk(tmp_path_factory):
-    d = tmp_path_factory.mktemp("chunked")
+    """2 min of the long simulation (stairs included: the storeys snap landings) in one block."""
+    d = tmp_path_factory.mktemp("blocks")
     rec = write_long_h5(LongSimulation(120.0, seed=5, block_s=30.0), d / "walk.h5")
-    settings = ProcessSettings()
-    settings.output.plots = False
-    settings.floor_storeys = False  # a look-back stage the chunked run does not have (it warns)
-    whole = process(rec, settings)
+    whole = process(rec, _settings())
     write_outputs(whole, d / "whole")
+    assert whole.summary["path"]["storeys"]["flights"] > 0  # the storeys have something to do
     return d, rec, whole
 
 
 def results(folder):
     with h5py.File(folder / "results.h5", "r") as f:
-        return {k: f[f"results/default/{k}"][()] for k in ("t_s", "pos_n_m", "vel_n_mps", "q_nb", "stance")}
+        g = f["results/default"]
+        return {**{k: g[k][()] for k in ("t_s", "pos_n_m", "vel_n_mps", "q_nb", "stance", "stance_statistic")},
+                "created_utc": g.attrs["created_utc"]}
 
 
-@pytest.mark.parametrize("chunk_s", [2.9, 13.0, 1000.0])
-def test_every_chunk_size_gives_the_whole_array_path(walk, chunk_s):
+def n_blocks(t_s, block_s):
+    rows = round(block_s / np.median(np.diff(t_s)))
+    return -(-len(t_s) // rows)
+
+
+def steps_table(folder):
+    head = (folder / "steps.csv").read_text().splitlines()[0].split(",")
+    return head, np.loadtxt(folder / "steps.csv", delimiter=",", skiprows=1)
+
+
+@pytest.mark.parametrize("block_s", [2.9, 13.0, 1000.0])
+def test_every_block_length_gives_the_one_block_path(walk, block_s):
     d, rec, whole = walk
-    out = d / f"c{chunk_s:g}"
-    summary, files = process_chunked(rec, ProcessSettings(), out, chunk_s)
+    out = d / f"b{block_s:g}"
+    settings = _settings()
+    settings.block_s = block_s
+    summary, files = process_to(rec, settings, out)
     r = results(out)
-    assert len(r["t_s"]) == len(whole.t_s)
     np.testing.assert_array_equal(r["t_s"], whole.t_s)
     np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
-    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9  # storeys applied in both (their offsets to rounding)
     assert np.abs(r["q_nb"] - whole.q_nb).max() <= 1e-9
+    # the statistic's moving sums are differences of running sums over another stretch of samples: rounding of
+    # the order of eps x the running sum
+    stat = whole.stance_result.statistic
+    np.testing.assert_allclose(r["stance_statistic"], stat, rtol=0, atol=4 * np.finfo(float).eps * np.abs(stat).sum())
+    assert (out / "trajectory.csv").read_bytes() == (d / "whole" / "trajectory.csv").read_bytes()
     assert summary["navigation"]["timing_offset"]["tau_s"] == whole.navigation.timing["tau_s"]
     assert summary["path"]["distance_m"] == pytest.approx(whole.summary["path"]["distance_m"], abs=1e-9)
-    # the files too: trajectory.csv byte for byte, steps.csv to the printed precision
-    assert (out / "trajectory.csv").read_bytes() == (d / "whole" / "trajectory.csv").read_bytes()
-    head = (out / "steps.csv").read_text().splitlines()[0].split(",")
-    assert head == ["t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad", "heading_deg_cw_from_north",
-                    "floor"]
-    whole_head = (d / "whole" / "steps.csv").read_text().splitlines()[0].split(",")
-    mine = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)
-    theirs = np.loadtxt(d / "whole" / "steps.csv", delimiter=",", skiprows=1)[:, [whole_head.index(c) for c in head]]
-    np.testing.assert_allclose(mine, theirs, atol=1.5e-4)  # last printed digit, footprint sums in another order
+    storeys, theirs = summary["path"]["storeys"], whole.summary["path"]["storeys"]
+    assert {k: storeys[k] for k in ("flights", "flights_agreeing", "landings_on_known_level", "risers")} == \
+        {k: theirs[k] for k in ("flights", "flights_agreeing", "landings_on_known_level", "risers")}
+    assert storeys["riser_estimate_m"] == pytest.approx(theirs["riser_estimate_m"], abs=1e-9)
+    # steps.csv: the same columns (flags, floor, ellipses) and values to the printed precision
+    head, mine = steps_table(out)
+    whole_head, ref = steps_table(d / "whole")
+    assert head == whole_head and {"quality_flags", "floor", "ellipse_major_m"} <= set(head)
+    np.testing.assert_allclose(mine, ref, atol=1.5e-4)  # last printed digit, footprint sums in another order
+    assert summary["uncertainty"]["final_ellipse_major_m"] == pytest.approx(
+        whole.summary["uncertainty"]["final_ellipse_major_m"], rel=1e-9)
+    assert summary["navigation"].get("blocks", 1) == n_blocks(whole.t_s, block_s)
+    # the whole-record decisions: gait period, confidence, the timing probes' innovation (the same arithmetic)
+    for key in ("gait_period_s", "confidence"):
+        assert summary["navigation"][key] == pytest.approx(whole.summary["navigation"][key], rel=1e-9), key
+    assert summary["navigation"]["configured_failed"] is whole.summary["navigation"]["configured_failed"] is None
+    assert summary["navigation"]["timing_offset"]["innovation_rms_mps"] == pytest.approx(
+        whole.navigation.timing["innovation_rms_mps"], rel=1e-9)
 
 
-def test_cli_refuses_what_chunks_cannot_do(walk, tmp_path):
-    d, rec, _ = walk
-    run = lambda *a: subprocess.run([sys.executable, "-m", "bootnav", "process", *map(str, a)],  # noqa: E731
-                                    capture_output=True, text=True, timeout=120)
-    p = run(rec, "--out", tmp_path / "o", "--chunk-s", "10", "--crop", "0", "50")
-    assert p.returncode == 1 and "--crop is not available with --chunk-s" in p.stderr and "Traceback" not in p.stderr
-    with pytest.raises(InputError, match="--chunk-s must be a positive number of seconds"):
-        process_chunked(rec, ProcessSettings(), tmp_path / "o", 0.0)
-    csv = tmp_path / "imu.csv"
-    csv.write_text("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n0,0,0,9.8,0,0,0\n")
-    p = run(csv, "--out", tmp_path / "o2", "--chunk-s", "10")
-    assert p.returncode == 1 and "`bootnav import` it first" in p.stderr
-
-
-def test_a_recording_too_big_for_the_memory_limit_is_processed_in_chunks(walk, tmp_path):
-    """The whole-array run's memory estimate (cli_process.WHOLE_RUN_*) against --memory-limit picks the mode."""
+def test_many_blocks_flag_the_strides_one_block_flags(walk, tmp_path):
+    """Limits tight enough that strides are flagged (FAST: longer than 1 m; ROLLING: a stance phase's median
+    turning rate above the median of them all, so half the phases: it compares medians over phases cut by the
+    blocks); no fallback, so both runs keep the configured detector."""
     d, rec, whole = walk
-    run = lambda *a: subprocess.run([sys.executable, "-m", "bootnav", "process", str(rec), *map(str, a)],  # noqa: E731
-                                    capture_output=True, text=True, timeout=180)
-    p = run("--out", tmp_path / "small", "--memory-limit", "1")  # 1 MB: far below the base alone
+    rate = float(np.median(whole.navigation.quality.stance_rate_radps))
+    tight = dict(max_stride_m=1.0, max_stance_rate_radps=rate, max_bad_fraction=1.0)
+    whole = process(rec, _settings(**tight))
+    write_outputs(whole, tmp_path / "whole")
+    settings = _settings(**tight)
+    settings.block_s = 7.0
+    summary, _ = process_to(rec, settings, tmp_path / "blocks")
+    flags = whole.summary["navigation"]["stride_flags"]
+    assert flags["fast"] > 0 and flags["rolling"] > 0 and flags["fast"] < len(whole.steps["t_s"])
+    assert summary["navigation"]["stride_flags"] == flags
+    assert summary["navigation"]["implausible_stride_fraction"] == \
+        whole.summary["navigation"]["implausible_stride_fraction"]
+    head, mine = steps_table(tmp_path / "blocks")
+    _, ref = steps_table(tmp_path / "whole")
+    k = head.index("quality_flags")
+    np.testing.assert_array_equal(mine[:, k], ref[:, k])
+
+
+def _cli(*args, timeout=180):
+    return subprocess.run([sys.executable, "-m", "bootnav", "process", *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_old_command_lines_still_run(walk, tmp_path):
+    """--chunk-s is the block length's old name; --memory-limit is ignored with a warning."""
+    d, rec, whole = walk
+    p = _cli(rec, "--out", tmp_path / "o", "--chunk-s", "10", "--memory-limit", "1", "--no-plots")
     assert p.returncode == 0, p.stderr
-    assert "processed in chunks of 600 s" in p.stderr and "Traceback" not in p.stderr
-    assert len(list((tmp_path / "small").glob("*.png"))) == 7  # the chunked run draws the charts too
-    assert np.abs(results(tmp_path / "small")["pos_n_m"] - whole.pos_n).max() <= 1e-9
-    p = run("--out", tmp_path / "big", "--memory-limit", "1e6", "--no-plots")  # 1 TB: the whole-array run
+    assert "--memory-limit is deprecated" in p.stderr and "Traceback" not in p.stderr
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["settings"]["block_s"] == 10.0 and summary["navigation"]["blocks"] == n_blocks(whole.t_s, 10.0)
+    assert np.abs(results(tmp_path / "o")["pos_n_m"] - whole.pos_n).max() <= 1e-9
+
+
+def test_a_stage_that_needs_the_whole_record_runs_one_block_with_a_warning(walk, tmp_path):
+    d, rec, whole = walk
+    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--crop", "0", "60", "--no-plots", "--no-hdf5")
     assert p.returncode == 0, p.stderr
-    assert "processed in chunks" not in p.stderr
-    p = run("--out", tmp_path / "bad", "--memory-limit", "-1")
-    assert p.returncode == 1 and "--memory-limit must be a positive number of MB" in p.stderr
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
+    assert any("processed as one, since --crop" in w for w in summary["warnings"])
+    assert "confidence" in summary  # the whole-record stages ran
+    p = _cli(rec, "--out", tmp_path / "b", "--block-s", "-1")
+    assert p.returncode == 1 and "block_s" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_a_failed_detector_in_many_blocks_is_a_warning_with_a_confidence(walk, tmp_path):
+    """More stance phases required than the walk has: the configured detector fails (``checks.stance_findings``);
+    one block falls back to another stance detection, many blocks keep the configured path and say so."""
+    d, rec, whole = walk
+    settings = _settings()
+    settings.checks.min_stance_phases = 10_000
+    settings.block_s = 20.0
+    summary, _ = process_to(rec, settings, tmp_path / "o")
+    nav = summary["navigation"]
+    assert nav["configured_failed"].startswith("stance detector 'adaptive' found") and not nav["fallback_used"]
+    assert any("runs on a recording of one block only" in w for w in summary["warnings"])
+    assert 0 < summary["confidence"] <= 1
+    settings.selftune.fallback = False  # as the one-block run: the failure refused
+    with pytest.raises(InputError, match="stance phase"):
+        process_to(rec, settings, tmp_path / "o2")

@@ -161,7 +161,7 @@ def test_chunked_process_draws_the_whole_runs_charts(walk):
     from matplotlib.image import imread
 
     from bootnav.postproc.outputs import write_outputs
-    from bootnav.postproc.pipeline import process, process_chunked
+    from bootnav.postproc.pipeline import process, process_to
     from bootnav.postproc.plots import FILES, TIME_COLUMNS
     from bootnav.postproc.settings import ProcessSettings
     from bootnav.postproc.strides import ELLIPSE_COLUMNS
@@ -170,12 +170,12 @@ def test_chunked_process_draws_the_whole_runs_charts(walk):
     settings = ProcessSettings()
     settings.output.plot_max_points = 1500
     settings.output.write_hdf5 = False
-    settings.floor_storeys = False  # a look-back stage the chunked run does not have (it warns)
     whole = process(rec, settings)
-    for c in ELLIPSE_COLUMNS:  # the chunked run keeps no covariance per stance phase (no ellipses, documented)
-        whole.steps.pop(c)
+    assert all(c in whole.steps for c in ELLIPSE_COLUMNS)  # drawn by both runs
     files_whole = write_outputs(whole, d / "whole")
-    summary, files_chunked = process_chunked(rec, settings, d / "chunked", 3.7)
+    settings.block_s = 3.7
+    summary, files_chunked = process_to(rec, settings, d / "chunked")
+    assert summary["navigation"]["blocks"] > 1
     assert summary["input"]["samples_total"] > max(2 * TIME_COLUMNS, settings.output.plot_max_points)  # decimated
     names = [*FILES.values(), "path.html"]
     assert sorted(k for k in files_chunked if k.startswith("plot_") or k == "html") == \

@@ -32,18 +32,18 @@ def _run(*argv) -> None:
 def summaries(tmp_path_factory) -> dict[str, dict]:
     d = tmp_path_factory.mktemp("schema")
     _run("process", STAIRS, "--out", d / "whole", "--no-plots", "--jobs", "1", "--quiet")
-    _run("process", STAIRS, "--out", d / "chunked", "--chunk-s", "10", "--no-plots", "--quiet")
+    _run("process", STAIRS, "--out", d / "chunked", "--block-s", "10", "--no-plots", "--quiet")
     walk = custom("short", lambda pb: pb.stand(3).walk(6).stand(3))
     both = write_two_boots_h5(simulate_two_boots(walk, seed=1), d / "both.h5")
     _run("process", both, "--two-boots", "--out", d / "two", "--no-plots", "--jobs", "1", "--quiet")
     _run("pdr", WAIST, "--out", d / "pdr", "--no-plots", "--quiet")
-    files = {"process": d / "whole" / "summary.json", "process_chunked": d / "chunked" / "summary.json",
+    files = {"process": d / "whole" / "summary.json", "process_blocks": d / "chunked" / "summary.json",
              "two_boots": d / "two" / "two_boots.json", "two_boots_foot": d / "two" / "left" / "summary.json",
              "pdr": d / "pdr" / "summary.json"}
     return {kind: json.loads(path.read_text()) for kind, path in files.items()}
 
 
-@pytest.mark.parametrize("kind", ["process", "process_chunked", "two_boots", "two_boots_foot", "pdr"])
+@pytest.mark.parametrize("kind", ["process", "process_blocks", "two_boots", "two_boots_foot", "pdr"])
 def test_every_kind_of_summary_follows_the_schema(summaries, kind):
     summary = summaries[kind]
     assert errors(summary, SCHEMA) == []

@@ -56,6 +56,7 @@ class StanceChunk:
     gyro_b: np.ndarray  # (m, 3)
     stance: np.ndarray  # (m,) bool
     saturated: np.ndarray  # (m,) uint8 saturation bitmask (bits ax, ay, az, gx, gy, gz), for the navigator's push
+    statistic: np.ndarray | None = None  # (m,) the detector's statistic (``StanceResult.statistic``'s rows)
 
     def __len__(self) -> int:
         return int(self.t_s.shape[0])
@@ -200,9 +201,9 @@ class StreamStance:
             return []
         t, acc, gyro, bad = self._t, self._acc, self._gyro, self._bad
         gyro_det = gyro if self._gyro_bias is None else gyro - self._gyro_bias
-        stance = self._detect(t, acc, gyro_det, bad, self._decided - self._b0, end - self._b0)
+        stance, stat = self._detect(t, acc, gyro_det, bad, self._decided - self._b0, end - self._b0)
         a, b = self._decided - self._b0, end - self._b0
-        chunk = StanceChunk(self._decided, t[a:b], acc[a:b], gyro[a:b], stance[a:b], self._bits[a:b])
+        chunk = StanceChunk(self._decided, t[a:b], acc[a:b], gyro[a:b], stance[a:b], self._bits[a:b], stat[a:b])
         self._decided = end
         keep = max(0, end - self._history - self._b0)
         self._t, self._acc, self._gyro, self._bad = t[keep:], acc[keep:], gyro[keep:], bad[keep:]
@@ -210,9 +211,9 @@ class StreamStance:
         self._b0 += keep
         return [chunk]
 
-    def _detect(self, t, acc, gyro, bad, a, b) -> np.ndarray:
+    def _detect(self, t, acc, gyro, bad, a, b) -> tuple[np.ndarray, np.ndarray]:
         """The detector's ``detect`` on the buffer with the nominal period (``base.StanceDetector.detect``'s
-        steps; samples a..b−1 are the ones being decided)."""
+        steps; samples a..b−1 are the ones being decided): (stance mask, statistic) of the buffer."""
         from . import postprocess
         from bootnav.core.arrays import dilate
 
@@ -221,12 +222,12 @@ class StreamStance:
         acc0 = np.where(np.isfinite(acc), acc, 0.0) if bad.any() else acc
         gyro0 = np.where(np.isfinite(gyro), gyro, 0.0) if bad.any() else gyro
         if self._adaptive:
-            raw, n_window = self._adaptive_raw(acc0, gyro0, bad, a, b)
+            raw, n_window, stat = self._adaptive_raw(acc0, gyro0, bad, a, b)
         else:
-            raw, _, _, n_window, _ = det._classify(acc0, gyro0, dt, bad)
+            raw, stat, _, n_window, _ = det._classify(acc0, gyro0, dt, bad)
         stance = postprocess.clean_stance(raw, t, dt, min_swing_s=det.min_swing_s)
         stance &= ~dilate(bad, max(n_window, window_samples(det.saturation_guard_s, dt, 0)))
-        return det._drop_short_runs(stance, t, dt)
+        return det._drop_short_runs(stance, t, dt), stat
 
     def _adaptive_raw(self, acc, gyro, bad, a, b):
         """``adaptive.AdaptiveDetector``'s rule with the noise floor F from the look-back (module docstring)."""
@@ -236,8 +237,8 @@ class StreamStance:
 
         det, dt = self.detector, self.dt_s
         n = window_samples(det.window_s, dt, 3)
-        L = np.log10(np.maximum(shoe_statistic(acc, gyro, n, det.sigma_acc_mps2, det.sigma_gyro_radps,
-                                               det.gravity_mps2), 1e-300))
+        T = shoe_statistic(acc, gyro, n, det.sigma_acc_mps2, det.sigma_gyro_radps, det.gravity_mps2)
+        L = np.log10(np.maximum(T, det.rest_floor()))  # as ``AdaptiveDetector._classify``
         span = window_samples(det.span_s, dt, 3)
         valley = minimum_filter1d(L, span, mode="nearest")
         peak = maximum_filter1d(L, span, mode="nearest")
@@ -251,7 +252,7 @@ class StreamStance:
         gamma = np.maximum(valley + det.alpha * (peak - valley), floor + det.floor_decades)
         if det.max_rate_radps:
             gamma = np.minimum(gamma, np.log10(det.max_rate_radps**2 / det.sigma_gyro_radps**2))
-        return L < gamma, n
+        return L < gamma, n, T
 
 
 def _as_bits(saturated, m: int, at: int) -> np.ndarray:
@@ -269,6 +270,11 @@ def _as_bits(saturated, m: int, at: int) -> np.ndarray:
     return s.astype(np.uint8)
 
 
+def stream_refusal(settings) -> str | None:
+    """Why ``StreamStance`` refuses these ``DetectorSettings`` (None: it runs them exactly)."""
+    return _unsupported(settings.build())
+
+
 def streamable_detectors() -> list[str]:
     """Names of the registered detectors ``StreamStance`` runs with their default settings."""
     from . import DETECTORS, DetectorSettings
@@ -280,4 +286,4 @@ def streamable_detectors() -> list[str]:
     return out
 
 
-__all__ = ["StanceChunk", "StreamStance", "streamable_detectors"]
+__all__ = ["StanceChunk", "StreamStance", "stream_refusal", "streamable_detectors"]

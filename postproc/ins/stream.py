@@ -1,10 +1,10 @@
 """Incremental navigation: the fast engine's ZUPT filter + segment RTS smoother, pushed chunk by chunk.
 
 ``StreamNavigator`` is THE engine: ``run_filter`` (``run_fast`` here) pushes a whole record through it, the
-live view and the long-recordings pipeline push chunks as they arrive or are read. Push samples in chunks of
-any size (1 sample, 7, 10⁵, ...); each ``push`` returns the output rows that became final, with their absolute
-sample index; ``finish`` returns the rest. The rows are identical for every chunking (the kernel runs the
-same arithmetic on the same samples in the same order; tests/test_stream_engine.py).
+live view and the block passes of a long recording (``pipeline._block_passes``) push chunks as they arrive or
+are read. Push samples in chunks of any size (1 sample, 7, 10⁵, ...); each ``push`` returns the output rows
+that became final, with their absolute sample index; ``finish`` returns the rest. The rows are identical for
+every chunking (the kernel runs the same arithmetic on the same samples in the same order; tests/test_stream_engine.py).
 
 **When a row is final.** The smoother corrects the rows of its open segment (from the first swing sample
 after a stance phase to the last sample of the next one, at most ``smoother_max_segment_s``) when the segment

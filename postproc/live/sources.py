@@ -2,12 +2,12 @@
 
 ``GrowingRecording`` tails the SWMR file a running ``bootnav record`` flushes (``docs/recording-format.md``,
 "Crash safety"): it opens the file read-only in SWMR mode once the recorder has created it, and each ``poll``
-refreshes the datasets and returns the rows flushed since the last one, in SI units (raw · ``scale_to_si`` +
-``offset_to_si``, exactly what ``recording.load`` computes). It runs in the view's own process and never
-writes, so the recorder cannot lose a frame because of it.
+refreshes the datasets and returns the rows flushed since the last one, in SI units (read through
+``recording.RecordingReader``, the one decoder of the layout: exactly what ``recording.load`` computes). It
+runs in the view's own process and never writes, so the recorder cannot lose a frame because of it.
 
-``ReplayRecording`` serves a finished recording (``recording.load``; one boot of a multi-boot recording)
-in the same chunks, paced by its own time stamps divided by ``speed``.
+``ReplayRecording`` serves a finished recording (``recording.RecordingReader``, block by block as they are
+due; one boot of a multi-boot recording) in the same chunks, paced by its own time stamps divided by ``speed``.
 
 Both return ``Chunk`` objects: the new samples, the new ``/events`` rows, and the recording's ``/meta``.
 """
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.logger.recording import EVENT_DTYPE, load
+from bootnav.logger.recording import EVENT_DTYPE, RecordingReader
 
 #: per-sample datasets read by the view (every recorder-written file has them)
 _IMU = ("t_s", "acc", "gyro", "saturated")
@@ -53,65 +53,41 @@ class GrowingRecording:
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
-        self._f = None
+        self._reader: RecordingReader | None = None
         self._n = 0
         self._n_events = 0
         self.meta: dict = {}
-        self._scale: dict[str, tuple[float, float]] = {}
 
     def _open(self) -> bool:
-        import h5py
-
         if not self.path.exists():
             return False
         try:
-            f = h5py.File(self.path, "r", libver="latest", swmr=True)
-        except OSError:
-            return False  # created but not yet switched to SWMR by the recorder: next poll
-        if "imu" not in f or any(k not in f["imu"] for k in _IMU):
-            f.close()
-            return False
-        self._f = f
-        self.meta = {k: (v.decode() if isinstance(v, bytes) else v.item() if isinstance(v, np.generic) else v)
-                     for k, v in f["meta"].attrs.items()} if "meta" in f else {}
-        for k in ("acc", "gyro", "temp"):
-            if k in f["imu"]:
-                a = f["imu"][k].attrs
-                self._scale[k] = (float(a.get("scale_to_si", 1.0)), float(a.get("offset_to_si", 0.0)))
+            reader = RecordingReader(self.path, swmr=True, require=_IMU)
+        except (OSError, KeyError):
+            return False  # created but not yet switched to SWMR (or its /imu not complete) by the recorder
+        self._reader, self.meta = reader, reader.meta
         return True
 
     def poll(self) -> Chunk | None:
         """The rows flushed since the last call (None before the file is readable)."""
-        if self._f is None and not self._open():
+        if self._reader is None and not self._open():
             return None
-        imu = self._f["imu"]
-        for k in _IMU:
-            imu[k].refresh()
-        n = min(imu[k].shape[0] for k in _IMU)  # the recorder flushes all at once; keep the common prefix
+        n = self._reader.refresh()  # the recorder flushes all at once; the common prefix
         chunk = _empty_chunk()
         if n > self._n:
-            sl = slice(self._n, n)
-            si = {k: imu[k][sl].astype(np.float64) * self._scale[k][0] + self._scale[k][1] for k in ("acc", "gyro")}
-            temp = None
-            if "temp" in self._scale and "temp" in imu:
-                imu["temp"].refresh()
-                if imu["temp"].shape[0] >= n:
-                    temp = imu["temp"][sl].astype(np.float64) * self._scale["temp"][0] + self._scale["temp"][1]
-            chunk = Chunk(imu["t_s"][sl], si["acc"], si["gyro"], imu["saturated"][sl], temp_degc=temp)
+            chunk = Chunk(*self._reader.block(self._n, n), temp_degc=self._reader.temp_degc(self._n, n))
             self._n = n
         chunk.device_id = self.meta.get("device_id")
-        if "events" in self._f:
-            ev = self._f["events"]
-            ev.refresh()
-            if ev.shape[0] > self._n_events:
-                chunk.events = ev[self._n_events:]
-                self._n_events = ev.shape[0]
+        events = self._reader.events(self._n_events)
+        if len(events):
+            chunk.events = events
+            self._n_events += len(events)
         return chunk
 
     def close(self) -> None:
-        if self._f is not None:
-            self._f.close()
-            self._f = None
+        if self._reader is not None:
+            self._reader.close()
+            self._reader = None
 
 
 class ReplayRecording:
@@ -119,7 +95,7 @@ class ReplayRecording:
 
     Parameters
     ----------
-    path : recording to replay (anything ``recording.load`` reads)
+    path : recording to replay (a bootnav HDF5 recording)
     speed : float
         Recording seconds per wall-clock second.
     boot : str, optional
@@ -129,36 +105,37 @@ class ReplayRecording:
 
     def __init__(self, path: str | Path, speed: float = 1.0, boot: str | None = None):
         self.path = Path(path)
-        rec = load(self.path, with_truth=False, boot=boot, check_units=True)
-        if rec.n < 2:
+        self._reader = RecordingReader(self.path, boot)  # blocks read as they are due: memory bounded by them
+        if self._reader.n < 2:
             from bootnav.errors import InputError
 
-            raise InputError(f"{self.path}{f' boot {boot}' if boot else ''}: {rec.n} sample(s), nothing to replay "
+            n = self._reader.n
+            self._reader.close()
+            raise InputError(f"{self.path}{f' boot {boot}' if boot else ''}: {n} sample(s), nothing to replay "
                              "(the recording stopped before its first frames); `bootnav info` shows what it holds")
-        self.meta = rec.meta
-        self._rec = rec
+        self._reader.check_units()
+        self.meta = self._reader.meta
+        self._t = self._reader.times()
         self.speed = float(speed)
         self._n = 0
         self._start: float | None = None
-        ev = rec.events
+        ev = self._reader.events()
         self._events = ev[np.argsort(ev["sample_index"], kind="stable")]
         self._n_events = 0
 
     @property
     def finished(self) -> bool:
-        return self._n >= self._rec.n
+        return self._n >= self._reader.n
 
     def poll(self) -> Chunk:
         """The samples whose time has come since the last call."""
-        rec = self._rec
         now = time.monotonic()
         if self._start is None:
             self._start = now
-        t_due = rec.t_s[0] + (now - self._start) * self.speed
-        n = rec.n if not np.isfinite(t_due) else int(np.searchsorted(rec.t_s, t_due, side="right"))
-        sl = slice(self._n, max(n, self._n))
-        chunk = Chunk(rec.t_s[sl], rec.acc_mps2[sl], rec.gyro_radps[sl], rec.saturated[sl],
-                      temp_degc=None if rec.temp_degc is None else rec.temp_degc[sl], device_id=rec.meta.get("device_id"))
+        t_due = self._t[0] + (now - self._start) * self.speed
+        n = self._reader.n if not np.isfinite(t_due) else int(np.searchsorted(self._t, t_due, side="right"))
+        chunk = (Chunk(*self._reader.block(self._n, n), temp_degc=self._reader.temp_degc(self._n, n),
+                       device_id=self.meta.get("device_id")) if n > self._n else _empty_chunk())
         self._n = max(n, self._n)
         k = int(np.searchsorted(self._events["sample_index"], self._n, side="left"))
         if k > self._n_events:
@@ -167,4 +144,4 @@ class ReplayRecording:
         return chunk
 
     def close(self) -> None:
-        pass
+        self._reader.close()
