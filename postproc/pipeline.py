@@ -26,7 +26,7 @@ The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``o
 
 **One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The recording is read through
 ``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) in blocks of ``settings.block_s``
-seconds, the memory budget (300 s: about 330 MB at 200 Hz). A recording of one block — every recording of the
+seconds, the memory budget (900 s: about 400-440 MB at 200 Hz). A recording of one block — every recording of the
 development datasets — runs the stages above on its arrays, exactly as they always ran, and is written by
 ``outputs.write_outputs``. A longer HDF5 recording runs the same stages as passes over its blocks
 (``_block_passes``), each whole-record decision taken in a pass before the one that needs it, the last pass

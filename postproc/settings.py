@@ -148,10 +148,11 @@ class ProcessSettings:
         Seconds of samples ``bootnav process`` holds in memory at once (``pipeline.process_to``): the memory
         budget. A recording up to this long is one block, processed whole; a longer one runs as passes over
         blocks of this length, memory bounded by the block (``docs/long-recordings.md``). The whole-record
-        stages need about 300 MB + 530 B per sample (``docs/tuning-log.md``, "Long recordings"): 300 s at
-        200 Hz is about 330 MB, about what the block passes of a recording of many hours use in blocks of 300 s
-        (310 MB at 1 and 3 h at 200 Hz, 900 s blocks: 410-440 MB), and longer than every recording of the
-        development datasets (at most 227 s), so those run exactly as in one piece.
+        stages need about 300 MB + 530 B per sample (``docs/tuning-log.md``, "Long recordings"): 900 s at
+        200 Hz is about 400 MB whole, and the block passes of a recording of many hours use 410-440 MB in blocks
+        of 900 s (at 1 and 3 h at 200 Hz; 300 s blocks: 310 MB), under the 500 MB budget. A quarter of an hour
+        keeps every short walk (and the whole development datasets, at most 227 s) in one piece, where the
+        stance fallback runs (``docs/long-recordings.md``).
     """
 
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
@@ -168,7 +169,7 @@ class ProcessSettings:
     floor_riser_min_m: float = 0.15
     floor_riser_max_m: float = 0.20
     reference: str | None = None
-    block_s: float = 300.0
+    block_s: float = 900.0
 
     def validate(self) -> None:
         """Raise InputError naming the first bad setting (before any work is done)."""
