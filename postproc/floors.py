@@ -13,7 +13,10 @@ floor is at that floor's height again. This stage uses both, on the footprints o
 1. **Flights.** A stride (footprint to footprint) is *level* when |Δz| < ``level_max_dz_m`` (the filter's
    gate, half the lowest riser); a flight is a maximal run of consecutive non-level strides of one sign
    (a half landing in a U-shaped stairwell splits a storey into two flights). A single non-level stride is
-   a step (a kerb, kneeling down to crawl: the sensor moves with the foot's pitch), not a flight.
+   not a flight: when it changes the height by less than one riser (``riser_min_m``) it is the sensor, not
+   the building (kneeling down to crawl, the first stride after a long stand or a turn in place: an
+   uncalibrated unit's lone strides err by 8-15 cm, of one sign in a mission, and added up to 1.2 m over 30
+   minutes; docs/tuning-log.md) and is put back on its floor; a riser or more is a step (a kerb), kept.
 2. **Risers.** Each stride of a flight climbs n_i = max(1, round(|Δz_i| / r̂)) risers, r̂ the riser height
    estimated so far (the pooled Σ|H| / ΣN of the agreeing flights before, 0.175 m before the first). The
    flight's riser count N = Σ n_i and its climbed height H = Σ Δz_i *agree* when
@@ -58,10 +61,12 @@ class StoreyResult:
     snapped: int  # of those, landings put on a level visited before
     risers: int  # risers counted on the agreeing flights
     riser_m: float  # pooled riser estimate, m (NaN without an agreeing flight)
+    lone_held: int = 0  # lone non-level strides of less than one riser put back on their floor
 
     def summary(self) -> dict:
         return {"flights": self.flights, "flights_agreeing": self.agreeing, "landings_on_known_level": self.snapped,
-                "risers": self.risers, "riser_estimate_m": self.riser_m if np.isfinite(self.riser_m) else None,
+                "risers": self.risers, "lone_strides_held": self.lone_held,
+                "riser_estimate_m": self.riser_m if np.isfinite(self.riser_m) else None,
                 "max_correction_m": float(np.abs(self.offset_fp).max()) if len(self.offset_fp) else 0.0}
 
 
@@ -115,9 +120,13 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
         # down, standing up), not a flight: left as the filter says
         offset = off[k]
         if j - k < MIN_FLIGHT_STRIDES:
-            off[k + 1:j + 1] = offset
             climb[k + 1:j + 1] = climbed
-            plateau = z[j] + offset
+            if np.all(np.abs(dz[k:j]) < riser_min_m):  # less than one riser: not a step of the building
+                off[k + 1:j + 1] = plateau - z[k + 1:j + 1]
+                out.lone_held += j - k
+            else:
+                off[k + 1:j + 1] = offset
+                plateau = z[j] + offset
             k = j
             continue
         r_hat = sum_h / sum_n if sum_n else 0.5 * (riser_min_m + riser_max_m)

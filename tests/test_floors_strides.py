@@ -111,12 +111,18 @@ def test_a_flight_whose_risers_and_height_disagree_is_left_as_the_filter_says():
 
 
 def test_level_walks_are_flat_and_single_steps_are_not_flights():
-    """Drift on a floor (each stride below the gate) is flattened to the floor's height; kneeling down and
-    standing up (one non-level stride each) move the plateau without counting a flight."""
+    """Drift on a floor (each stride below the gate) is flattened to the floor's height; a lone stride of less
+    than one riser (kneeling down −0.12 m, standing up, the first stride after a long stand) is the sensor, not
+    the building: put back on the floor; a lone stride of a riser or more (a kerb, 0.17 m) moves the plateau.
+    Neither counts as a flight."""
     z = np.array([0.0, 0.01, -0.02, 0.0, -0.12, -0.13, -0.01, 0.02])
     res = storey_offsets(z, LEVEL, RMIN, RMAX)
-    assert res.flights == 0
-    assert np.allclose(z + res.offset_fp, [0.0, 0.0, 0.0, 0.0, -0.12, -0.12, 0.0, 0.0], atol=1e-12)
+    assert res.flights == 0 and res.lone_held == 2
+    assert np.allclose(z + res.offset_fp, 0.0, atol=1e-12)
+    kerb = np.array([0.0, 0.01, 0.18, 0.19, 0.17])
+    res = storey_offsets(kerb, LEVEL, RMIN, RMAX)
+    assert res.flights == 0 and res.lone_held == 0
+    assert np.allclose(kerb + res.offset_fp, [0.0, 0.0, 0.17, 0.17, 0.17], atol=1e-12)  # its own 0.17 m change
 
 
 def test_a_toe_first_landing_is_a_roll_not_a_stride():
