@@ -44,6 +44,7 @@ from bootnav.logger.recording import Recording
 
 from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
                      saturation_intervals, saturation_warnings, stride_findings)
+from .ellipses import stride_scale_covariance
 from .floors import snap_storeys
 from .navigate import navigate
 from .selftune import TINY
@@ -188,8 +189,10 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     lap("navigation")
 
     min_stride = settings.selftune.min_stride_m
+    cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings,
+                                        sensor_cal.provenance.get("status") == "applied")
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
+                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None), cov_extra=cov_extra)
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")

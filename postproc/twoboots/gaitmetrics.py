@@ -52,7 +52,8 @@ def step_widths(t_a: np.ndarray, fp_a: np.ndarray, t_b: np.ndarray, fp_b: np.nda
     return out
 
 
-def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: float = 2.0) -> dict:
+def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: float = 2.0,
+               floors=None) -> dict:
     """Per-foot strides with their step width.
 
     Parameters
@@ -63,6 +64,8 @@ def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: 
         Shorter moves are not strides (``ProcessSettings.selftune.min_stride_m``).
     max_stride_time_s
         Longest time between two footprints of one stride (a pause in between is not a stride), s.
+    floors
+        ``FloorSettings`` of the ``floor`` column (None: the defaults).
 
     Returns
     -------
@@ -74,7 +77,7 @@ def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: 
     out = {}
     for name, other, side in (("left", "right", -1.0), ("right", "left", 1.0)):
         src = left if name == "left" else right
-        steps = segment_strides(src["t_s"], src["pos_n"], src["stance"], min_stride_m)
+        steps = segment_strides(src["t_s"], src["pos_n"], src["stance"], min_stride_m, floors=floors)
         t_fp, fp = fps[name]
         width = step_widths(t_fp, fp, *fps[other], side, min_stride_m, max_stride_time_s)
         k = np.searchsorted(t_fp, steps["t_s"])  # the footprint ending each stride
