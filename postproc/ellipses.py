@@ -50,22 +50,50 @@ def scale_error_covariance(fp_en: np.ndarray, yaw_fp: np.ndarray, sigma_scale: f
     sigma_scale : standard deviation of the distance and turn scale errors (dimensionless).
     sigma_cross : standard deviation of the accelerometer's horizontal cross-axis angle, rad.
     """
-    fp = np.asarray(fp_en, float)[:, :2]
-    k = len(fp)
-    out = np.zeros((k, 3))
-    if k == 0 or (sigma_scale <= 0 and sigma_cross <= 0):
+    return ScaleErrorAccumulator(sigma_scale, sigma_cross).push(fp_en, yaw_fp)
+
+
+class ScaleErrorAccumulator:
+    """``scale_error_covariance`` of footprints pushed in consecutive batches (the live view: causal, the same
+    numbers for any batching; memory: the running J_g and the first and last footprint)."""
+
+    def __init__(self, sigma_scale: float, sigma_cross: float = 0.0):
+        self.s2, self.c2 = float(sigma_scale) ** 2, float(sigma_cross) ** 2
+        self._first: np.ndarray | None = None  # (x, y, yaw) of the first footprint
+        self._last: np.ndarray | None = None  # (x, y, yaw) of the last footprint pushed
+        self._j_g = np.zeros(2)
+
+    def push(self, fp_en: np.ndarray, yaw_fp: np.ndarray) -> np.ndarray:
+        """The (m, 3) added covariance of the next m footprints (``scale_error_covariance``'s parameters)."""
+        fp = np.asarray(fp_en, float).reshape(len(yaw_fp), -1)[:, :2]
+        yaw = np.asarray(yaw_fp, float)
+        out = np.zeros((len(fp), 3))
+        if len(fp) == 0:
+            return out
+        if self._first is None:
+            self._first = np.array([fp[0, 0], fp[0, 1], yaw[0]])
+            self._last = self._first.copy()
+        x0, y0, yaw0 = self._first
+        prev = np.vstack((self._last[None, :2], fp[:-1]))
+        prev_yaw = np.concatenate(([self._last[2]], yaw[:-1]))
+        step = fp - prev
+        turn = 0.5 * (yaw + prev_yaw) - yaw0  # the heading change (from the start) of each step
+        perp = np.column_stack((-step[:, 1], step[:, 0]))  # e_z × Δp
+        j_g = self._j_g + np.cumsum(turn[:, None] * perp, axis=0)
+        j_a = fp - np.array([x0, y0])
+        j_m = np.column_stack((-j_a[:, 1], j_a[:, 0]))  # e_z × (p_k − p_0): every stride turned by the angle
+        for col, (u, v) in enumerate(((0, 0), (1, 1), (0, 1))):
+            out[:, col] = self.s2 * (j_a[:, u] * j_a[:, v] + j_g[:, u] * j_g[:, v]) + self.c2 * j_m[:, u] * j_m[:, v]
+        self._j_g = j_g[-1].copy()
+        self._last = np.array([fp[-1, 0], fp[-1, 1], yaw[-1]])
         return out
-    j_a = fp - fp[0]
-    yaw = np.asarray(yaw_fp, float) - float(yaw_fp[0])
-    step = np.diff(fp, axis=0)
-    turn = 0.5 * (yaw[1:] + yaw[:-1])  # the heading change (from the start) of each step
-    perp = np.column_stack((-step[:, 1], step[:, 0]))  # e_z × Δp
-    j_g = np.vstack((np.zeros((1, 2)), np.cumsum(turn[:, None] * perp, axis=0)))
-    j_m = np.column_stack((-j_a[:, 1], j_a[:, 0]))  # e_z × (p_k − p_0): every stride turned by the angle
-    s2, c2 = float(sigma_scale) ** 2, float(sigma_cross) ** 2
-    for col, (u, v) in enumerate(((0, 0), (1, 1), (0, 1))):
-        out[:, col] = s2 * (j_a[:, u] * j_a[:, v] + j_g[:, u] * j_g[:, v]) + c2 * j_m[:, u] * j_m[:, v]
-    return out
+
+
+def scale_sigmas(settings, calibrated: bool) -> tuple[float, float]:
+    """(σ_scale, σ_cross) of ``ProcessSettings.ellipse_*`` for a run with or without a sensor calibration."""
+    if calibrated:
+        return float(settings.ellipse_calibrated_sigma), float(settings.ellipse_calibrated_sigma)
+    return float(settings.ellipse_scale_sigma), float(settings.ellipse_cross_axis_rad)
 
 
 def stride_scale_covariance(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, q_nb: np.ndarray, settings,
@@ -78,8 +106,4 @@ def stride_scale_covariance(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarr
     if len(fp) == 0:
         return np.zeros((0, 3))
     yaw = unwrapped_yaw(q_nb)[phase_ends(np.asarray(stance, bool))]
-    if calibrated:
-        sig = cross = float(settings.ellipse_calibrated_sigma)
-    else:
-        sig, cross = float(settings.ellipse_scale_sigma), float(settings.ellipse_cross_axis_rad)
-    return scale_error_covariance(fp, yaw, sig, cross)
+    return scale_error_covariance(fp, yaw, *scale_sigmas(settings, calibrated))

@@ -169,6 +169,16 @@ def snap_storeys(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, level_m
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
     res = storey_offsets(fp, level_max_dz_m, riser_min_m, riser_max_m, min_stride_m)
     out = np.array(pos_n, dtype=float, copy=True)
-    if len(t_mid) and np.any(res.offset_fp):
-        out[:, 2] += np.interp(t_s, t_mid, res.offset_fp)
+    out[:, 2] += sample_offsets(t_s, t_mid, res.offset_fp)
     return out, res
+
+
+def sample_offsets(t_s: np.ndarray, t_mid: np.ndarray, offset_fp: np.ndarray) -> np.ndarray:
+    """The height correction of every sample of ``t_s`` (any block of the recording, in any order): the
+    footprints' ``offset_fp`` (``storey_offsets``) interpolated between their mid times ``t_mid``, held before
+    the first and after the last. A block pipeline runs ``storey_offsets`` once on all footprints (K rows, one
+    per stance phase: memory flat in the samples) and corrects each block with this."""
+    t_s = np.asarray(t_s, float)
+    if len(t_mid) == 0 or not np.any(offset_fp):
+        return np.zeros(len(t_s))
+    return np.interp(t_s, t_mid, offset_fp)

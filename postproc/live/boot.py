@@ -14,7 +14,8 @@ foot leaves the ground again. From the final rows the view builds what ``process
 * uncertainty: each stride row ends with the footprint's horizontal 1-σ ellipse (``strides.ellipse``:
   semi-major, semi-minor in m, orientation in rad counter-clockwise from east) from the forward filter's
   covariance at the last sample of its stance phase, where the fixed-lag smoother ends every segment on the
-  filtered estimate (as ``process``'s ``steps.csv``).
+  filtered estimate, plus the sensor's scale and cross-axis errors propagated along the path so far
+  (``ellipses.ScaleErrorAccumulator``: causal, the same terms as ``process``'s ``steps.csv``).
 
 Provisional strides (``provisional``): as soon as a low-latency cue says the foot has stopped, the view
 draws a provisional footprint at the navigator's filtered position propagated to that stance start; the final
@@ -49,6 +50,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bootnav.errors import InputError
+from bootnav.postproc.ellipses import ScaleErrorAccumulator, scale_sigmas, unwrapped_yaw
 from bootnav.postproc.strides import FootprintAccumulator, ellipse, floor_levels, floor_signal, stride_footprints
 
 ROW_COLUMNS = ["t_s", "x_m", "y_m", "z_m", "floor", "ellipse_major_m", "ellipse_minor_m", "ellipse_orientation_rad"]
@@ -133,6 +135,9 @@ class BootView:
         self._pending: list = []  # chunks waiting for the navigator to start (its initial still period)
         self._rows: list[list[float]] = []  # ROW_COLUMNS per kept footprint, the start first
         self._ends_cov: list[tuple[float, float, float]] = []  # (P_EE, P_NN, P_EN) at each stance phase's end
+        self._ends_yaw: list[float] = []  # the foot's unwrapped yaw there, rad (``ellipses``)
+        self._yaw_last: float | None = None  # unwrapped yaw of the last final row
+        self._scale_cov = None  # ellipses.ScaleErrorAccumulator, made at the first footprint (calibration known)
         self._in_stance = False  # the last final row was in stance (its phase may go on in the next rows)
         self._last_kept: np.ndarray | None = None
         self._z0: float | None = None  # height of the first footprint
@@ -293,8 +298,14 @@ class BootView:
         ends = np.flatnonzero(st & np.append(~st[1:], True))
         if self._in_stance and st[0] and len(ends) and self._ends_cov:
             self._ends_cov.pop()  # the open phase goes on: its end moves
+            self._ends_yaw.pop()
         sig, cen = rows.pos_sigma_n, rows.pos_cov_en
         self._ends_cov.extend((float(sig[i, 0] ** 2), float(sig[i, 1] ** 2), float(cen[i])) for i in ends.tolist())
+        yaw = unwrapped_yaw(rows.q_nb)
+        if self._yaw_last is not None:  # continue the unwrapping across chunks
+            yaw = yaw + 2 * np.pi * np.round((self._yaw_last - yaw[0]) / (2 * np.pi))
+        self._yaw_last = float(yaw[-1])
+        self._ends_yaw.extend(float(yaw[i]) for i in ends.tolist())
         self._in_stance = bool(st[-1])
 
     def _start(self) -> bool:
@@ -442,13 +453,18 @@ class BootView:
             keep = stride_footprints(np.vstack((self._last_kept, fp)), self.min_stride_m)[1:] - 1
         rows = []
         k0 = self._n_fp - len(fp)  # index of fp[0] among all footprints
+        n_cov = max(0, min(len(fp), len(self._ends_cov) - k0))  # phases with a covariance (all, in step)
+        if self._scale_cov is None:
+            self._scale_cov = ScaleErrorAccumulator(*scale_sigmas(
+                self.settings, self.calibration is not None and self.calibration.calibration is not None))
+        extra = self._scale_cov.push(fp[:n_cov], np.asarray(self._ends_yaw[k0:k0 + n_cov], float))
         for k in keep.tolist():
             if self._last_kept is not None:
                 self._distance_m += float(np.hypot(*(fp[k, :2] - self._last_kept[:2])))
             self._last_kept = fp[k]
             a = b = o = None  # (no covariance: cannot happen while rows and phases stay in step)
-            if k0 + k < len(self._ends_cov):
-                a, b, o = (float(v) for v in ellipse(*self._ends_cov[k0 + k]))
+            if k < n_cov:
+                a, b, o = (float(v) for v in ellipse(*(np.asarray(self._ends_cov[k0 + k]) + extra[k])))
             rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k]), a, b, o])
         self._rows.extend(rows)
         return rows
