@@ -6,7 +6,8 @@ footprint lies inside the stride's 1σ / 2σ / 3σ horizontal ellipse (``steps.c
 consistent 2-D Gaussian gives 39.3 / 86.5 / 98.9 %. ``overconfidence``: median Mahalanobis distance over its
 consistent value √(2 ln 2) (1 = honest, > 1 ellipses too small). Columns ``filter`` = the filter's covariance
 alone (``ellipse_scale_sigma = ellipse_cross_axis_rad = 0``), ``+scale`` = the default (``postproc.ellipses``:
-the scale and cross-axis errors the filter does not model). The estimate is put in the truth's frame by the
+the scale and cross-axis errors the filter does not model; for the ``--calibrated`` profiles the calibrated σ,
+as if ``bootnav calibrate`` had been applied). The estimate is put in the truth's frame by the
 true initial yaw (exact: nothing fitted). Prints a table; asserts nothing.
 
     nice -n 10 .venv/bin/python benchmarks/ellipse_consistency.py --seeds 4001-4020 \
@@ -24,7 +25,7 @@ from building_mission import seeds_arg  # noqa: E402  (benchmarks/ is the script
 from floors_mission import _mahalanobis2, _sim
 
 
-def run_one(path: Path, extra: bool) -> dict:
+def run_one(path: Path, extra: bool, calibrated: bool = False) -> dict:
     from bootnav.core.rotations import euler_zyx_from_quat
     from bootnav.logger.recording import load
     from bootnav.postproc.pipeline import process
@@ -34,6 +35,8 @@ def run_one(path: Path, extra: bool) -> dict:
     s = ProcessSettings()
     if not extra:
         s.ellipse_scale_sigma = s.ellipse_cross_axis_rad = s.ellipse_calibrated_sigma = 0.0
+    elif calibrated:  # a unit without scale or cross-axis error stands for a calibrated one: the calibrated σ
+        s.ellipse_scale_sigma = s.ellipse_cross_axis_rad = s.ellipse_calibrated_sigma
     r = process(path, s)
     truth = load(path).truth
     pos_true = np.asarray(truth["pos_n_m"], float)
@@ -58,13 +61,15 @@ def main(argv=None) -> None:
     ap.add_argument("--profiles", nargs="+", default=["mpu6050-16g-2000dps", "mpu6050-noise-only"])
     ap.add_argument("--duration", type=float, default=1800.0)
     ap.add_argument("--cache", type=Path, default=Path("/tmp/floors-sims"))
+    ap.add_argument("--calibrated", nargs="*", default=["mpu6050-noise-only"],
+                    help="profiles processed as if a sensor calibration were applied (ellipse_calibrated_sigma)")
     a = ap.parse_args(argv)
     table = []
     for profile in a.profiles:
         for extra in (False, True):
             rows = []
             for seed in a.seeds:
-                m = run_one(_sim("building", seed, profile, a.duration, a.cache), extra)
+                m = run_one(_sim("building", seed, profile, a.duration, a.cache), extra, profile in a.calibrated)
                 rows.append(m)
                 print(f"{profile} seed {seed} {'+scale' if extra else 'filter'} "
                       + " ".join(f"{k}={v:.3g}" for k, v in m.items()), flush=True)
