@@ -193,15 +193,19 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
     fl, fr = fused.left, fused.right
     floors = settings.floor_settings()
     storeys = {label: None for label in LABELS}
+    floor_z = {label: None for label in LABELS}
     if floors.storeys:  # each fused foot on storeys, as a single foot's path is (``floors.snap_storeys``)
         for label, f in (("left", fl), ("right", fr)):
             f.pos_n, res_st = snap_storeys(f.t_s, f.pos_n, f.stance, settings.filter.level_max_dz_m,
-                                           floors.riser_min_m, floors.riser_max_m, settings.filter.level_min_stride_m)
+                                           floors.riser_min_m, floors.riser_max_m, settings.filter.level_min_stride_m,
+                                           floors.hysteresis_m, floors.floor_height_m)
             storeys[label] = res_st.summary()
+            floor_z[label] = res_st.storey_fp * floors.floor_height_m  # the storeys' numbers (as ``process``)
     walker = walker_path(fl.t_s, fl.pos_n, fr.t_s, fr.pos_n)
     min_stride = settings.selftune.min_stride_m
     gait = gait_table({"t_s": fl.t_s, "pos_n": fl.pos_n, "stance": fl.stance},
-                      {"t_s": fr.t_s, "pos_n": fr.pos_n, "stance": fr.stance}, min_stride, floors=floors)
+                      {"t_s": fr.t_s, "pos_n": fr.pos_n, "stance": fr.stance}, min_stride, floors=floors,
+                      floor_z=floor_z)
     result = TwoBootResult(single, fused, fl.t_s, walker, gait, clock, heading, settings, tb,
                            names=dict(names or {label: label for label in LABELS}))
     feet_summary = {}
@@ -210,7 +214,8 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
         feet_summary[label] = {
             "input": result.names[label],
             "single": path_summary(s.t_s, s.pos_n, s.stance, floors, min_stride),
-            "fused": {**path_summary(f.t_s, f.pos_n, f.stance, floors, min_stride), "storeys": storeys[label]},
+            "fused": {**path_summary(f.t_s, f.pos_n, f.stance, floors, min_stride, floor_z[label]),
+                      "storeys": storeys[label]},
             "mean_step_width_m": _nanmean(gait[label]["step_width_m"]),
             "mean_stride_length_m": _nanmean(gait[label]["stride_length_m"]),
             "stance_choice": s.navigation.choice,
