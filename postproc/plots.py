@@ -594,8 +594,8 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
             f'<span class="key"><span class="sw dot" style="background:#1f77b4;opacity:.8"></span>stride</span>')
     legend = "line = path, coloured by floor" + (", dotted = reference" if ref is not None else "")
     if has_unc:
-        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's; 39 % inside if it is "
-                   "honest, 2σ = twice as large)")
+        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's, plus the sensor's scale "
+                   "and cross-axis tolerance; 39 % inside if it is honest, 2σ = twice as large)")
         floor_ui += '<label><input type="checkbox" id="unc" checked> uncertainty</label>'
         key += ('<span class="key"><span class="sw" style="background:#ff7f0e;opacity:.35"></span>'
                 '1σ uncertainty</span>')

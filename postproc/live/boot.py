@@ -8,8 +8,11 @@ foot leaves the ground again. From the final rows the view builds what ``process
 
 * footprints: the mean position over each stance phase (``strides.FootprintAccumulator``, across chunks);
 * strides: moves of at least ``selftune.min_stride_m`` between footprints (``strides.stride_footprints``);
-* floor: the level of each footprint's height above the first one (``strides.floor_signal`` and
-  ``strides.floor_levels``, continued from the last level: both are shift-invariant by one storey);
+* floor and height: with ``floor_storeys`` (default) the storeys' rules of ``process`` (``floors.storey_offsets``:
+  lone strides, flights counted in risers, landings on storeys, storey numbers) on the footprints so far, so
+  causal: a flight's landing corrects the footprints after it, never one already shown; without, the level
+  of each footprint's height above the first one (``strides.floor_signal`` and ``strides.floor_levels``,
+  continued from the last level: both are shift-invariant by one storey);
 * distance: the sum of the horizontal stride lengths;
 * uncertainty: each stride row ends with the footprint's horizontal 1-σ ellipse (``strides.ellipse``:
   semi-major, semi-minor in m, orientation in rad counter-clockwise from east) from the forward filter's
@@ -144,6 +147,8 @@ class BootView:
         self._fp_last_z = 0.0  # height (relative) and floor signal of the last footprint
         self._signal_last = 0.0
         self._level = 0
+        self._fp_seen: list[np.ndarray] = []  # every footprint so far, as the filter gave it (storeys' input)
+        self._z_storey = 0.0  # the storeys' height correction of the last footprint (provisional rows get it)
         self._distance_m = 0.0
         self._t_latest = float("nan")  # newest stance decision
         self._t_motion: float | None = None  # newest moving sample
@@ -396,7 +401,7 @@ class BootView:
             pos = propagate_position(nav.position_n, nav.velocity_n, nav.q_nb, ba, bg, float(nav.last_t_s), t, acc,
                                      gyro, still, nav.gravity)
             t_k = float(t[-1])
-        pos = np.asarray(pos, float) + self._offset_n
+        pos = np.asarray(pos, float) + self._offset_n + np.array([0.0, 0.0, self._z_storey])  # on the storeys too
         if not (np.isfinite(t_k) and t_k > self._covered_t):
             return
         ref = np.asarray(self._prov[-1][1:4], float) if self._prov else self._last_kept
@@ -435,6 +440,7 @@ class BootView:
         if len(fp) == 0:
             return []
         fp = fp + self._offset_n
+        fp_raw = fp.copy()  # as the filter gave them (the storeys' input)
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
         if self._dirs is not None and not self._dirs.on and self._dirs.push(fp[:, :2]) and self._nav is not None:
@@ -442,15 +448,24 @@ class BootView:
             self.note = (f"heading aid on from stride {self._dirs.decided_at_stride}: the strides follow a building's "
                          f"axes ({math.degrees(self._dirs.reference_rad):.0f} deg)")
         z_rel = fp[:, 2] - self._z0
-        seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
-        signal = seg[1:] - seg[0] + self._signal_last
-        h = self.floors.floor_height_m
-        levels = floor_levels(signal - self._level * h, self.floors) + self._level
-        self._fp_last_z, self._signal_last, self._level = float(z_rel[-1]), float(signal[-1]), int(levels[-1])
+        if self.floors.storeys:  # the storeys' rules on the footprints so far (causal: nothing after them)
+            levels = np.zeros(len(fp), np.int64)
+            for k in range(len(fp)):
+                fp[k, 2], levels[k] = self._storey(fp_raw[:k + 1])
+            z_rel = fp[:, 2] - self._z0
+            self._fp_last_z, self._level = float(z_rel[-1]), int(levels[-1])
+            self._z_storey = float(fp[-1, 2] - fp_raw[-1, 2])
+        else:
+            seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
+            signal = seg[1:] - seg[0] + self._signal_last
+            h = self.floors.floor_height_m
+            levels = floor_levels(signal - self._level * h, self.floors) + self._level
+            self._fp_last_z, self._signal_last, self._level = float(z_rel[-1]), float(signal[-1]), int(levels[-1])
         if self._last_kept is None:
             keep = stride_footprints(fp, self.min_stride_m)
         else:
             keep = stride_footprints(np.vstack((self._last_kept, fp)), self.min_stride_m)[1:] - 1
+        self._fp_seen.append(fp_raw)
         rows = []
         k0 = self._n_fp - len(fp)  # index of fp[0] among all footprints
         n_cov = max(0, min(len(fp), len(self._ends_cov) - k0))  # phases with a covariance (all, in step)
@@ -468,6 +483,19 @@ class BootView:
             rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k]), a, b, o])
         self._rows.extend(rows)
         return rows
+
+    def _storey(self, fp_new: np.ndarray) -> tuple[float, int]:
+        """Height and storey number of the last of ``fp_new`` (this push's footprints up to it) by the storeys'
+        rules (``floors.storey_offsets``) on every footprint so far: the same rules as ``process``, causal (a
+        flight's landing corrects what follows it, never what was shown). K footprints: one pass per stride
+        shown, O(K) each (≈ 10 ms after an hour's 3600 strides, once a second)."""
+        from bootnav.postproc.floors import storey_offsets
+
+        all_fp = np.vstack(self._fp_seen + [fp_new])
+        fs, f = self.floors, self.settings.filter
+        res = storey_offsets(all_fp, f.level_max_dz_m, fs.riser_min_m, fs.riser_max_m, f.level_min_stride_m,
+                             fs.hysteresis_m, fs.floor_height_m)
+        return float(all_fp[-1, 2] + res.offset_fp[-1]), int(res.storey_fp[-1])
 
     # ------------------------------------------------------------------ out
     def status(self, wall_s: float, ended: bool) -> dict:
