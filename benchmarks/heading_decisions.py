@@ -50,10 +50,11 @@ def main(argv=None) -> int:
     with ProcessPoolExecutor(args.jobs) as ex:
         results = list(ex.map(_one, [(j[3], overrides) for j in jobs]))
     print(f"{'set':20s} {'trial':34s} {'file':16s} {'aid':4s} {'share':>6s} {'cross':>6s} {'straight':>8s} "
-          f"{'windows':>7s}")
+          f"{'windows':>7s} {'aided':>5s} {'strides':>7s}")
     for (s, tid, name, _), d in zip(jobs, results):
         print(f"{s:20s} {tid:34s} {name:16s} {'on' if d.get('on') else 'off':4s} {d.get('share', float('nan')):6.2f} "
-              f"{d.get('cross', float('nan')):6.2f} {d.get('n_straight', 0):8d} {len(d.get('windows', [])):7d}")
+              f"{d.get('cross', float('nan')):6.2f} {d.get('n_straight', 0):8d} {len(d.get('windows', [])):7d} "
+              f"{(d.get('segments') or {}).get('aided', '-'):>5} {d.get('n_strides', 0):7d}")
     return 0
 
 

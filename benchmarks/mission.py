@@ -329,6 +329,10 @@ def _score(row: dict, r, pos_true, stance_true, attrs: dict, t0: float) -> dict:
         row["distance_err_pct"] = 100.0 * (float(dist) / row["true_distance_m"] - 1.0)
     flags = (summary.get("navigation") or {}).get("stride_flags") or {}
     row["missed_stance_strides"] = int(flags.get("missed_stance", 0))
+    dec = (summary.get("filter") or {}).get("heading_decision")
+    if isinstance(dec, dict):  # heading_aid "auto": what it decided (docs/building.md)
+        row["heading_aid_on"] = bool(dec.get("on"))
+        row["heading_aid_segments"] = dec.get("segments") or {}
     cal = summary.get("calibration")
     if isinstance(cal, dict):
         row["calibration"] = cal.get("source") or cal.get("status")

@@ -147,14 +147,16 @@ class AccelCalibration:
     source: str = ""
 
 
-def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None, gravity: float = 9.80665) -> np.ndarray:
-    """Samples whose centred window (``still_window_s``) passes every still test (bool (N,))."""
+def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None, gravity: float = 9.80665, *,
+               dt_s: float | None = None) -> np.ndarray:
+    """Samples whose centred window (``still_window_s``) passes every still test (bool (N,)); ``dt_s``: the
+    sample period the window is counted in (default: ``sample_period(t_s)``)."""
     from scipy.ndimage import maximum_filter1d
 
     s = settings or CalibrationSettings()
     acc_b = np.asarray(acc_b, dtype=np.float64)
     gyro_b = np.asarray(gyro_b, dtype=np.float64)
-    n = max(3, int(round(s.still_window_s / sample_period(t_s))))
+    n = still_window_samples(s, sample_period(t_s) if dt_s is None else dt_s)
     amag = row_norm(acc_b)
     a_mean = moving_mean(amag, n)
     a_std = np.sqrt(np.maximum(moving_mean(amag**2, n) - a_mean**2, 0.0))
@@ -172,17 +174,30 @@ def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None, 
     return ok & np.isfinite(amag) & rows_finite(gyro_b)
 
 
+def still_window_samples(settings: CalibrationSettings, dt_s: float) -> int:
+    """Samples of the still test's window (``still_window_s``) at sample period ``dt_s``, at least 3."""
+    return max(3, int(round(settings.still_window_s / dt_s)))
+
+
 def find_still_period(t_s, acc_b, gyro_b, *, min_duration_s: float = 0.5, settings: CalibrationSettings | None = None,
                       gravity: float = 9.80665) -> slice | None:
     """The initial still period: the first run of still samples that starts within ``still_search_s`` of
-    the start and lasts at least ``min_duration_s`` (truncated to ``max_still_s``). None if there is none."""
+    the start and lasts at least ``min_duration_s`` (truncated to ``max_still_s``). None if there is none.
+
+    Only the first ``still_search_s`` + max(``max_still_s``, ``min_duration_s``) of the record can decide it,
+    so the still test runs over those seconds and two windows more (a moving mean's value depends on the
+    samples within half a window of it, and on the running sum before it, which a prefix leaves as it is):
+    the same period as over the whole record, for the cost of its first seconds."""
     s = settings or CalibrationSettings()
     t_s = np.asarray(t_s, dtype=np.float64)
-    ok = still_mask(t_s, acc_b, gyro_b, s, gravity)
+    dt = sample_period(t_s)
+    n = still_window_samples(s, dt)
+    k = int(np.searchsorted(t_s, t_s[0] + s.still_search_s + max(s.max_still_s, min_duration_s) + dt)) + 2 * n + 2
+    k_valid = len(t_s) if k >= len(t_s) else k - n - 1  # beyond: the prefix's edge, not the record, decides
+    ok = still_mask(t_s[:k], acc_b[:k], gyro_b[:k], s, gravity, dt_s=dt)[:k_valid]
     if not ok.any():
         return None
     starts, stops = runs(ok)  # stops exclusive
-    dt = sample_period(t_s)
     dur = t_s[stops - 1] - t_s[starts] + dt
     good = (dur >= min_duration_s) & (t_s[starts] - t_s[0] <= s.still_search_s)
     if not good.any():

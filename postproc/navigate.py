@@ -155,8 +155,8 @@ def _run(t_s, acc_b, gyro_b, stance, init, gravity, settings: ProcessSettings, s
     if settings.filter.heading_aid == "auto":  # decided on the unaided path (building.directions)
         from .building.directions import auto_heading
 
-        nav = auto_heading(nav, t_s, stance, settings.filter, lambda fs: run_filter(
-            t_s, acc_used, gyro_b, stance, init, gravity, fs, saturated=saturated))
+        nav = auto_heading(nav, t_s, stance, settings.filter, lambda fs, gate: run_filter(
+            t_s, acc_used, gyro_b, stance, init, gravity, fs, saturated=saturated, heading_gate=gate))
     if settings.filter.revisits != "none":  # pose graph over strides (building.revisits)
         from .building.revisits import apply_revisits
 

@@ -141,3 +141,49 @@ def test_stance_detection_does_not_see_a_gyro_turn_on_bias():
     np.testing.assert_allclose(stance_reference(init, 9.8)[0] - a.raw.init.gyro_bias_b, bias, rtol=0, atol=1e-4)
     raw = detect_stance(t, acc, gyro + bias, DetectorSettings(), b.raw.gravity_mps2).stance
     assert np.count_nonzero(raw != a.stance) > 0.01 * len(t)  # what the detector did before
+
+
+def _still_period_over_whole_record(t, acc, gyro, s, min_duration_s, gravity=9.80665):
+    """find_still_period's rule on the still mask of the whole record (what it computed before it looked at
+    the first seconds only)."""
+    from bootnav.core.runs import runs
+    from bootnav.core.timebase import sample_period
+    from bootnav.postproc.calibration import still_mask
+
+    ok = still_mask(t, acc, gyro, s, gravity)
+    if not ok.any():
+        return None
+    starts, stops = runs(ok)
+    dur = t[stops - 1] - t[starts] + sample_period(t)
+    good = (dur >= min_duration_s) & (t[starts] - t[0] <= s.still_search_s)
+    if not good.any():
+        return None
+    i = int(np.flatnonzero(good)[0])
+    stop = min(int(stops[i]), int(np.searchsorted(t, t[starts[i]] + s.max_still_s)))
+    return slice(int(starts[i]), max(stop, int(starts[i]) + 1))
+
+
+@pytest.mark.parametrize("rest_s, lead_s, search_s, max_s", [
+    (3.0, 0.0, 10.0, 30.0),  # rest at the start
+    (45.0, 0.0, 10.0, 30.0),  # rest longer than the prefix looked at
+    (2.0, 9.9, 10.0, 30.0),  # rest starting at the end of the search window
+    (2.0, 10.5, 10.0, 30.0),  # too late: none
+    (0.2, 0.0, 1.0, 0.3),  # shorter than min_still_s; max_still_s < min_still_s
+    (40.5, 0.0, 10.0, 0.5),
+    (1.5, 0.7, 1.0, 0.3),  # found only with min_still_s counted past search + max_still_s
+])
+def test_still_period_from_the_first_seconds_is_the_whole_records(rest_s, lead_s, search_s, max_s):
+    # the still test over the first still_search_s + max_still_s (+ two windows) gives the period of the
+    # whole record, exactly: moving means of a prefix equal the whole record's away from the prefix's end
+    rng = np.random.default_rng(7)
+    fs, total_s = 200.0, 80.0
+    t = np.arange(int(total_s * fs)) / fs + 12.5
+    acc = np.tile([0.1, -0.2, 9.79], (t.size, 1)) + rng.normal(0, 0.02, (t.size, 3))
+    gyro = rng.normal(0, 0.003, (t.size, 3))
+    move = (t - t[0] < lead_s) | (t - t[0] >= lead_s + rest_s)
+    acc[move, 0] += 12 * np.sin(2 * np.pi * t[move])
+    gyro[move, 2] += 3 * np.sin(2 * np.pi * 0.9 * t[move])
+    s = CalibrationSettings(still_search_s=search_s, max_still_s=max_s)
+    for min_s in (0.5, 0.1, 1.2):
+        expected = _still_period_over_whole_record(t, acc, gyro, s, min_s)
+        assert find_still_period(t, acc, gyro, min_duration_s=min_s, settings=s) == expected

@@ -71,6 +71,7 @@ SYNTH = {
     "paper_accmag": dict(threshold=0.05 * G, min_stance_s=0.1),  # 0.05 g ≫ 0.02·√3 noise on |f|
     "xio": dict(threshold=0.05),
     "adaptive": dict(),
+    "learned": dict(),  # the shipped model, trained on real feet only (never on these signals)
 }
 
 
@@ -111,7 +112,7 @@ def test_detector_finds_synthetic_stance(method, fs):
 # ---- registry, configured detector objects, CLI listing ----
 
 # The names are the `method` of settings files saved before: renaming one breaks those files.
-REGISTERED = {"adaptive", "shoe", "shoe-literal", "ared", "mv", "mag", "paper_accmag", "xio"}
+REGISTERED = {"adaptive", "shoe", "shoe-literal", "ared", "mv", "mag", "paper_accmag", "xio", "learned"}
 
 
 def test_registry_lists_every_detector_module():
@@ -223,6 +224,7 @@ OBJECTS = {
     "mag": dict(sigma_acc_mps2=SIGMA_A, threshold=20.0),
     "paper_accmag": dict(threshold=0.05 * G, min_stance_s=0.1),
     "xio": dict(),  # x-io's own 0.05 g
+    "learned": dict(),  # the shipped model
 }
 
 

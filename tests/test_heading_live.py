@@ -54,5 +54,8 @@ def test_live_auto_heading_aid(build, on):
         # the grid it holds is the walk's own (the first leg defines the path frame: 0 deg)
         ref = view._dirs.reference_rad
         assert abs(math.remainder(ref, math.pi / 2)) < math.radians(3.0)
+        # per segment: the laps' straight sides are aided, the corners are not
+        segs = view.result()["heading_aid_segments"]
+        assert segs["aided"] > segs["not in a straight leg"] > 0
     else:
         assert k is None and updates == 0

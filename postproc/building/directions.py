@@ -26,19 +26,37 @@ Rule (every number in ``FilterSettings``):
    strides of the first window that passes (the unaided path's heading drifts: the earliest strides are the
    least rotated).
 
-Per segment: every window's share, cross share and direction are reported (``HeadingDecision.windows``);
-the aid itself applies to the whole recording or not at all (the filter's gate then keeps it off the strides
-that are not along the grid, such as the 45° and curved parts).
+Per segment (``heading_aid_segments``, on by default; ``segment_flags``): once the recording is on, the aid
+corrects only the strides of *straight legs along the grid* [Jimenez2011 (iHDE): the heading is only held
+where the walker walks a straight line along a dominant direction]:
+
+5. Legs: maximal runs of consecutive strides whose headings stay within ``hde_auto_tolerance_rad`` of the
+   run's mean heading; a leg counts from ``hde_leg_min_strides`` strides (turns, curves, shuffles and
+   isolated strides are in no leg).
+6. Local grid: around each leg, the ``hde_auto_window`` leg strides nearest in time (offline: centred;
+   ``bootnav live``: the latest), their grid direction θ and share as in step 3 (the unaided heading's drift
+   over the recording does not matter, only over a window).
+7. The leg is **aided** when that share is at least ``hde_auto_min_share`` (the walker is in a part of the
+   building with a grid) and the leg's mean heading lies within ``hde_auto_tolerance_rad`` of θ + m·90°.
+   Left alone: legs at 45°, legs crossing an open hall or a mocap room off the grid, curves, turns, and
+   every leg in a stretch where the legs around show no grid. The filter gets a per-sample gate
+   (``segment_gate``; ``run_filter(heading_gate=…)``, ``layout.HDE_GATE``) that is open over the strides
+   of aided legs; elsewhere the aid keeps its memory but corrects nothing.
+
+The summary counts the strides per outcome (``HeadingDecision.segments``).
 
 Causal form (``CausalDirections``, ``bootnav live``): windows of ``hde_auto_window`` straight strides as they
 come; after every straight stride (once the open window holds ``hde_auto_min_strides``) the full windows and
 the open one are pooled; the aid switches on at the first moment they pass, and stays on. Its reference is
-the direction of the earliest aligned strides of the open window.
+the direction of the earliest aligned strides of the open window. Per segment, after every stride: the
+current leg (the latest strides within the tolerance of their mean) and the latest ``hde_auto_window`` leg
+strides give the gate for the strides that follow (``CausalDirections.gate_open``).
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -113,6 +131,7 @@ class HeadingDecision:
     n_strides: int = 0
     n_straight: int = 0
     windows: list = field(default_factory=list)
+    segments: dict = field(default_factory=dict)  # per-segment outcome: strides per kind (``segment_flags``)
 
     def as_dict(self) -> dict:
         d = asdict(self)
@@ -170,40 +189,80 @@ class CausalDirections:
         self.on = False
         self.reference_rad = float("nan")
         self.decided_at_stride = -1
+        # per segment (steps 5-7): the current leg (sum of unit vectors, its headings), the latest leg strides
+        self._leg_c = 0j
+        self._leg: list[float] = []  # its first hde_leg_min_strides headings (bounded)
+        self._leg_n = 0
+        self._leg_window: deque = deque(maxlen=int(settings.hde_auto_window))
+        self.gate_open = False  # the aid may correct the strides that follow
+        self.segments = {k: 0 for k in SEGMENT_KINDS}  # strides per outcome, as decided when each came
 
     def push(self, fp_xy: np.ndarray) -> bool:
-        """Add footprints (K, 2); returns True when this call switched the aid on (it then stays on)."""
-        if self.on:
-            return False
-        s, W = self.s, int(self.s.hde_auto_window)
+        """Add footprints (K, 2); returns True when this call switched the aid on (it then stays on).
+        ``gate_open`` is then the per-segment gate for the strides that follow."""
+        switched = False
         for xy in np.asarray(fp_xy, float).reshape(-1, 2):
             if self._last_xy is None:
                 self._last_xy = xy
                 continue
             d = xy - self._last_xy
-            if math.hypot(*d) < s.hde_min_stride_m:
+            if math.hypot(*d) < self.s.hde_min_stride_m:
                 continue
             self._last_xy = xy
-            self._psi.append(math.atan2(d[1], d[0]))
-            p = self._psi
-            if len(p) >= 3 and abs(wrap(p[-2] - p[-3])) < s.hde_threshold_rad and \
-                    abs(wrap(p[-1] - p[-2])) < s.hde_threshold_rad:
-                self._straight_idx.append(len(p) - 2)
-                n = len(self._straight_idx)
-                cur = n - W * self._n_windows  # strides in the open window
-                if cur < s.hde_auto_min_strides:
-                    continue
-                win = np.asarray(p)[self._straight_idx[W * self._n_windows:]]
-                theta, _, n_a, n_c = window_stats(win, s.hde_auto_tolerance_rad)
-                if self._pass(self._n_aligned + n_a, self._n_cross + n_c, n):
-                    early = win[np.abs(grid_error(win, theta)) < s.hde_auto_tolerance_rad][:EARLY_STRIDES]
-                    self.on, self.decided_at_stride = True, len(p)
-                    self.reference_rad = float(np.angle(np.exp(4j * early).sum()) / 4.0) if early.size else theta
-                    return True
-                if cur == W:  # the window is full: its figures join the pooled ones
-                    self._n_aligned += n_a
-                    self._n_cross += n_c
-                    self._n_windows += 1
+            psi = math.atan2(d[1], d[0])
+            self._segment(psi)
+            if not self.on and self._decide(psi):
+                switched = True
+        return switched
+
+    def _segment(self, psi: float) -> None:
+        """Steps 5-7 causally: extend or restart the current leg; the gate for the strides that follow."""
+        s = self.s
+        c = self._leg_c
+        n_min = int(s.hde_leg_min_strides)
+        if self._leg_n and abs(math.remainder(psi - math.atan2(c.imag, c.real), 2.0 * math.pi)) >= \
+                s.hde_auto_tolerance_rad:
+            self._leg, self._leg_c, self._leg_n = [], 0j, 0
+        self._leg_n += 1
+        self._leg_c += complex(math.cos(psi), math.sin(psi))
+        if self._leg_n <= n_min:
+            self._leg.append(psi)
+        if self._leg_n == n_min:
+            self._leg_window.extend(self._leg)
+        elif self._leg_n > n_min:
+            self._leg_window.append(psi)
+        if self._leg_n < n_min:
+            kind = "not in a straight leg"
+        else:
+            kind = leg_kind(math.atan2(self._leg_c.imag, self._leg_c.real), np.fromiter(self._leg_window, float),
+                            s)
+        self.segments[kind] += 1
+        self.gate_open = kind == "aided"
+
+    def _decide(self, psi: float) -> bool:
+        """Steps 1-4 on the strides so far; True when they pass for the first time."""
+        s, W = self.s, int(self.s.hde_auto_window)
+        self._psi.append(psi)
+        p = self._psi
+        if len(p) >= 3 and abs(wrap(p[-2] - p[-3])) < s.hde_threshold_rad and \
+                abs(wrap(p[-1] - p[-2])) < s.hde_threshold_rad:
+            self._straight_idx.append(len(p) - 2)
+            n = len(self._straight_idx)
+            cur = n - W * self._n_windows  # strides in the open window
+            if cur < s.hde_auto_min_strides:
+                return False
+            win = np.asarray(p)[self._straight_idx[W * self._n_windows:]]
+            theta, _, n_a, n_c = window_stats(win, s.hde_auto_tolerance_rad)
+            if self._pass(self._n_aligned + n_a, self._n_cross + n_c, n):
+                early = win[np.abs(grid_error(win, theta)) < s.hde_auto_tolerance_rad][:EARLY_STRIDES]
+                self.on, self.decided_at_stride = True, len(p)
+                self.reference_rad = float(np.angle(np.exp(4j * early).sum()) / 4.0) if early.size else theta
+                self._psi = []  # decided: the strides' headings are not needed any more
+                return True
+            if cur == W:  # the window is full: its figures join the pooled ones
+                self._n_aligned += n_a
+                self._n_cross += n_c
+                self._n_windows += 1
         return False
 
     def _pass(self, n_aligned: int, n_cross: int, n_straight: int) -> bool:
@@ -212,9 +271,78 @@ class CausalDirections:
                 and n_cross / max(n_aligned, 1) >= s.hde_auto_min_cross)
 
 
+# ---------------------------------------------------------------------------------------------------------------
+# per segment (steps 5-7 of the module docstring)
+
+SEGMENT_KINDS = ("aided", "leg off the grid", "no grid around", "not in a straight leg")
+
+
+def legs(psi: np.ndarray, tol_rad: float) -> list[tuple[int, int, float]]:
+    """Maximal runs of consecutive strides within ``tol_rad`` of the run's running mean heading:
+    ``(first, stop, mean heading)`` (stop exclusive). One Python iteration per stride."""
+    out = []
+    n, j = len(psi), 0
+    while j < n:
+        c = complex(math.cos(psi[j]), math.sin(psi[j]))
+        k = j + 1
+        while k < n and abs(math.remainder(psi[k] - math.atan2(c.imag, c.real), 2.0 * math.pi)) < tol_rad:
+            c += complex(math.cos(psi[k]), math.sin(psi[k]))
+            k += 1
+        out.append((j, k, math.atan2(c.imag, c.real)))
+        j = k
+    return out
+
+
+def leg_kind(leg_heading_rad: float, window_psi: np.ndarray, settings) -> str:
+    """Step 7 for one leg of at least ``hde_leg_min_strides`` strides: ``"aided"``, ``"no grid around"``
+    (the leg strides around it show no grid) or ``"leg off the grid"``."""
+    if len(window_psi) < settings.hde_auto_min_strides:
+        return "no grid around"
+    theta, share, _, _ = window_stats(np.asarray(window_psi, float), settings.hde_auto_tolerance_rad)
+    if share < settings.hde_auto_min_share:
+        return "no grid around"
+    if abs(float(grid_error(leg_heading_rad, theta))) >= settings.hde_auto_tolerance_rad:
+        return "leg off the grid"
+    return "aided"
+
+
+def segment_flags(psi: np.ndarray, settings) -> tuple[np.ndarray, dict]:
+    """Steps 5-7 offline on the stride headings ``psi`` of the unaided path: (aided (M,) bool per stride,
+    strides per outcome ``SEGMENT_KINDS``)."""
+    psi = np.asarray(psi, float)
+    tol, n_min, W = settings.hde_auto_tolerance_rad, int(settings.hde_leg_min_strides), int(settings.hde_auto_window)
+    kind = np.full(len(psi), SEGMENT_KINDS.index("not in a straight leg"), dtype=np.int64)
+    found = [(a, b, h) for a, b, h in legs(psi, tol) if b - a >= n_min]
+    in_leg = np.concatenate([np.arange(a, b) for a, b, _ in found]) if found else np.zeros(0, np.int64)
+    rank = np.searchsorted(in_leg, np.arange(len(psi)))  # rank of a leg stride among the leg strides
+    for a, b, h in found:
+        centre = (int(rank[a]) + int(rank[b - 1])) // 2
+        lo = max(0, min(centre - W // 2, len(in_leg) - W))
+        kind[a:b] = SEGMENT_KINDS.index(leg_kind(h, psi[in_leg[lo:lo + W]], settings))
+    counts = {k: int((kind == i).sum()) for i, k in enumerate(SEGMENT_KINDS)}
+    counts["legs"] = len(found)
+    counts["aided_legs"] = sum(1 for a, _, _ in found if kind[a] == 0)
+    return kind == 0, counts
+
+
+def segment_gate(n_samples: int, stance: np.ndarray, stride_end_fp: np.ndarray, aided: np.ndarray) -> np.ndarray:
+    """Per-sample gate of the aid: open over the swing and stance phase of every aided stride (from the end of
+    the stance phase before to the end of the one the stride ends in), so that the aid's measurement at that
+    stance onset (delayed or not) sees it open. ``stride_end_fp``: index of the stance phase (footprint) each
+    stride ends in (``stride_headings``)."""
+    from bootnav.core.runs import runs
+
+    _, stops = runs(np.asarray(stance, bool))
+    phase_open = np.zeros(len(stops) + 1, bool)
+    phase_open[np.asarray(stride_end_fp, np.int64)[np.asarray(aided, bool)]] = True
+    return phase_open[np.searchsorted(stops, np.arange(n_samples), side="right")]
+
+
 def auto_heading(nav, t_s: np.ndarray, stance: np.ndarray, settings, rerun):
     """``heading_aid = "auto"`` in ``process``: decide on the unaided path ``nav`` (a ``NavSolution``) and,
-    when the rule says on, return ``rerun(settings)`` with the aid on at the decided grid direction.
+    when the rule says on, return ``rerun(settings, heading_gate)`` with the aid on at the decided grid
+    direction (``heading_gate``: per-sample gate of the aided legs, or None with ``heading_aid_segments``
+    off).
 
     The decision (``HeadingDecision.as_dict``) goes into ``nav.info["heading_decision"]`` (the summary's
     ``filter`` section)."""
@@ -222,9 +350,21 @@ def auto_heading(nav, t_s: np.ndarray, stance: np.ndarray, settings, rerun):
 
     from bootnav.postproc.strides import footprints
 
-    _, fp = footprints(t_s, np.asarray(nav.pos_n), np.asarray(stance, bool))
+    stance = np.asarray(stance, bool)
+    _, fp = footprints(t_s, np.asarray(nav.pos_n), stance)
     dec = decide(fp[:, :2], settings)
     if dec.on:
-        nav = rerun(replace(settings, heading_aid="dominant_directions", heading_aid_reference_rad=dec.reference_rad))
+        gate = None
+        if settings.heading_aid_segments:
+            psi, ends = stride_headings(fp[:, :2], settings.hde_min_stride_m)
+            aided, dec.segments = segment_flags(psi, settings)
+            gate = segment_gate(len(t_s), stance, ends, aided)
+            dec.reason += (f"; per segment: {dec.segments['aided']} of {len(psi)} strides in "
+                           f"{dec.segments['aided_legs']} straight legs along the grid aided, "
+                           f"{dec.segments['leg off the grid']} in legs off the grid, "
+                           f"{dec.segments['no grid around']} where the strides around show no grid, "
+                           f"{dec.segments['not in a straight leg']} in turns, curves or short moves")
+        nav = rerun(replace(settings, heading_aid="dominant_directions", heading_aid_reference_rad=dec.reference_rad),
+                    gate)
     nav.info["heading_decision"] = dec.as_dict()
     return nav

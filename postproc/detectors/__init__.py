@@ -6,7 +6,8 @@ registered by name in ``DETECTORS``: ``adaptive`` (the default: a per-stride thr
 recording itself, no tuning), ``shoe`` (SHOE/GLRT [Skog2010], the source paper's eq. 2 [Heidari2019], squared
 or the paper's printed form), ``shoe-literal`` (the printed form as the paper used it), ``ared``, ``mv``,
 ``mag`` [Skog2010], ``paper_accmag`` (the paper's empirical acceleration threshold), ``xio`` (x-io filtered
-magnitude [Madgwick]). ``postprocess`` holds the mask post-processing they share (hysteresis, minimum
+magnitude [Madgwick]), ``learned`` (a tiny network trained on motion-capture stance labels, shipped with its
+weights and provenance [Wagstaff2020]; docs/learned-stance.md). ``postprocess`` holds the mask post-processing they share (hysteresis, minimum
 stance / swing durations).
 
 Entry point of the pipeline: ``detect_stance(t_s, acc_b, gyro_b, settings, gravity, saturated=None) ->
@@ -27,7 +28,7 @@ from . import postprocess
 from bootnav.core.arrays import as_imu_arrays, clipped_samples, saturation_mask
 from .base import DETECTORS, StanceDetector, StanceResult, detector_class, register
 
-from . import adaptive, ared, mag, mv, paper_accmag, shoe, xio  # noqa: F401  (importing them fills DETECTORS)
+from . import adaptive, ared, learned, mag, mv, paper_accmag, shoe, xio  # noqa: F401  (importing them fills DETECTORS)
 
 __all__ = ["DETECTORS", "DetectorSettings", "StanceDetector", "StanceResult", "detect_stance", "detector_class", "parameter_fields",
            "postprocess", "register"]

@@ -108,7 +108,7 @@ def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_f
 
 
 def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,
-               progress=None, saturated=None) -> NavSolution:
+               progress=None, saturated=None, heading_gate=None) -> NavSolution:
     """ZUPT-aided INS over a whole record: filter (and by default RTS smoother) on the raw timestamps.
 
     Position starts at the origin, velocity at 0 (the record starts still).
@@ -136,6 +136,9 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         ``progress(fraction)``, called a few times.
     saturated : array, optional
         Per-sample saturation mask (``saturation_variance`` lists the accepted forms).
+    heading_gate : (N,) bool array, optional
+        Where the heading aid (when on) may correct a stride (``building.directions.segment_gate``: the
+        straight legs along the building's grid); None: everywhere.
 
     Returns
     -------
@@ -178,7 +181,8 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         from bootnav.postproc.ins.stream import run_fast as run_engine
     else:
         from bootnav.postproc.ins.filterpy_engine import run_reference as run_engine
-    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep, settings, tb, progress, extra_var)
+    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep, settings, tb, progress, extra_var,
+                            heading_gate=heading_gate)
     elapsed = time.perf_counter() - t0
     biases = settings.n_states == 15
     info = {

@@ -20,11 +20,11 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from bootnav.errors import InputError
-from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, POS, QUAT, VEL,
-                                         initial_nominal_state)
+from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_GATE, POS,
+                                         QUAT, VEL, initial_nominal_state)
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
 from bootnav.postproc.ins.mechanization import strapdown_step
-from bootnav.postproc.ins.prepare import FilterSetup, saturation_variance
+from bootnav.postproc.ins.prepare import FilterSetup, gated_chunks, saturation_variance
 from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
 from bootnav.postproc.ins.smoother import apply_smoothed_correction, error_dynamics, rts_backward_numpy
 from bootnav.postproc.ins.stream import NavRows
@@ -291,17 +291,20 @@ class ReferenceNavigator:
         return NavRows(0, *(o[name] for name in _ROWS[:-1]), o["zupt"].copy(), o["zupt"])
 
 
-def run_reference(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None):
+def run_reference(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None,
+                  heading_gate=None):
     """The filter as a per-sample loop (arguments and results as ``stream.run_fast``): the whole record
-    pushed through a ``ReferenceNavigator`` in up to 10 chunks (one per progress report)."""
+    pushed through a ``ReferenceNavigator`` in up to 10 chunks (one per progress report), cut where the
+    heading gate changes."""
     N = t_s.shape[0]
     nav = ReferenceNavigator(settings, setup, tb.nominal_dt_s)
     stance = np.asarray(stance, dtype=bool)
     bounds = np.linspace(0, N, (10 if progress is not None and N >= 10 else 1) + 1).astype(np.int64)
     t0 = time.perf_counter()
-    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+    for a, b, gate_open in gated_chunks(bounds, heading_gate):
+        nav.st[HDE_GATE] = 1.0 if gate_open else 0.0
         nav._push(t_s[a:b], acc_b[a:b], gyro_b[a:b], stance[a:b], None if extra_var is None else extra_var[a:b])
-        if progress is not None:
+        if progress is not None and b in bounds:
             progress(b / N)
     rows = nav.finish()
     out = {k: getattr(rows, k) for k in _ROWS[1:-1]}

@@ -31,7 +31,10 @@ HDE_PREV_X, HDE_PREV_Y, HDE_HAVE_PREV, HDE_REF_HEADING = 16, 17, 18, 19
 # (1.0 after a stride that was not level: the new floor's height is where the foot settles), and the horizontal
 # position at the last stance sample (the start of the next stride)
 LVL_REF_Z, LVL_HAVE_REF, LVL_PENDING, LVL_LAST_X, LVL_LAST_Y = 20, 21, 22, 23, 24
-N_NOMINAL = 25
+# the heading aid's per-segment gate (1.0: it may apply its measurement; 0.0: it only keeps its memory): set
+# between pushes by the engines from ``run_filter``'s ``heading_gate`` (``building.directions``), 1.0 by default
+HDE_GATE = 25
+N_NOMINAL = 26
 
 # error state: first index of each 3-block (numba kernels), and the blocks as slices (NumPy code)
 DP, DV, DTH, DBA, DBG = 0, 3, 6, 9, 12
@@ -59,4 +62,5 @@ def initial_nominal_state(q0_nb, acc_bias0_b, gyro_bias0_b, hde_reference_rad: f
     st[BIAS_ACC] = acc_bias0_b
     st[BIAS_GYRO] = gyro_bias0_b
     st[HDE_REF_HEADING] = np.nan if hde_reference_rad is None else float(hde_reference_rad)
+    st[HDE_GATE] = 1.0
     return st

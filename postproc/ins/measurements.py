@@ -38,7 +38,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from bootnav.postproc.ins.layout import (BIAS_GYRO, DBG, DP, DV, HDE_HAVE_PREV, HDE_PREV_X, HDE_PREV_Y,
+from bootnav.postproc.ins.layout import (BIAS_GYRO, DBG, DP, DV, HDE_GATE, HDE_HAVE_PREV, HDE_PREV_X, HDE_PREV_Y,
                                          HDE_REF_HEADING, HEIGHT, LVL_HAVE_REF, LVL_LAST_X, LVL_LAST_Y, LVL_PENDING,
                                          LVL_REF_Z, POS, VEL, YAW)
 from bootnav.postproc.ins.params import KernelParams
@@ -93,9 +93,11 @@ def heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z):
 
     e = heading of the stride since the previous stance onset minus the nearest of four directions 90° apart
     (the first stride of at least ``hde_min_stride_m`` sets the reference); applied only when |e| is below the
-    threshold (a stride along a corridor, off by the heading drift only). A heuristic for buildings with
-    rectilinear floor plans [Borenstein2009], not a sensor: off by default. Updates the heading-aid memory
-    in ``st`` (layout.py) with the position corrected by the earlier updates of this sample.
+    threshold (a stride along a corridor, off by the heading drift only) and the per-segment gate
+    ``st[HDE_GATE]`` is open (``building.directions.segment_gate``: a straight leg along the building's grid).
+    A heuristic for buildings with rectilinear floor plans [Borenstein2009], not a sensor: off by default.
+    Updates the heading-aid memory in ``st`` (layout.py) with the position corrected by the earlier updates of
+    this sample, gate open or not.
     """
     if not stance[k] or (k > 0 and stance[k - 1]):
         return 0, YAW, 0.0
@@ -108,7 +110,7 @@ def heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z):
                 st[HDE_REF_HEADING] = math.atan2(sy, sx)
             else:
                 e = hde_error(sx, sy, st[HDE_REF_HEADING])
-                if abs(e) < prm.hde_threshold_rad:
+                if abs(e) < prm.hde_threshold_rad and st[HDE_GATE] > 0.5:
                     z[0] = -e
                     m = 1
     st[HDE_PREV_X], st[HDE_PREV_Y], st[HDE_HAVE_PREV] = px, py, 1.0

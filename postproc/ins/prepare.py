@@ -135,3 +135,19 @@ def prepare_filter(init, gravity: float, settings: FilterSettings, nominal_dt_s:
     max_segment = max(16, int(math.ceil(settings.smoother_max_segment_s / nominal_dt_s)))
     prm = kernel_params(settings, gravity, nominal_dt_s, zupt_gain is not None, smooth, max_segment)
     return FilterSetup(q0, bg0, ba0, initial_covariance(settings), zupt_gain, prm, warnings)
+
+
+def gated_chunks(bounds: np.ndarray, heading_gate) -> list[tuple[int, int, bool]]:
+    """The engines' push chunks (``bounds``: increasing sample indices from 0 to N) split where the heading
+    aid's per-segment gate changes: ``(a, b, open)`` with the gate constant over samples a..b−1 (``open`` True
+    everywhere when ``heading_gate`` is None). The engine sets ``st[HDE_GATE]`` before each push."""
+    bounds = np.asarray(bounds, dtype=np.int64)
+    if heading_gate is None:
+        return [(int(a), int(b), True) for a, b in zip(bounds[:-1], bounds[1:])]
+    gate = np.asarray(heading_gate, dtype=bool).reshape(-1)
+    n = int(bounds[-1])
+    if gate.shape[0] != n:
+        raise InputError(f"heading_gate has {gate.shape[0]} samples, the record {n}: give one flag per sample")
+    change = np.flatnonzero(np.diff(gate.view(np.int8))) + 1
+    cuts = np.union1d(bounds, change)
+    return [(int(a), int(b), bool(gate[a])) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]

@@ -111,6 +111,13 @@ class FilterSettings:
         "auto": share of the aligned strides on the axis at right angles to the main one (a corridor at right
         angles walked; an out-and-back walk has none, as its turns are not straight strides). 0.02: one
         straight stride in 50 (in a building most straight strides run along the long corridors).
+    heading_aid_segments : bool
+        "auto", once on: the aid corrects only the strides of straight legs along the building's grid where
+        the strides around them show the grid (``building.directions.segment_flags``; per segment, in the
+        spirit of iHDE [Jimenez2011]); False: every stride within ``hde_threshold_rad`` of the grid. True.
+    hde_leg_min_strides : int
+        "auto" per segment: fewest consecutive strides within ``hde_auto_tolerance_rad`` of their mean heading
+        that make a straight leg (a stride and its two neighbours, the aid's own notion of straight). 3.
     revisits : str
         "none", "entry", "stairs" or "entry+stairs": correct the smoothed path by a pose graph over strides
         where the walker comes back to a place already visited (``postproc.building.revisits``). Off: see
@@ -185,6 +192,8 @@ class FilterSettings:
     hde_auto_tolerance_rad: float = 5.0 * DEG
     hde_auto_min_share: float = 0.5
     hde_auto_min_cross: float = 0.02
+    heading_aid_segments: bool = True
+    hde_leg_min_strides: int = 3
     revisits: str = "none"
     revisit_entry_gate: float = 0.01
     revisit_stair_gate_m: float = 3.0
@@ -214,7 +223,10 @@ class FilterSettings:
         ref = self.heading_aid_reference_rad
         if ref is not None and not (isinstance(ref, (int, float)) and math.isfinite(ref)):
             raise ValueError(f"FilterSettings.heading_aid_reference_rad must be None or a finite angle, got {ref!r}")
-        for name in ("hde_auto_window", "hde_auto_min_strides"):
+        if not isinstance(self.heading_aid_segments, bool):
+            raise ValueError(f"FilterSettings.heading_aid_segments must be true or false, got "
+                             f"{self.heading_aid_segments!r}")
+        for name in ("hde_auto_window", "hde_auto_min_strides", "hde_leg_min_strides"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 3):
                 raise ValueError(f"FilterSettings.{name} must be an integer >= 3, got {v!r}")

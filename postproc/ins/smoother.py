@@ -170,6 +170,20 @@ def _transition_t_times(fpar, y, n, out):
 
 
 @njit(cache=True)
+def _not_updated(p_post, p_pred_tri, dx_upd, jb, n):
+    """Whether the filter left buffer row ``jb`` as it predicted it: no correction (δx_upd = 0) and P⁺ = P⁻
+    bit for bit (on P⁻'s stored lower triangle), i.e. no measurement update at that sample."""
+    for i in range(n):
+        if dx_upd[jb, i] != 0.0:
+            return False
+    for i in range(n):
+        for c in range(i + 1):
+            if p_post[jb, i, c] != p_pred_tri[jb, tri_index(i, c)]:
+                return False
+    return True
+
+
+@njit(cache=True)
 def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q, ba, bg):
     """Numba backward pass over one segment; corrects its output rows start..start+m−1 in place.
 
@@ -177,8 +191,11 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q,
     ``p_post`` (n×n per row) is the filter's posterior covariance; ``p_pred_tri`` the lower triangle of the
     prior, packed (``tri_index``), the only part the Cholesky factor reads. Only the vector recursion is
     needed: δx_s(j) = P⁺(j) Fᵀ y with P⁻(j+1) y = δx_s(j+1) + δx_upd(j+1) (one Cholesky solve per sample,
-    no n×n gain matrix). Returns the number of steps where P⁻ was not positive definite (the recursion
-    restarts from zero there).
+    no n×n gain matrix). Where the filter made no update at sample j+1 (``_not_updated``: a swing sample),
+    P⁺(j+1) = P⁻(j+1) and δx_upd(j+1) = 0, so the right-hand side is P⁻(j+1) Fᵀ y' of the step before (y' its
+    solution) and y = Fᵀ y' exactly: no factorisation (the modified Bryson–Frazier form of the same recursion
+    [Bierman1977]); the result differs from the solve only at its rounding. Returns the number of steps where
+    P⁻ was not positive definite (the recursion restarts from zero there).
     """
     cap = p_post.shape[0]
     lf = np.empty((n, n))
@@ -187,34 +204,49 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q,
     fty = np.empty(n)
     dxs = np.zeros(n)
     bad = 0
+    have_fty = False  # fty holds Fᵀ y of the step before, which δx_s(j+1) = P⁺(j+1) fty came from
+    have_lg = False  # lg holds the factor of P⁻(j+1) (made with the step before's)
+    ok_lg = False
     j = m - 2
     while j >= 0:
-        # the factors of P⁻(j+1) and P⁻(j) (the next step's) together; the last step alone
-        jm = j - 1 if j > 0 else j
-        ok_j, ok_jm = _cholesky_pair(p_pred_tri[(b0 + j + 1) % cap], p_pred_tri[(b0 + jm + 1) % cap], lf, lg, n)
-        bad += _backward_step(p_post, fpar, dx_upd, b0, cap, j, ok_j, lf, n, start, pos, vel, q, ba, bg, y, fty,
-                              dxs)
-        if j > 0:
-            bad += _backward_step(p_post, fpar, dx_upd, b0, cap, jm, ok_jm, lg, n, start, pos, vel, q, ba, bg, y,
-                                  fty, dxs)
-        j -= 2
+        jn = (b0 + j + 1) % cap
+        if have_fty and _not_updated(p_post, p_pred_tri, dx_upd, jn, n):
+            for i in range(n):
+                y[i] = fty[i]
+            have_lg = False
+        else:
+            if have_lg:
+                lf, lg = lg, lf
+                ok = ok_lg
+                have_lg = False
+            elif j > 0 and not _not_updated(p_post, p_pred_tri, dx_upd, (b0 + j) % cap, n):
+                # the next step will need P⁻(j)'s factor too: both together (``_cholesky_pair``)
+                ok, ok_lg = _cholesky_pair(p_pred_tri[jn], p_pred_tri[(b0 + j) % cap], lf, lg, n)
+                have_lg = True
+            else:
+                ok, _ = _cholesky_pair(p_pred_tri[jn], p_pred_tri[jn], lf, lg, n)
+            if not ok:
+                for i in range(n):
+                    dxs[i] = 0.0
+                bad += 1
+                have_fty = False
+                j -= 1
+                continue
+            for i in range(n):
+                y[i] = dxs[i] + dx_upd[jn, i]
+            _chol_solve(lf, y, n)
+        _backward_step(p_post, fpar, b0, cap, j, n, start, pos, vel, q, ba, bg, y, fty, dxs)
+        have_fty = True
+        j -= 1
     return bad
 
 
 @njit(cache=True)
-def _backward_step(p_post, fpar, dx_upd, b0, cap, j, ok, lf, n, start, pos, vel, q, ba, bg, y, fty, dxs):
-    """One step of ``rts_backward``: δx_s(j) from δx_s(j+1) (in ``dxs``, updated in place) with ``lf`` the
-    Cholesky factor of P⁻(j+1) (``ok``: it exists), and the correction of output row start + j. Returns 1
-    where P⁻(j+1) was not positive definite (δx_s(j) = 0, the row left as filtered), else 0."""
-    if not ok:
-        for i in range(n):
-            dxs[i] = 0.0
-        return 1
+def _backward_step(p_post, fpar, b0, cap, j, n, start, pos, vel, q, ba, bg, y, fty, dxs):
+    """One step of ``rts_backward``: δx_s(j) = P⁺(j) Fᵀ y into ``dxs`` (y: P⁻(j+1)⁻¹ (δx_s(j+1) +
+    δx_upd(j+1)); Fᵀ y is left in ``fty``), and the correction of output row start + j."""
     jb = (b0 + j) % cap
     jn = (b0 + j + 1) % cap
-    for i in range(n):
-        y[i] = dxs[i] + dx_upd[jn, i]
-    _chol_solve(lf, y, n)
     _transition_t_times(fpar[jn], y, n, fty)
     for i in range(n):
         s = 0.0
@@ -230,7 +262,6 @@ def _backward_step(p_post, fpar, dx_upd, b0, cap, j, ok, lf, n, start, pos, vel,
             ba[kk, i] += dxs[DBA + i]
             bg[kk, i] += dxs[DBG + i]
     _rotate_left(q, kk, dxs[DTH], dxs[DTH + 1], dxs[DTH + 2])
-    return 0
 
 
 @njit(cache=True)

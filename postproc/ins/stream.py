@@ -81,10 +81,10 @@ from bootnav.core.runs import runs
 from bootnav.core.timebase import GAP_FACTOR
 from bootnav.errors import InputError
 from bootnav.postproc.ins import fast
-from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_HAVE_PREV,
-                                         HDE_REF_HEADING, POS, QUAT, VEL, initial_nominal_state)
+from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_GATE,
+                                         HDE_HAVE_PREV, HDE_REF_HEADING, POS, QUAT, VEL, initial_nominal_state)
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, active_flags
-from bootnav.postproc.ins.prepare import FilterSetup, prepare_filter, saturation_variance
+from bootnav.postproc.ins.prepare import FilterSetup, gated_chunks, prepare_filter, saturation_variance
 from bootnav.postproc.ins.settings import FilterSettings
 
 _ROWS3 = ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")
@@ -439,6 +439,11 @@ class StreamNavigator:
         self._st[HDE_REF_HEADING] = float(reference_rad)
         self._st[HDE_HAVE_PREV] = 0.0
 
+    def set_heading_gate(self, open_: bool) -> None:
+        """Open or close the heading aid's per-segment gate from the next filtered sample (closed: the aid
+        keeps its memory of the strides but corrects none; ``building.directions``)."""
+        self._st[HDE_GATE] = 1.0 if open_ else 0.0
+
     def apply_measurement(self, z, H, R) -> None:
         """Kalman update of the error state at the last filtered sample with z = H δx + ν, ν ~ N(0, R).
 
@@ -719,10 +724,12 @@ class StreamNavigator:
         return rows
 
 
-def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None):
+def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None,
+             heading_gate=None):
     """Push a whole record through a ``StreamNavigator`` in a few chunks (arguments as
     ``filter.run_filter`` prepares them: ``setup`` = ``prepare.prepare_filter``'s, passed whole; ``stance`` is
-    the ZUPT mask, ``extra_var`` the saturation variance).
+    the ZUPT mask, ``extra_var`` the saturation variance, ``heading_gate`` the heading aid's per-sample gate
+    or None; the chunks are cut where the gate changes, ``prepare.gated_chunks``).
 
     Returns
     -------
@@ -745,9 +752,11 @@ def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progr
             arr[sl] = getattr(rows, name)
 
     t0 = time.perf_counter()
-    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+    for a, b, gate_open in gated_chunks(bounds, heading_gate):
+        if heading_gate is not None:
+            nav.set_heading_gate(gate_open)
         keep(nav._push_checked(t_s[a:b], acc_b[a:b], gyro_b[a:b], stance[a:b], None if xvar is None else xvar[a:b]))
-        if progress is not None:
+        if progress is not None and b in bounds:
             progress(float(b) / N)
     keep(nav.finish())
     info = dict(nav.info, run_s=time.perf_counter() - t0, applied=nav._applied, final_P=nav.covariance)

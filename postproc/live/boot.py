@@ -443,10 +443,13 @@ class BootView:
         fp_raw = fp.copy()  # as the filter gave them (the storeys' input)
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
-        if self._dirs is not None and not self._dirs.on and self._dirs.push(fp[:, :2]) and self._nav is not None:
-            self._nav.enable_heading_aid(self._dirs.reference_rad)
-            self.note = (f"heading aid on from stride {self._dirs.decided_at_stride}: the strides follow a building's "
-                         f"axes ({math.degrees(self._dirs.reference_rad):.0f} deg)")
+        if self._dirs is not None:
+            if self._dirs.push(fp[:, :2]) and self._nav is not None:
+                self._nav.enable_heading_aid(self._dirs.reference_rad)
+                self.note = (f"heading aid on from stride {self._dirs.decided_at_stride}: the strides follow a "
+                             f"building's axes ({math.degrees(self._dirs.reference_rad):.0f} deg)")
+            if self._dirs.on and self._nav is not None and self.settings.filter.heading_aid_segments:
+                self._nav.set_heading_gate(self._dirs.gate_open)  # per segment: the latest leg on the grid
         z_rel = fp[:, 2] - self._z0
         if self.floors.storeys:  # the storeys' rules on the footprints so far (causal: nothing after them)
             levels = np.zeros(len(fp), np.int64)
@@ -524,4 +527,6 @@ class BootView:
                 "height_m": self._fp_last_z, "note": self.note,
                 "heading_aid_from_stride": None if self._dirs is None or not self._dirs.on else
                 self._dirs.decided_at_stride,
+                "heading_aid_segments": None if self._dirs is None or not self.settings.filter.heading_aid_segments
+                else dict(self._dirs.segments),
                 "link": {k: v for k, v in self.link.as_dict(0.0, True).items() if k != "age_s"}}

@@ -1,0 +1,120 @@
+"""Where `bootnav process` spends its CPU: seconds of process CPU per stage of one run (issue 25, point 5).
+
+Runs ``pipeline.process`` + ``outputs.write_outputs`` (without charts) on a cached ``bench_long`` recording under ``cProfile`` with the process CPU clock as its timer: a stage's
+figure is the CPU of every thread of the process while the stage ran (the timing probes' two threads, the
+smoother's thread). The kernels are loaded first (a one-minute run), so compile time is not counted; the
+import row is a child ``python -c "import ..."``. The charts (``plots.ChartStream`` and the drawing of the
+chart processes, here in this process) are timed without the profiler, whose cost per Python call would
+triple matplotlib's. Wall times on a shared machine are noise: compare CPU.
+Prints a table; asserts nothing.
+
+    .venv/bin/python benchmarks/bench_stages.py [--hours 1] [--cache DIR] [--repeat 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_long import recording  # noqa: E402  (the cached simulated shift)
+
+# (label, function name as cProfile lists it: file suffix, function)
+STAGES = [
+    ("load", "source.py", "load_source"),
+    ("initial alignment", "calibration.py", "initial_alignment"),
+    ("stance detection", "detectors/__init__.py", "detect_stance"),
+    ("gait period", "selftune.py", "gait_period"),
+    ("timing probes (2 filters, 2 threads)", "selftune.py", "level_timing_offset"),
+    ("final filter + smoother", "navigate.py", "_run"),
+    ("  of which filter kernel", "fast.py", "filter_chunk"),
+    ("  of which smoother kernel (this thread)", "fast.py", "smooth_segments"),
+    ("stride quality", "selftune.py", "stride_quality"),
+    ("storeys", "floors.py", "snap_storeys"),
+    ("strides", "strides.py", "segment_strides"),
+    ("process (all stages)", "pipeline.py", "process"),
+    ("trajectory.csv", "outputs.py", "write_trajectory_csv"),
+    ("write_outputs (no charts)", "outputs.py", "write_outputs"),
+]
+
+IMPORTS = ("import bootnav.postproc.pipeline, bootnav.postproc.outputs, bootnav.postproc.navigate, "
+           "bootnav.postproc.ins, bootnav.postproc.cli_process")
+
+
+def _cumulative(stats: pstats.Stats, suffix: str, name: str) -> float:
+    return sum(v[3] for (path, _, func), v in stats.stats.items() if func == name and path.endswith(suffix))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hours", type=float, default=1.0)
+    parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "bootnav_bench_long")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--repeat", type=int, default=2, help="runs (the table shows the smallest CPU of each)")
+    args = parser.parse_args()
+    args.cache.mkdir(parents=True, exist_ok=True)
+    rec, _ = recording(args.cache, args.hours, args.seed)
+
+    c0 = time.process_time()
+    imp = subprocess.run([sys.executable, "-c", f"import time; {IMPORTS}; print(time.process_time())"],
+                         capture_output=True, text=True, check=True)
+    import_cpu = float(imp.stdout.split()[-1])
+
+    from bootnav.postproc import outputs
+    from bootnav.postproc.outputs import warm_csv_writer, write_outputs
+
+    from bootnav.postproc.pipeline import process
+    from bootnav.postproc.settings import ProcessSettings
+
+    work = Path(tempfile.mkdtemp(prefix="bench_stages_"))
+    warm = ProcessSettings(crop_s=(0.0, 60.0))
+    warm.output.plots = False
+    write_outputs(process(rec, warm), work / "warm")
+    warm_csv_writer()
+    from bootnav.postproc.plots import ChartStream, warm_up
+
+    warm_up()
+    settings = ProcessSettings()
+    settings.output.plots = False
+    best: dict[str, float] = {}
+    walls = []
+    for i in range(args.repeat):
+        out = work / f"run{i}"
+        prof = cProfile.Profile(time.process_time)
+        w0 = time.perf_counter()
+        prof.enable()
+        result = process(rec, settings)
+        write_outputs(result, out)
+        prof.disable()
+        c = time.process_time()
+        stream = ChartStream.from_result(result)
+        c1 = time.process_time()
+        outputs.draw_here(stream, out)
+        for label, v in (("chart stream", c1 - c), ("charts drawn (7 PNG + html)", time.process_time() - c1)):
+            best[label] = min(best.get(label, v), v)
+        walls.append(time.perf_counter() - w0)
+        stats = pstats.Stats(prof)
+        for label, suffix, name in STAGES:
+            v = _cumulative(stats, suffix, name)
+            best[label] = min(best.get(label, v), v)
+        shutil.rmtree(out, ignore_errors=True)
+    print(f"\n{rec.name}: CPU s per stage (smallest of {args.repeat} runs; process CPU of all threads)")
+    print(f"{'imports (child process)':<44} {import_cpu:7.2f}")
+    for label in [s[0] for s in STAGES] + ["chart stream", "charts drawn (7 PNG + html)"]:
+        print(f"{label:<44} {best[label]:7.2f}")
+    print(f"(wall of process + write_outputs: {', '.join(f'{w:.2f}' for w in walls)} s; {os.cpu_count()} CPUs; "
+          f"bench CPU {time.process_time() - c0:.1f} s)")
+    shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
