@@ -69,6 +69,7 @@ from bootnav.logger.recording import Recording
 
 from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
                      saturation_intervals, saturation_warnings, stride_findings)
+from .ellipses import stride_scale_covariance
 from .floors import snap_storeys
 from .navigate import navigate
 from .selftune import TINY
@@ -207,20 +208,26 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     floors = settings.floor_settings()
     if floors.storeys:
         pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                      floors.riser_max_m, settings.filter.level_min_stride_m)
+                                      floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                      floors.floor_height_m)
+    # the floor number: the storeys found (``floors.storey_numbers``) as heights of whole nominal storeys, so that
+    # the hysteresis counting of ``strides.floor_levels`` returns exactly their numbers
+    floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
     warnings += navi.warnings
     warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
     lap("navigation")
 
     min_stride = settings.selftune.min_stride_m
+    cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings,
+                                        sensor_cal.provenance.get("status") == "applied")
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
+                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None), floor_z, cov_extra)
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
     findings = stride_findings(steps, settings.checks, navi.choice)
     warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, floor_z)
     path_stats["storeys"] = storeys.summary() if storeys is not None else None
     lap("strides")
     metrics = None
