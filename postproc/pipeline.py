@@ -355,6 +355,9 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .floors import storey_offsets
+    from bootnav.core.rotations import euler_zyx_from_quat
+
+    from .ellipses import scale_error_covariance, scale_sigmas, unwrapped_yaw
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
     from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
     from bootnav.core.arrays import row_norm
@@ -511,7 +514,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             path_fp.push(r.t_s, r.pos_n, r.stance)
             storey_t, storey_fp = path_fp.finish()
             storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                     floors.riser_max_m, settings.filter.level_min_stride_m)
+                                     floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                     floors.floor_height_m)
             del path_nav, path_fp
             lap("storeys")
         snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
@@ -524,6 +528,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         tmp = atomic.temporary_beside(target)
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
         fp_acc = FootprintAccumulator()
+        yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
+        yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
         quality_acc = selftune.StrideQualityAccumulator()
         gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
         charts = None
@@ -564,6 +570,10 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                                        "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
                     fp_acc.push(r.t_s, r.pos_n, r.stance,
                                 np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
+                    yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
+                        np.concatenate((yaw_last, euler_zyx_from_quat(np.asarray(r.q_nb, float))[:, 2])))[1:]
+                    yaw_last[:] = [float(yaw[-1])]
+                    yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
                     if charts is not None:
                         charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
                     n_rows += len(r)
@@ -590,8 +600,14 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             if not np.isfinite(period):
                 warnings.append("no periodic gait found: the confidence of this path is 0")
             cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
+            yaw_acc.finish()
+            if cov_h is not None and len(yaw_acc.cov) == len(fp):  # the sensor errors the filter does not model
+                cov_h = cov_h + scale_error_covariance(fp, yaw_acc.cov[:, 0], *scale_sigmas(
+                    settings, sensor_cal.provenance.get("status") == "applied"))
+            # the floor number: the storeys found as heights of whole nominal storeys (as ``process``)
+            floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
             steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
-                                      cov_h)
+                                      cov_h, floor_z)
             if len(steps["t_s"]) == 0 and not np.isfinite(period):
                 raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                                  f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
@@ -605,7 +621,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     f" the path is the configured detector's, confidence {confidence:.2f}" if st.fallback else ""))
             findings = stride_findings(steps, settings.checks, choice)
             warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s)
+            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
             path_stats["storeys"] = storeys.summary() if storeys is not None else None
             lap("strides")
             summary = {
