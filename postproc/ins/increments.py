@@ -11,12 +11,12 @@ errors, each growing as the interval lengthens (a foot swings at up to 10 rad/s:
    attitude at the middle of the step (``mechanization.py``, in the kernels);
 2. sculling (second order): the part of the velocity increment that comes from f and ω varying together
    within the interval. With the previous sample's increments it is estimated, for f and ω linear over the
-   two intervals, as [Savage1998, eq. 49 with the two-sample coefficients]::
+   two intervals, as (the two-sample form [Savage1998])::
 
        δv_k = (1/12) (Δθ_{k−1} × Δv_k + Δv_{k−1} × Δθ_k)
        ⇒  f_k' = f_k + (Δt'/12) (ω_{k−1} × f_k + f_{k−1} × ω_k)
 
-3. coning (second order): the non-commutativity of the rotation within the interval,
+3. coning (second order): the non-commutativity of the rotation within the interval [Savage1998a],
    δθ_k = (1/12) Δθ_{k−1} × Δθ_k  ⇒  ω_k' = ω_k + (Δt'/12) ω_{k−1} × ω_k.
 
 Δt' = min(Δt_{k−1}, Δt_k): the two-sample form assumes two adjacent intervals of one length; after a gap
