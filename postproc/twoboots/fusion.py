@@ -71,6 +71,7 @@ class FusedFoot:
     pos_sigma_n: np.ndarray
     stance: np.ndarray
     info: dict = field(default_factory=dict)
+    pos_cov_en: np.ndarray | None = None  # (N,) the foot filter's east-north position covariance P_EN, m² (ellipses)
 
 
 @dataclass
@@ -218,7 +219,7 @@ def fuse(left: FootInput, right: FootInput, filter_settings, settings: TwoBootSe
     for i, f in enumerate(feet):
         r = NavRows.concatenate(rows[i])
         fused.append(FusedFoot(f.label, f.t_s, r.pos_n + f.start_n, r.vel_n, r.q_nb, r.acc_bias_b, r.gyro_bias_b,
-                               r.pos_sigma_n, np.asarray(f.stance, bool), navs[i].info))
+                               r.pos_sigma_n, np.asarray(f.stance, bool), navs[i].info, r.pos_cov_en))
     if progress is not None:
         progress(1.0)
     return FusionOutput(fused[0], fused[1], n_checks, n_active, max_sep, time.perf_counter() - t0, n_gated)

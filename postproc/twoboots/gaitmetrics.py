@@ -2,7 +2,9 @@
 
 * **Walker path**: the midpoint of the two foot sensors, on the left foot's sample times (the right foot's
   position interpolated linearly in time).
-* **Strides** of each foot: ``bootnav.postproc.strides.segment_strides`` on the fused path (one definition).
+* **Strides** of each foot: ``bootnav.postproc.strides.segment_strides`` on the fused path (one definition),
+  with the 1-σ ellipse columns when the foot carries its covariance (``pos_sigma_n``, ``pos_cov_en``, and the
+  scale/cross-axis term ``cov_extra`` of ``ellipses.stride_scale_covariance``; docs/twoboots.md says which).
 * **Step width** of a footprint: its horizontal distance from the line through the two footprints of the
   other foot that bracket it in time (the standard gait-lab definition: the distance between the feet
   perpendicular to the direction of progression); only when the bracketing footprints are one stride of the
@@ -59,7 +61,8 @@ def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: 
     Parameters
     ----------
     left, right
-        ``{"t_s", "pos_n", "stance"}`` of each fused foot.
+        ``{"t_s", "pos_n", "stance"}`` of each fused foot; optional ``"pos_sigma_n"`` (N, 3) m, ``"pos_cov_en"``
+        (N,) m² and ``"cov_extra"`` (K, 3) m² add the ellipse columns (``segment_strides``).
     min_stride_m
         Shorter moves are not strides (``ProcessSettings.selftune.min_stride_m``).
     max_stride_time_s
@@ -81,7 +84,8 @@ def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: 
     for name, other, side in (("left", "right", -1.0), ("right", "left", 1.0)):
         src = left if name == "left" else right
         steps = segment_strides(src["t_s"], src["pos_n"], src["stance"], min_stride_m, floors=floors,
-                                floor_z=(floor_z or {}).get(name))
+                                pos_sigma_n=src.get("pos_sigma_n"), pos_cov_en=src.get("pos_cov_en"),
+                                floor_z=(floor_z or {}).get(name), cov_extra=src.get("cov_extra"))
         t_fp, fp = fps[name]
         width = step_widths(t_fp, fp, *fps[other], side, min_stride_m, max_stride_time_s)
         k = np.searchsorted(t_fp, steps["t_s"])  # the footprint ending each stride

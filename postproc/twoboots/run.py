@@ -12,8 +12,8 @@ Stages:
 4. **fusion** (``fusion.fuse``): both navigators in lockstep with the maximum-separation constraint [Skog2012];
 5. **storeys** (``floors.snap_storeys``, when ``floor_storeys``): each fused foot's height on storeys, as
    ``process`` does for one foot (the fusion re-runs both filters, so the single runs' storeys do not carry);
-6. **walker and gait** (``gaitmetrics``): the midpoint path, per-foot strides with step width and floor,
-   distance, floors (``strides.path_summary``) of each foot and of the walker.
+6. **walker and gait** (``gaitmetrics``): the midpoint path, per-foot strides with step width, floor and the
+   1-σ ellipse (``foot_covariance``), distance, floors (``strides.path_summary``) of each foot and of the walker.
 """
 
 from __future__ import annotations
@@ -76,6 +76,21 @@ def foot_input(label: str, res, offset_s: float = 0.0, yaw_rad: float = 0.0, sta
                      np.asarray(res.gyro_b, float), np.asarray(res.stance, bool), init, float(res.gravity_mps2),
                      _saturation_bits(res), np.zeros(3) if start_n is None else np.asarray(start_n, float),
                      yaw_sigma_rad)
+
+
+def foot_covariance(f, single, settings) -> dict:
+    """The ellipse inputs of one fused foot for ``gaitmetrics.gait_table``: its own filter's position covariance
+    (``pos_sigma_n``, ``pos_cov_en``: that foot's navigator in the fusion, after the constraint updates it took;
+    there is no joint filter, docs/twoboots.md) plus the scale/cross-axis term of the fused path
+    (``ellipses.stride_scale_covariance``, with the foot's own sensor calibration status)."""
+    from bootnav.postproc.ellipses import stride_scale_covariance
+
+    if f.pos_cov_en is None:
+        return {}
+    cal = getattr(single, "sensor_calibration", None)
+    calibrated = cal is not None and cal.provenance.get("status") == "applied"
+    return {"pos_sigma_n": f.pos_sigma_n, "pos_cov_en": f.pos_cov_en,
+            "cov_extra": stride_scale_covariance(f.t_s, f.pos_n, f.stance, f.q_nb, settings, calibrated)}
 
 
 def _name(src) -> str:
@@ -203,9 +218,9 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
             floor_z[label] = res_st.storey_fp * floors.floor_height_m  # the storeys' numbers (as ``process``)
     walker = walker_path(fl.t_s, fl.pos_n, fr.t_s, fr.pos_n)
     min_stride = settings.selftune.min_stride_m
-    gait = gait_table({"t_s": fl.t_s, "pos_n": fl.pos_n, "stance": fl.stance},
-                      {"t_s": fr.t_s, "pos_n": fr.pos_n, "stance": fr.stance}, min_stride, floors=floors,
-                      floor_z=floor_z)
+    gait = gait_table(*({"t_s": f.t_s, "pos_n": f.pos_n, "stance": f.stance,
+                         **foot_covariance(f, single[label], settings)} for label, f in (("left", fl), ("right", fr))),
+                      min_stride, floors=floors, floor_z=floor_z)
     result = TwoBootResult(single, fused, fl.t_s, walker, gait, clock, heading, settings, tb,
                            names=dict(names or {label: label for label in LABELS}))
     feet_summary = {}
