@@ -1,8 +1,9 @@
 """Issue 24: every two-boot stride carries its horizontal 1-σ ellipse (the columns of ``steps.csv``), from the
-fused foot's filter covariance plus the scale/cross-axis term (``ellipses``), in ``strides.csv`` and each foot's
-``steps.csv``."""
+conservative per-foot covariance (``run.foot_covariance``) plus the scale/cross-axis term (``ellipses``), in
+``strides.csv`` and each foot's ``steps.csv``."""
 
 import csv
+import dataclasses
 import math
 
 import numpy as np
@@ -10,10 +11,10 @@ import pytest
 
 from bootnav.postproc.ellipses import scale_sigmas
 from bootnav.postproc.pipeline import process
-from bootnav.postproc.strides import ELLIPSE_COLUMNS
+from bootnav.postproc.strides import ELLIPSE_COLUMNS, ellipse, phase_ends
 from bootnav.postproc.twoboots import TwoBootSettings
 from bootnav.postproc.twoboots.outputs import write_two_boot_outputs
-from bootnav.postproc.twoboots.run import fuse_results
+from bootnav.postproc.twoboots.run import foot_covariance, fuse_results
 from bootnav.simulator import custom
 from bootnav.simulator.twoboots import WalkerGeometry, simulate_two_boots, write_two_boots
 
@@ -72,11 +73,26 @@ def test_the_ellipse_grows_with_the_distance_walked(walk):
         assert np.hypot(*(fp[-1] - fp[0])) > 15.0  # the walk is what the scenario says (20 m, less a stride)
 
 
-def test_without_the_bound_the_left_foot_has_its_single_foot_ellipses(walk):
-    """With γ = ∞ the fused left foot is its single-foot filter (same frame, same clock): its ellipses must be
-    ``steps.csv``'s of the single-foot run (one definition)."""
+def test_the_ellipse_is_the_conservative_per_foot_covariance(walk):
+    """The left foot's frame is the common frame: its ellipses are its single-foot ``steps.csv`` ones (one
+    definition) whatever the constraint did. The right foot's, without the scale term and with γ = ∞ (no
+    update), are never smaller than its own navigator's in the fusion (which starts with the alignment's yaw σ):
+    the single-foot covariance turned into the common frame plus the rest of the alignment's yaw variance is
+    the same first-order variance, so it must not fall below it."""
     single = walk["single"]
-    res = fuse_results(single, single["left"].settings, TwoBootSettings(max_separation_m=1e9, **KNOWN_START))
-    assert res.fused.n_active == 0
+    res = walk["res"]
     for c in ELLIPSE_COLUMNS:
-        np.testing.assert_allclose(res.gait["left"][c], single["left"].steps[c], atol=1e-6, rtol=0)
+        np.testing.assert_allclose(res.gait["left"][c], single["left"].steps[c], atol=1e-9, rtol=0)
+    st = single["left"].settings
+    tb = TwoBootSettings(max_separation_m=1e9, **KNOWN_START)
+    free = fuse_results(single, st, tb)
+    assert free.fused.n_active == 0
+    f = free.fused.right
+    end = phase_ends(f.stance)
+    st0 = dataclasses.replace(st, ellipse_scale_sigma=0.0, ellipse_cross_axis_rad=0.0, ellipse_calibrated_sigma=0.0)
+    cov = foot_covariance(f, single["right"], st0, free.heading["yaw_rad"], tb.heading_alignment_sigma_rad)
+    sig, extra = cov["pos_sigma_n"][end], cov["cov_extra"]
+    reported, _, _ = ellipse(sig[:, 0] ** 2 + extra[:, 0], sig[:, 1] ** 2 + extra[:, 1],
+                             cov["pos_cov_en"][end] + extra[:, 2])
+    own, _, _ = ellipse(f.pos_sigma_n[end, 0] ** 2, f.pos_sigma_n[end, 1] ** 2, f.pos_cov_en[end])
+    assert len(own) >= 10 and (reported >= own * (1 - 1e-6)).all()

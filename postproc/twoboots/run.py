@@ -78,19 +78,45 @@ def foot_input(label: str, res, offset_s: float = 0.0, yaw_rad: float = 0.0, sta
                      yaw_sigma_rad)
 
 
-def foot_covariance(f, single, settings) -> dict:
-    """The ellipse inputs of one fused foot for ``gaitmetrics.gait_table``: its own filter's position covariance
-    (``pos_sigma_n``, ``pos_cov_en``: that foot's navigator in the fusion, after the constraint updates it took;
-    there is no joint filter, docs/twoboots.md) plus the scale/cross-axis term of the fused path
-    (``ellipses.stride_scale_covariance``, with the foot's own sensor calibration status)."""
-    from bootnav.postproc.ellipses import stride_scale_covariance
+def foot_covariance(f, single, settings, yaw_rad: float = 0.0, yaw_sigma_rad: float | None = None) -> dict:
+    """The ellipse inputs of one fused foot for ``gaitmetrics.gait_table`` (docs/twoboots.md, "Stride ellipses").
 
-    if f.pos_cov_en is None:
+    The fusion is two filters, not one joint filter: each foot's navigator takes the constraint as a position
+    pseudo-measurement of accuracy ``constraint_sigma_m`` and keeps no covariance with the other foot, so after
+    an update its own P claims to know the foot to centimetres along the constraint direction although the bound
+    observes only the DIFFERENCE of the feet (the common mode stays as uncertain as before). That P would be
+    over-confident, so the ellipse uses the conservative per-foot value: the foot's single-foot filter covariance
+    (the same stance mask, so the same stance-phase ends), turned into the common frame by the frame alignment
+    ``yaw_rad`` (P' = R P Rᵀ), plus, for a foot whose frame was aligned, the rest of the alignment's yaw variance
+    (``yaw_sigma_rad``² − ``init_yaw_sigma_rad``², the variance the fused navigator starts with instead) as a
+    rotation of the path about its first footprint (``ellipses.scale_error_covariance``'s cross-axis term, the
+    same first-order form), plus the scale/cross-axis term of the fused path (``ellipses.stride_scale_covariance``,
+    with the foot's own sensor calibration status). Returns {} when the single-foot run kept no covariance.
+    """
+    from bootnav.postproc.ellipses import scale_error_covariance, stride_scale_covariance, unwrapped_yaw
+    from bootnav.postproc.strides import footprints, phase_ends
+
+    nav = getattr(single, "nav", None)
+    sig, cen = getattr(nav, "pos_sigma_n", None), getattr(nav, "pos_cov_en", None)
+    if sig is None or cen is None:
         return {}
+    sig, cen = np.asarray(sig, float), np.asarray(cen, float)
+    a, b = sig[:, 0] ** 2, sig[:, 1] ** 2
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    p_ee = c * c * a - 2 * c * s * cen + s * s * b
+    p_nn = s * s * a + 2 * c * s * cen + c * c * b
+    p_en = c * s * (a - b) + (c * c - s * s) * cen
     cal = getattr(single, "sensor_calibration", None)
     calibrated = cal is not None and cal.provenance.get("status") == "applied"
-    return {"pos_sigma_n": f.pos_sigma_n, "pos_cov_en": f.pos_cov_en,
-            "cov_extra": stride_scale_covariance(f.t_s, f.pos_n, f.stance, f.q_nb, settings, calibrated)}
+    extra = stride_scale_covariance(f.t_s, f.pos_n, f.stance, f.q_nb, settings, calibrated)
+    if yaw_sigma_rad is not None:
+        rest = yaw_sigma_rad ** 2 - settings.filter.init_yaw_sigma_rad ** 2
+        if rest > 0 and len(extra):
+            _, fp = footprints(f.t_s, f.pos_n, f.stance)
+            yaw = unwrapped_yaw(f.q_nb)[phase_ends(np.asarray(f.stance, bool))]
+            extra = extra + scale_error_covariance(fp, yaw, 0.0, math.sqrt(rest))
+    return {"pos_sigma_n": np.column_stack((np.sqrt(np.maximum(p_ee, 0.0)), np.sqrt(np.maximum(p_nn, 0.0)), sig[:, 2])),
+            "pos_cov_en": p_en, "cov_extra": extra}
 
 
 def _name(src) -> str:
@@ -218,9 +244,10 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
             floor_z[label] = res_st.storey_fp * floors.floor_height_m  # the storeys' numbers (as ``process``)
     walker = walker_path(fl.t_s, fl.pos_n, fr.t_s, fr.pos_n)
     min_stride = settings.selftune.min_stride_m
+    cov_args = {"left": {}, "right": {"yaw_rad": heading["yaw_rad"], "yaw_sigma_rad": tb.heading_alignment_sigma_rad}}
     gait = gait_table(*({"t_s": f.t_s, "pos_n": f.pos_n, "stance": f.stance,
-                         **foot_covariance(f, single[label], settings)} for label, f in (("left", fl), ("right", fr))),
-                      min_stride, floors=floors, floor_z=floor_z)
+                         **foot_covariance(f, single[label], settings, **cov_args[label])}
+                        for label, f in (("left", fl), ("right", fr))), min_stride, floors=floors, floor_z=floor_z)
     result = TwoBootResult(single, fused, fl.t_s, walker, gait, clock, heading, settings, tb,
                            names=dict(names or {label: label for label in LABELS}))
     feet_summary = {}
