@@ -76,9 +76,10 @@ def test_the_ellipse_grows_with_the_distance_walked(walk):
 def test_the_ellipse_is_the_conservative_per_foot_covariance(walk):
     """The left foot's frame is the common frame: its ellipses are its single-foot ``steps.csv`` ones (one
     definition) whatever the constraint did. The right foot's, without the scale term and with γ = ∞ (no
-    update), are never smaller than its own navigator's in the fusion (which starts with the alignment's yaw σ):
+    update), are not smaller than its own navigator's in the fusion (which starts with the alignment's yaw σ):
     the single-foot covariance turned into the common frame plus the rest of the alignment's yaw variance is
-    the same first-order variance, so it must not fall below it."""
+    the same variance to first order in the yaw error; the neglected terms are of relative order σ_ψ², so the
+    tolerance is a few σ_ψ² (4 σ_ψ² = 0.5 % at σ_ψ = 2°)."""
     single = walk["single"]
     res = walk["res"]
     for c in ELLIPSE_COLUMNS:
@@ -95,4 +96,4 @@ def test_the_ellipse_is_the_conservative_per_foot_covariance(walk):
     reported, _, _ = ellipse(sig[:, 0] ** 2 + extra[:, 0], sig[:, 1] ** 2 + extra[:, 1],
                              cov["pos_cov_en"][end] + extra[:, 2])
     own, _, _ = ellipse(f.pos_sigma_n[end, 0] ** 2, f.pos_sigma_n[end, 1] ** 2, f.pos_cov_en[end])
-    assert len(own) >= 10 and (reported >= own * (1 - 1e-6)).all()
+    assert len(own) >= 10 and (reported >= own * (1 - 4 * tb.heading_alignment_sigma_rad ** 2)).all()
