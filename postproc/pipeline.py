@@ -319,8 +319,6 @@ def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str 
         return "a reference is compared with the whole path"
     if into_recording:
         return "--into-recording rewrites the recording"
-    if settings.filter.heading_aid == "auto":
-        return "heading_aid 'auto' decides on the whole unaided path"
     if settings.filter.revisits != "none":
         return "revisits solve a pose graph over all strides"
     from .detectors.stream import stream_refusal
@@ -348,6 +346,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .floors import storey_offsets
+    from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
     from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
     from bootnav.core.arrays import row_norm
@@ -492,21 +491,40 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         def acc_used(ch):
             return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
 
-        floors = settings.floor_settings()
-        storeys = None
-        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
-            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
-            path_fp = FootprintAccumulator()
+        def gate(ch):
+            """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
+            return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
+
+        def path_footprints(filter_settings):
+            """A pass of the filter + smoother: its footprints (mid times, (K, 3)) and the stance phases' stops."""
+            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
+            path_fp, stops = FootprintAccumulator(), _RunStops()
             for ch in stance_stream():
-                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated)
+                stops.push(ch.start, ch.stance)
+                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
                 path_fp.push(r.t_s, r.pos_n, r.stance)
             r = path_nav.finish()
             path_fp.push(r.t_s, r.pos_n, r.stance)
-            storey_t, storey_fp = path_fp.finish()
+            return (*path_fp.finish(), stops.finish(n))
+
+        floors = settings.floor_settings()
+        storeys = None
+        final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
+        if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
+            path_fp = path_footprints(settings.filter)
+            dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
+            heading_decision = dec.as_dict()
+            if dec.on:
+                final_filter = aided_settings(settings.filter, dec)
+                gate_iv = None if aided is None else gate_intervals(path_fp[2], ends, aided)
+                path_fp = None  # the storeys are on the aided path
+            lap("heading")
+        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
+            storey_t, storey_fp, _ = path_fp if path_fp is not None else path_footprints(final_filter)
             storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
                                      floors.riser_max_m, settings.filter.level_min_stride_m)
-            del path_nav, path_fp
             lap("storeys")
+        del path_fp
         snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
 
         # the final pass: the filter + smoother, outputs appended as rows become final
@@ -515,7 +533,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         group = f"/results/{opts.results_name}"
         target = out / "results.h5"
         tmp = atomic.temporary_beside(target)
-        nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
+        nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
         fp_acc = FootprintAccumulator()
         quality_acc = selftune.StrideQualityAccumulator()
         gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
@@ -568,7 +586,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     gyro_rows.put(ch.start, ch.gyro_b)
                     if writer is not None:
                         stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
-                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated))
+                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
                     _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
                 emit(nav.finish())
             lap("navigation")
@@ -620,7 +638,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                                                 for bit, nm in selftune.FLAG_NAMES.items()},
                                "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                "timing_offset": to_jsonable(timing)},
-                "filter": to_jsonable(nav.info),
+                "filter": to_jsonable(nav.info if heading_decision is None
+                                      else {**nav.info, "heading_decision": heading_decision}),
                 "path": path_stats,
                 "uncertainty": final_uncertainty(steps),
                 "confidence": float(confidence),
@@ -730,6 +749,27 @@ class _RunStarts:
             rise = np.flatnonzero(mask & ~np.concatenate(([self._prev], mask[:-1])))
             self.starts.extend((start + rise).tolist())
             self._prev = bool(mask[-1])
+
+
+class _RunStops:
+    """Stop index (exclusive) of every run of True in a mask pushed in consecutive chunks (``core.runs.runs``'
+    stops: a run still open at the end stops at n); int64, 8 bytes per run."""
+
+    def __init__(self):
+        self._stops: list[np.ndarray] = []
+        self._prev = False
+
+    def push(self, start: int, mask: np.ndarray) -> None:
+        if len(mask):
+            mask = np.asarray(mask, bool)
+            fall = np.flatnonzero(~mask & np.concatenate(([self._prev], mask[:-1])))
+            if fall.size:
+                self._stops.append(start + fall)
+            self._prev = bool(mask[-1])
+
+    def finish(self, n: int) -> np.ndarray:
+        stops = np.concatenate(self._stops) if self._stops else np.zeros(0, np.int64)
+        return np.append(stops, n).astype(np.int64) if self._prev else stops.astype(np.int64)
 
 
 class _OnsetInnovations:
