@@ -40,16 +40,22 @@ writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWri
    rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
    confidence), the gait period (``selftune.GaitPeriodAccumulator``), the stance findings
    (``checks.stance_findings_of``; ‖ω‖'s median at rest from a 1e-3-decade histogram);
-4. the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
-   a flight's landing corrects the samples before it, so it needs the path before the one written;
+4. with ``heading_aid="auto"``, the heading decision (``building.directions.auto_heading``'s steps): the
+   unaided filter + smoother's footprints (the path ``navigate._run`` decides on: after the timing offset τ,
+   before the storeys), ``heading_plan``'s decision and per-stride flags, the gate as sample intervals
+   (``gate_intervals``: one row per run of aided strides); the passes after it run the aided filter, each
+   sample pushed with its gate flag (``StreamNavigator.push(heading_gate=…)``);
+   the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
+   a flight's landing corrects the samples before it, so it needs the path before the one written (with the
+   aid off, the unaided pass's footprints);
 5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
    interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
    and the footprints' ellipses accumulated as it goes.
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
 the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, ``heading_aid="auto"``,
-revisits, a detector that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
+(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, revisits, a detector
+that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
 scores candidate detectors on the whole record): a configured detector that fails is a warning with the
 path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
 """
@@ -252,8 +258,8 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     block (every recording up to 5 min at the default) runs the stages of ``process`` on it and writes it
     with ``outputs.write_outputs``; a longer HDF5 recording runs the same stages as passes over its blocks
     (``_block_passes``), memory bounded by the block. Options whose stage needs the whole record in memory (crop,
-    a reference, ``--into-recording``, a non-HDF5 input, ``heading_aid="auto"``, revisits, a detector that cannot
-    stream) run as one block whatever the length, with a warning when that is longer than ``block_s``.
+    a reference, ``--into-recording``, a non-HDF5 input, revisits, a detector that cannot stream) run as one
+    block whatever the length, with a warning when that is longer than ``block_s``.
 
     Returns
     -------
