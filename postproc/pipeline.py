@@ -26,7 +26,7 @@ The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``o
 
 **One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The recording is read through
 ``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) in blocks of ``settings.block_s``
-seconds, the memory budget (300 s: about 330 MB at 200 Hz). A recording of one block — every recording of the
+seconds, the memory budget (900 s: about 400-440 MB at 200 Hz). A recording of one block — every recording of the
 development datasets — runs the stages above on its arrays, exactly as they always ran, and is written by
 ``outputs.write_outputs``. A longer HDF5 recording runs the same stages as passes over its blocks
 (``_block_passes``), each whole-record decision taken in a pass before the one that needs it, the last pass
@@ -75,6 +75,7 @@ from bootnav.logger.recording import Recording
 
 from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
                      saturation_intervals, saturation_warnings, stride_findings)
+from .ellipses import stride_scale_covariance
 from .floors import snap_storeys
 from .navigate import navigate
 from .selftune import TINY
@@ -213,20 +214,26 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     floors = settings.floor_settings()
     if floors.storeys:
         pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                      floors.riser_max_m, settings.filter.level_min_stride_m)
+                                      floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                      floors.floor_height_m)
+    # the floor number: the storeys found (``floors.storey_numbers``) as heights of whole nominal storeys, so that
+    # the hysteresis counting of ``strides.floor_levels`` returns exactly their numbers
+    floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
     warnings += navi.warnings
     warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
     lap("navigation")
 
     min_stride = settings.selftune.min_stride_m
+    cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings,
+                                        sensor_cal.provenance.get("status") == "applied")
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None))
+                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None), floor_z, cov_extra)
     if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
         raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                          f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
     findings = stride_findings(steps, settings.checks, navi.choice)
     warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, floor_z)
     path_stats["storeys"] = storeys.summary() if storeys is not None else None
     lap("strides")
     metrics = None
@@ -353,6 +360,9 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .floors import storey_offsets
     from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
+    from bootnav.core.rotations import euler_zyx_from_quat
+
+    from .ellipses import scale_error_covariance, scale_sigmas, unwrapped_yaw
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
     from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
     from bootnav.core.arrays import row_norm
@@ -528,7 +538,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
             storey_t, storey_fp, _ = path_fp if path_fp is not None else path_footprints(final_filter)
             storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                     floors.riser_max_m, settings.filter.level_min_stride_m)
+                                     floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                     floors.floor_height_m)
             lap("storeys")
         del path_fp
         snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
@@ -541,6 +552,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         tmp = atomic.temporary_beside(target)
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
         fp_acc = FootprintAccumulator()
+        yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
+        yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
         quality_acc = selftune.StrideQualityAccumulator()
         gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
         charts = None
@@ -581,6 +594,10 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                                        "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
                     fp_acc.push(r.t_s, r.pos_n, r.stance,
                                 np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
+                    yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
+                        np.concatenate((yaw_last, euler_zyx_from_quat(np.asarray(r.q_nb, float))[:, 2])))[1:]
+                    yaw_last[:] = [float(yaw[-1])]
+                    yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
                     if charts is not None:
                         charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
                     n_rows += len(r)
@@ -607,8 +624,14 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             if not np.isfinite(period):
                 warnings.append("no periodic gait found: the confidence of this path is 0")
             cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
+            yaw_acc.finish()
+            if cov_h is not None and len(yaw_acc.cov) == len(fp):  # the sensor errors the filter does not model
+                cov_h = cov_h + scale_error_covariance(fp, yaw_acc.cov[:, 0], *scale_sigmas(
+                    settings, sensor_cal.provenance.get("status") == "applied"))
+            # the floor number: the storeys found as heights of whole nominal storeys (as ``process``)
+            floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
             steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
-                                      cov_h)
+                                      cov_h, floor_z)
             if len(steps["t_s"]) == 0 and not np.isfinite(period):
                 raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                                  f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
@@ -622,7 +645,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     f" the path is the configured detector's, confidence {confidence:.2f}" if st.fallback else ""))
             findings = stride_findings(steps, settings.checks, choice)
             warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s)
+            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
             path_stats["storeys"] = storeys.summary() if storeys is not None else None
             lap("strides")
             summary = {

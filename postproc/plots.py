@@ -502,14 +502,15 @@ def _floor_color(floor_ids: list[int], k: int) -> str:
     return FLOOR_COLORS[floor_ids.index(k) % len(FLOOR_COLORS)]
 
 
-def _html_floors(t_drawn: np.ndarray, t_fp: np.ndarray, fp_n: np.ndarray, settings) -> np.ndarray:
-    """Counted floor level (0 = start floor, as chart 7 and the summary count them) of every drawn point: the
-    level of the last footprint at or before it."""
-    if len(fp_n) == 0:
+def _html_floors(t_drawn: np.ndarray, steps: dict) -> np.ndarray:
+    """Floor of every drawn point: the ``floor`` column (steps.csv) of the last stride ending at or before it
+    (0 before the first): path.html shows the floors steps.csv gives."""
+    t = np.asarray(steps.get("t_s", []), float)
+    fl = np.asarray(steps.get("floor", np.zeros(len(t))), np.int64)
+    if len(t) == 0 or len(fl) != len(t):
         return np.zeros(len(t_drawn), dtype=np.int64)
-    floors = settings.floor_settings()
-    levels = floor_levels(floor_signal(fp_n[:, 2] - fp_n[0, 2], floors), floors)
-    return levels[np.clip(np.searchsorted(t_fp, t_drawn, side="right") - 1, 0, len(levels) - 1)]
+    i = np.searchsorted(t, t_drawn, side="right") - 1
+    return np.where(i >= 0, fl[np.clip(i, 0, len(fl) - 1)], 0)
 
 
 def make_html(result, out_dir: str | Path) -> Path:
@@ -545,7 +546,7 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
     def points(a):  # SVG y grows downwards: plot -y so that north is up
         return " ".join(f"{x:.3f},{-y:.3f}" for x, y in a)
 
-    level = _html_floors(t_drawn, info["t_fp"], info["fp_n"], info["settings"])
+    level = _html_floors(t_drawn, info["steps"])
     floor_ids = sorted(set(level.tolist()))
     cuts = np.flatnonzero(np.diff(level)) + 1
     lines = []
@@ -593,8 +594,8 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
             f'<span class="key"><span class="sw dot" style="background:#1f77b4;opacity:.8"></span>stride</span>')
     legend = "line = path, coloured by floor" + (", dotted = reference" if ref is not None else "")
     if has_unc:
-        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's; 39 % inside if it is "
-                   "honest, 2σ = twice as large)")
+        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's, plus the sensor's scale "
+                   "and cross-axis tolerance; 39 % inside if it is honest, 2σ = twice as large)")
         floor_ui += '<label><input type="checkbox" id="unc" checked> uncertainty</label>'
         key += ('<span class="key"><span class="sw" style="background:#ff7f0e;opacity:.35"></span>'
                 '1σ uncertainty</span>')

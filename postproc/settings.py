@@ -141,6 +141,13 @@ class ProcessSettings:
         filter's heights as they are.
     floor_riser_min_m, floor_riser_max_m : float, m
         Range of a riser's height: 0.15–0.20 m (issue 24; building codes allow about 0.14–0.20 m).
+    ellipse_scale_sigma, ellipse_cross_axis_rad : float
+        1σ of the sensor's scale error (relative) and horizontal cross-axis angle (rad) added to every stride's
+        uncertainty ellipse (``ellipses``: the filter does not model them) when no sensor calibration is
+        applied: the MPU-6050 datasheet's ±3 % scale and ±2 % cross-axis tolerances read as limits of a
+        rectangular distribution, a/√3 [GUM2008, 4.3.7]. 0 = the filter's covariance alone.
+    ellipse_calibrated_sigma : float
+        The same (both terms) when a sensor calibration is applied: ≈ 0.1 % left after ``bootnav calibrate``.
     reference : str or None
         Reference for the accuracy metrics (``reference_path``): a file, an inline JSON object, or ``"truth"``
         (a simulated recording's ``/truth``).
@@ -148,10 +155,11 @@ class ProcessSettings:
         Seconds of samples ``bootnav process`` holds in memory at once (``pipeline.process_to``): the memory
         budget. A recording up to this long is one block, processed whole; a longer one runs as passes over
         blocks of this length, memory bounded by the block (``docs/long-recordings.md``). The whole-record
-        stages need about 300 MB + 530 B per sample (``docs/tuning-log.md``, "Long recordings"): 300 s at
-        200 Hz is about 330 MB, about what the block passes of a recording of many hours use in blocks of 300 s
-        (310 MB at 1 and 3 h at 200 Hz, 900 s blocks: 410-440 MB), and longer than every recording of the
-        development datasets (at most 227 s), so those run exactly as in one piece.
+        stages need about 300 MB + 530 B per sample (``docs/tuning-log.md``, "Long recordings"): 900 s at
+        200 Hz is about 400 MB whole, and the block passes of a recording of many hours use 410-440 MB in blocks
+        of 900 s (at 1 and 3 h at 200 Hz; 300 s blocks: 310 MB), under the 500 MB budget. A quarter of an hour
+        keeps every short walk (and the whole development datasets, at most 227 s) in one piece, where the
+        stance fallback runs (``docs/long-recordings.md``).
     """
 
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
@@ -167,8 +175,11 @@ class ProcessSettings:
     floor_storeys: bool = True
     floor_riser_min_m: float = 0.15
     floor_riser_max_m: float = 0.20
+    ellipse_scale_sigma: float = 0.03 / math.sqrt(3.0)
+    ellipse_cross_axis_rad: float = 0.02 / math.sqrt(3.0)
+    ellipse_calibrated_sigma: float = 0.001
     reference: str | None = None
-    block_s: float = 300.0
+    block_s: float = 900.0
 
     def validate(self) -> None:
         """Raise InputError naming the first bad setting (before any work is done)."""
@@ -178,6 +189,7 @@ class ProcessSettings:
             ("filter", lambda: getattr(self.filter, "validate", lambda: None)()),
             ("crop_s", self._check_crop),
             ("block_s", self._check_block),
+            ("ellipse_scale_sigma / ellipse_cross_axis_rad / ellipse_calibrated_sigma", self._check_ellipse),
             ("output.geo_anchor", self._check_anchor),
             ("output.results_name", self._check_results_name),
         ]
@@ -202,6 +214,11 @@ class ProcessSettings:
     def _check_block(self):
         if not (isinstance(self.block_s, (int, float)) and math.isfinite(self.block_s) and self.block_s > 0):
             raise ValueError(f"expected a positive number of seconds, got {self.block_s!r}")
+
+    def _check_ellipse(self):
+        for v in (self.ellipse_scale_sigma, self.ellipse_cross_axis_rad, self.ellipse_calibrated_sigma):
+            if not (math.isfinite(float(v)) and 0.0 <= float(v) < 0.5):
+                raise ValueError(f"expected a relative error in [0, 0.5), got {v}")
 
     def _check_crop(self):
         if self.crop_s is not None and not (len(self.crop_s) == 2 and float(self.crop_s[1]) > float(self.crop_s[0])):

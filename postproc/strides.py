@@ -199,7 +199,7 @@ def phase_ends(stance: np.ndarray) -> np.ndarray:
 def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_stride_m: float = 0.0,
                     flags: np.ndarray | None = None, floors: FloorSettings | None = None,
                     pos_sigma_n: np.ndarray | None = None, pos_cov_en: np.ndarray | None = None,
-                    floor_z: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                    floor_z: np.ndarray | None = None, cov_extra: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One row per stride (dict of equal-length arrays, keys ``STEP_COLUMNS``, plus ``quality_flags`` when
     ``flags`` is given).
 
@@ -220,6 +220,9 @@ def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_
     floor_z
         Optional (K,) height per stance phase to count floors from instead of the footprint heights (the
         storeys' climbed height, ``floors.StoreyResult.climbed_fp``).
+    cov_extra
+        Optional (K, 3) horizontal covariance (EE, NN, EN) per stance phase, m², added to the filter's
+        (``ellipses.scale_error_covariance``: the sensor errors the filter does not model).
     """
     t_mid, fp = footprints(np.asarray(t_s, float), np.asarray(pos_n, float), stance)
     cov = None
@@ -227,6 +230,8 @@ def segment_strides(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, min_
         end = phase_ends(np.asarray(stance, bool))
         sig = np.asarray(pos_sigma_n, float)[end]
         cov = np.column_stack((sig[:, 0] ** 2, sig[:, 1] ** 2, np.asarray(pos_cov_en, float)[end]))
+        if cov_extra is not None:
+            cov = cov + np.asarray(cov_extra, float).reshape(-1, 3)
     return footprint_strides(t_mid, fp, min_stride_m, flags, floors, cov, floor_z)
 
 

@@ -111,12 +111,18 @@ def test_a_flight_whose_risers_and_height_disagree_is_left_as_the_filter_says():
 
 
 def test_level_walks_are_flat_and_single_steps_are_not_flights():
-    """Drift on a floor (each stride below the gate) is flattened to the floor's height; kneeling down and
-    standing up (one non-level stride each) move the plateau without counting a flight."""
+    """Drift on a floor (each stride below the gate) is flattened to the floor's height; a lone stride of less
+    than one riser (kneeling down −0.12 m, standing up, the first stride after a long stand) is the sensor, not
+    the building: put back on the floor; a lone stride of a riser or more (a kerb, 0.17 m) moves the plateau.
+    Neither counts as a flight."""
     z = np.array([0.0, 0.01, -0.02, 0.0, -0.12, -0.13, -0.01, 0.02])
     res = storey_offsets(z, LEVEL, RMIN, RMAX)
-    assert res.flights == 0
-    assert np.allclose(z + res.offset_fp, [0.0, 0.0, 0.0, 0.0, -0.12, -0.12, 0.0, 0.0], atol=1e-12)
+    assert res.flights == 0 and res.lone_held == 2
+    assert np.allclose(z + res.offset_fp, 0.0, atol=1e-12)
+    kerb = np.array([0.0, 0.01, 0.18, 0.19, 0.17])
+    res = storey_offsets(kerb, LEVEL, RMIN, RMAX)
+    assert res.flights == 0 and res.lone_held == 0
+    assert np.allclose(kerb + res.offset_fp, [0.0, 0.0, 0.17, 0.17, 0.17], atol=1e-12)  # its own 0.17 m change
 
 
 def test_a_toe_first_landing_is_a_roll_not_a_stride():
@@ -139,3 +145,26 @@ def test_a_toe_first_landing_is_a_roll_not_a_stride():
     assert np.allclose(corrected[3::2][:5] - corrected[2::2][:5], -0.035)  # a roll keeps its own height change
     flat = storey_offsets(fp, LEVEL, RMIN, RMAX, min_stride_m=0.0)  # without the roll rule: 1-stride steps
     assert flat.flights == 0
+
+
+def test_storey_numbers_count_the_storeys_walked_not_a_nominal_height():
+    """3.5 m storeys, 8 level strides walked on each of floors 0-4 between stair flights: the numbers are
+    0-4 (a nominal 3 m would make the 4th floor, 14 m up, floor 5); a stairwell climbed straight through
+    floors 1-2 (no level walk there) still counts them, from the spacing of the storeys walked."""
+    from bootnav.postproc.floors import storey_numbers
+
+    z, true = [], []
+    for floor in range(5):
+        z += [floor * 3.5] * 9
+        true += [floor] * 9
+        if floor < 4:
+            z += list(floor * 3.5 + np.arange(1, 10) * 0.35)  # 10 risers of 0.175 m, two a stride
+            true += [floor + (k >= 5) for k in range(9)]  # nearest storey: the lower half of the flight below
+    number, found = storey_numbers(np.array(z), LEVEL, 0.5, storey_m=3.0)
+    half = np.isclose(np.mod(np.array(z), 3.5), 1.75)  # a stride exactly half-way: either storey is right
+    assert np.array_equal(number[~half], np.array(true)[~half]) and half.sum() == 4
+    assert len(found) == 5
+    straight = np.concatenate(([0.0] * 9, np.arange(1, 30) * 0.35, [10.5] * 9, np.arange(1, 10) * 0.35 + 10.5,
+                               [14.0] * 9))
+    number, _ = storey_numbers(straight, LEVEL, 0.5, storey_m=3.0)
+    assert number[0] == 0 and number[-1] == 4 and set(number[9:38].tolist()) == {0, 1, 2, 3}

@@ -150,6 +150,7 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
     bit for bit what ``process`` returns, so the orchestration hides nothing. The crop makes the recording
     index offset matter (saturation intervals and messages use recording indices)."""
     from bootnav.postproc.calibration import initial_alignment
+    from bootnav.postproc.ellipses import stride_scale_covariance
     from bootnav.postproc.floors import snap_storeys
     from bootnav.postproc.checks import (check_path_finite, check_samples, clipping_bits, refuse_fatal,
                                          saturation_intervals, saturation_warnings, stance_findings,
@@ -187,12 +188,15 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
     warnings += [str(w) for w in (nav.info or {}).get("warnings", [])]
     floors = settings.floor_settings()
     pos_n, storeys = snap_storeys(t_s, nav.pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                  floors.riser_max_m, settings.filter.level_min_stride_m)
+                                  floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                  floors.floor_height_m)
+    floor_z = storeys.storey_fp * floors.floor_height_m
     min_stride = settings.selftune.min_stride_m
+    cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings, False)  # no calibration here
     steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY), floors,
-                            nav.pos_sigma_n, nav.pos_cov_en)
+                            nav.pos_sigma_n, nav.pos_cov_en, floor_z, cov_extra)
     warnings += [f.message for f in stride_findings(steps, settings.checks, navi.choice)]
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride)
+    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, floor_z)
     path_stats["storeys"] = storeys.summary()
 
     r = process(rec_path, settings)

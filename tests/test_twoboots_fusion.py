@@ -125,7 +125,7 @@ def test_cli_multi_boot_recording_writes_both_feet_and_refuses_to_overwrite(walk
               "left/summary.json", "right/results.h5"):
         assert (out / f).is_file(), f
     header = (out / "strides.csv").read_text().splitlines()[0]
-    assert header.endswith("step_width_m") and header.startswith("foot,t_s")
+    assert header.endswith("step_width_m,floor") and header.startswith("foot,t_s")
     again = _bootnav("process", walk["both"], "--out", out, "-q", "--no-plots")
     assert again.returncode == 1 and "exists" in again.stderr and "Traceback" not in again.stderr
 

@@ -8,13 +8,17 @@ foot leaves the ground again. From the final rows the view builds what ``process
 
 * footprints: the mean position over each stance phase (``strides.FootprintAccumulator``, across chunks);
 * strides: moves of at least ``selftune.min_stride_m`` between footprints (``strides.stride_footprints``);
-* floor: the level of each footprint's height above the first one (``strides.floor_signal`` and
-  ``strides.floor_levels``, continued from the last level: both are shift-invariant by one storey);
+* floor and height: with ``floor_storeys`` (default) the storeys' rules of ``process`` (``floors.storey_offsets``:
+  lone strides, flights counted in risers, landings on storeys, storey numbers) on the footprints so far, so
+  causal: a flight's landing corrects the footprints after it, never one already shown; without, the level
+  of each footprint's height above the first one (``strides.floor_signal`` and ``strides.floor_levels``,
+  continued from the last level: both are shift-invariant by one storey);
 * distance: the sum of the horizontal stride lengths;
 * uncertainty: each stride row ends with the footprint's horizontal 1-σ ellipse (``strides.ellipse``:
   semi-major, semi-minor in m, orientation in rad counter-clockwise from east) from the forward filter's
   covariance at the last sample of its stance phase, where the fixed-lag smoother ends every segment on the
-  filtered estimate (as ``process``'s ``steps.csv``).
+  filtered estimate, plus the sensor's scale and cross-axis errors propagated along the path so far
+  (``ellipses.ScaleErrorAccumulator``: causal, the same terms as ``process``'s ``steps.csv``).
 
 Provisional strides (``provisional``): as soon as a low-latency cue says the foot has stopped, the view
 draws a provisional footprint at the navigator's filtered position propagated to that stance start; the final
@@ -49,6 +53,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bootnav.errors import InputError
+from bootnav.postproc.ellipses import ScaleErrorAccumulator, scale_sigmas, unwrapped_yaw
 from bootnav.postproc.strides import FootprintAccumulator, ellipse, floor_levels, floor_signal, stride_footprints
 
 ROW_COLUMNS = ["t_s", "x_m", "y_m", "z_m", "floor", "ellipse_major_m", "ellipse_minor_m", "ellipse_orientation_rad"]
@@ -133,12 +138,17 @@ class BootView:
         self._pending: list = []  # chunks waiting for the navigator to start (its initial still period)
         self._rows: list[list[float]] = []  # ROW_COLUMNS per kept footprint, the start first
         self._ends_cov: list[tuple[float, float, float]] = []  # (P_EE, P_NN, P_EN) at each stance phase's end
+        self._ends_yaw: list[float] = []  # the foot's unwrapped yaw there, rad (``ellipses``)
+        self._yaw_last: float | None = None  # unwrapped yaw of the last final row
+        self._scale_cov = None  # ellipses.ScaleErrorAccumulator, made at the first footprint (calibration known)
         self._in_stance = False  # the last final row was in stance (its phase may go on in the next rows)
         self._last_kept: np.ndarray | None = None
         self._z0: float | None = None  # height of the first footprint
         self._fp_last_z = 0.0  # height (relative) and floor signal of the last footprint
         self._signal_last = 0.0
         self._level = 0
+        self._fp_seen: list[np.ndarray] = []  # every footprint so far, as the filter gave it (storeys' input)
+        self._z_storey = 0.0  # the storeys' height correction of the last footprint (provisional rows get it)
         self._distance_m = 0.0
         self._t_latest = float("nan")  # newest stance decision
         self._t_motion: float | None = None  # newest moving sample
@@ -293,8 +303,14 @@ class BootView:
         ends = np.flatnonzero(st & np.append(~st[1:], True))
         if self._in_stance and st[0] and len(ends) and self._ends_cov:
             self._ends_cov.pop()  # the open phase goes on: its end moves
+            self._ends_yaw.pop()
         sig, cen = rows.pos_sigma_n, rows.pos_cov_en
         self._ends_cov.extend((float(sig[i, 0] ** 2), float(sig[i, 1] ** 2), float(cen[i])) for i in ends.tolist())
+        yaw = unwrapped_yaw(rows.q_nb)
+        if self._yaw_last is not None:  # continue the unwrapping across chunks
+            yaw = yaw + 2 * np.pi * np.round((self._yaw_last - yaw[0]) / (2 * np.pi))
+        self._yaw_last = float(yaw[-1])
+        self._ends_yaw.extend(float(yaw[i]) for i in ends.tolist())
         self._in_stance = bool(st[-1])
 
     def _start(self) -> bool:
@@ -385,7 +401,7 @@ class BootView:
             pos = propagate_position(nav.position_n, nav.velocity_n, nav.q_nb, ba, bg, float(nav.last_t_s), t, acc,
                                      gyro, still, nav.gravity)
             t_k = float(t[-1])
-        pos = np.asarray(pos, float) + self._offset_n
+        pos = np.asarray(pos, float) + self._offset_n + np.array([0.0, 0.0, self._z_storey])  # on the storeys too
         if not (np.isfinite(t_k) and t_k > self._covered_t):
             return
         ref = np.asarray(self._prov[-1][1:4], float) if self._prov else self._last_kept
@@ -424,6 +440,7 @@ class BootView:
         if len(fp) == 0:
             return []
         fp = fp + self._offset_n
+        fp_raw = fp.copy()  # as the filter gave them (the storeys' input)
         if self._z0 is None:
             self._z0 = float(fp[0, 2])
         if self._dirs is not None:
@@ -434,27 +451,54 @@ class BootView:
             if self._dirs.on and self._nav is not None and self.settings.filter.heading_aid_segments:
                 self._nav.set_heading_gate(self._dirs.gate_open)  # per segment: the latest leg on the grid
         z_rel = fp[:, 2] - self._z0
-        seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
-        signal = seg[1:] - seg[0] + self._signal_last
-        h = self.floors.floor_height_m
-        levels = floor_levels(signal - self._level * h, self.floors) + self._level
-        self._fp_last_z, self._signal_last, self._level = float(z_rel[-1]), float(signal[-1]), int(levels[-1])
+        if self.floors.storeys:  # the storeys' rules on the footprints so far (causal: nothing after them)
+            levels = np.zeros(len(fp), np.int64)
+            for k in range(len(fp)):
+                fp[k, 2], levels[k] = self._storey(fp_raw[:k + 1])
+            z_rel = fp[:, 2] - self._z0
+            self._fp_last_z, self._level = float(z_rel[-1]), int(levels[-1])
+            self._z_storey = float(fp[-1, 2] - fp_raw[-1, 2])
+        else:
+            seg = floor_signal(np.concatenate(([self._fp_last_z], z_rel)), self.floors)
+            signal = seg[1:] - seg[0] + self._signal_last
+            h = self.floors.floor_height_m
+            levels = floor_levels(signal - self._level * h, self.floors) + self._level
+            self._fp_last_z, self._signal_last, self._level = float(z_rel[-1]), float(signal[-1]), int(levels[-1])
         if self._last_kept is None:
             keep = stride_footprints(fp, self.min_stride_m)
         else:
             keep = stride_footprints(np.vstack((self._last_kept, fp)), self.min_stride_m)[1:] - 1
+        self._fp_seen.append(fp_raw)
         rows = []
         k0 = self._n_fp - len(fp)  # index of fp[0] among all footprints
+        n_cov = max(0, min(len(fp), len(self._ends_cov) - k0))  # phases with a covariance (all, in step)
+        if self._scale_cov is None:
+            self._scale_cov = ScaleErrorAccumulator(*scale_sigmas(
+                self.settings, self.calibration is not None and self.calibration.calibration is not None))
+        extra = self._scale_cov.push(fp[:n_cov], np.asarray(self._ends_yaw[k0:k0 + n_cov], float))
         for k in keep.tolist():
             if self._last_kept is not None:
                 self._distance_m += float(np.hypot(*(fp[k, :2] - self._last_kept[:2])))
             self._last_kept = fp[k]
             a = b = o = None  # (no covariance: cannot happen while rows and phases stay in step)
-            if k0 + k < len(self._ends_cov):
-                a, b, o = (float(v) for v in ellipse(*self._ends_cov[k0 + k]))
+            if k < n_cov:
+                a, b, o = (float(v) for v in ellipse(*(np.asarray(self._ends_cov[k0 + k]) + extra[k])))
             rows.append([float(t_fp[k]), float(fp[k, 0]), float(fp[k, 1]), float(fp[k, 2]), int(levels[k]), a, b, o])
         self._rows.extend(rows)
         return rows
+
+    def _storey(self, fp_new: np.ndarray) -> tuple[float, int]:
+        """Height and storey number of the last of ``fp_new`` (this push's footprints up to it) by the storeys'
+        rules (``floors.storey_offsets``) on every footprint so far: the same rules as ``process``, causal (a
+        flight's landing corrects what follows it, never what was shown). K footprints: one pass per stride
+        shown, O(K) each (≈ 10 ms after an hour's 3600 strides, once a second)."""
+        from bootnav.postproc.floors import storey_offsets
+
+        all_fp = np.vstack(self._fp_seen + [fp_new])
+        fs, f = self.floors, self.settings.filter
+        res = storey_offsets(all_fp, f.level_max_dz_m, fs.riser_min_m, fs.riser_max_m, f.level_min_stride_m,
+                             fs.hysteresis_m, fs.floor_height_m)
+        return float(all_fp[-1, 2] + res.offset_fp[-1]), int(res.storey_fp[-1])
 
     # ------------------------------------------------------------------ out
     def status(self, wall_s: float, ended: bool) -> dict:

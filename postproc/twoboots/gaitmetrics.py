@@ -52,7 +52,8 @@ def step_widths(t_a: np.ndarray, fp_a: np.ndarray, t_b: np.ndarray, fp_b: np.nda
     return out
 
 
-def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: float = 2.0) -> dict:
+def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: float = 2.0,
+               floors=None, floor_z: dict | None = None) -> dict:
     """Per-foot strides with their step width.
 
     Parameters
@@ -63,6 +64,11 @@ def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: 
         Shorter moves are not strides (``ProcessSettings.selftune.min_stride_m``).
     max_stride_time_s
         Longest time between two footprints of one stride (a pause in between is not a stride), s.
+    floors
+        ``FloorSettings`` of the ``floor`` column (None: the defaults).
+    floor_z
+        Optional ``{"left": (K,), "right": (K,)}`` height per stance phase to count floors from
+        (``segment_strides``' ``floor_z``: the storeys' numbers).
 
     Returns
     -------
@@ -74,7 +80,8 @@ def gait_table(left: dict, right: dict, min_stride_m: float, max_stride_time_s: 
     out = {}
     for name, other, side in (("left", "right", -1.0), ("right", "left", 1.0)):
         src = left if name == "left" else right
-        steps = segment_strides(src["t_s"], src["pos_n"], src["stance"], min_stride_m)
+        steps = segment_strides(src["t_s"], src["pos_n"], src["stance"], min_stride_m, floors=floors,
+                                floor_z=(floor_z or {}).get(name))
         t_fp, fp = fps[name]
         width = step_widths(t_fp, fp, *fps[other], side, min_stride_m, max_stride_time_s)
         k = np.searchsorted(t_fp, steps["t_s"])  # the footprint ending each stride

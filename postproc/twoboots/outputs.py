@@ -8,7 +8,7 @@
 * ``walker.csv``: ``t_s,x_m,y_m,z_m`` of the walker (midpoint of the two feet), then ``left_x_m`` … ``right_z_m``
   (the right foot interpolated at the left foot's times);
 * ``strides.csv``: ``foot,t_s,x_m,y_m,z_m,stride_length_m,dz_m,yaw_enu_rad,heading_deg_cw_from_north,
-  step_width_m`` (``gaitmetrics``), both feet in time order;
+  step_width_m,floor`` (``gaitmetrics``; floor: the fused foot's on storeys), both feet in time order;
 * ``two_boots.json``: the summary (each foot single and fused, walker, constraint updates, clock check, frame
   alignment, both settings objects);
 * ``two_boots.h5``: groups ``/left``, ``/right`` (t_s, pos_n, vel_n, q_nb, pos_sigma_n, stance), ``/walker``
@@ -103,7 +103,7 @@ def stride_rows(result) -> dict[str, np.ndarray]:
         n = len(g["t_s"])
         parts.append({"foot": np.array([label] * n, dtype=object), **{k: np.asarray(g[k]) for k in
                      ("t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad")},
-                      "step_width_m": np.asarray(g["step_width_m"])})
+                      "step_width_m": np.asarray(g["step_width_m"]), "floor": np.asarray(g["floor"])})
     rows = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     order = np.argsort(rows["t_s"], kind="stable")
     rows = {k: v[order] for k, v in rows.items()}
@@ -111,6 +111,7 @@ def stride_rows(result) -> dict[str, np.ndarray]:
     out = {k: rows[k] for k in ("foot", "t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad")}
     out["heading_deg_cw_from_north"] = h["heading_deg_cw_from_north"]
     out["step_width_m"] = rows["step_width_m"]
+    out["floor"] = rows["floor"]
     return out
 
 
@@ -196,7 +197,7 @@ def write_two_boot_outputs(result, out_dir: str | Path, force: bool = False) -> 
     rows = stride_rows(result)
     atomic.write_text(out / "strides.csv", _csv(list(rows), list(rows.values()),
                                            ["%s", "%.6f", "%.4f", "%.4f", "%.4f", "%.4f", "%.4f", "%.5f", "%.3f",
-                                            "%.4f"]))
+                                            "%.4f", "%d"]))
     files["strides"] = str(out / "strides.csv")
     write_h5(result, out / "two_boots.h5")
     files["two_boots_h5"] = str(out / "two_boots.h5")

@@ -10,8 +10,10 @@ Stages:
    offset is always reported, and added with ``clock="gait"``;
 3. **one frame** (``align.heading_offset_rad``): the right foot's initial yaw turned onto the left's;
 4. **fusion** (``fusion.fuse``): both navigators in lockstep with the maximum-separation constraint [Skog2012];
-5. **walker and gait** (``gaitmetrics``): the midpoint path, per-foot strides with step width, distance,
-   floors (``strides.path_summary``) of each foot and of the walker.
+5. **storeys** (``floors.snap_storeys``, when ``floor_storeys``): each fused foot's height on storeys, as
+   ``process`` does for one foot (the fusion re-runs both filters, so the single runs' storeys do not carry);
+6. **walker and gait** (``gaitmetrics``): the midpoint path, per-foot strides with step width and floor,
+   distance, floors (``strides.path_summary``) of each foot and of the walker.
 """
 
 from __future__ import annotations
@@ -167,6 +169,7 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
     -------
     TwoBootResult
     """
+    from bootnav.postproc.floors import snap_storeys
     from bootnav.postproc.strides import path_summary
 
     tb.validate()
@@ -188,20 +191,31 @@ def fuse_results(single: dict, settings, tb: TwoBootSettings, names: dict | None
     timings["fusion_s"] = time.perf_counter() - t1
 
     fl, fr = fused.left, fused.right
+    floors = settings.floor_settings()
+    storeys = {label: None for label in LABELS}
+    floor_z = {label: None for label in LABELS}
+    if floors.storeys:  # each fused foot on storeys, as a single foot's path is (``floors.snap_storeys``)
+        for label, f in (("left", fl), ("right", fr)):
+            f.pos_n, res_st = snap_storeys(f.t_s, f.pos_n, f.stance, settings.filter.level_max_dz_m,
+                                           floors.riser_min_m, floors.riser_max_m, settings.filter.level_min_stride_m,
+                                           floors.hysteresis_m, floors.floor_height_m)
+            storeys[label] = res_st.summary()
+            floor_z[label] = res_st.storey_fp * floors.floor_height_m  # the storeys' numbers (as ``process``)
     walker = walker_path(fl.t_s, fl.pos_n, fr.t_s, fr.pos_n)
     min_stride = settings.selftune.min_stride_m
     gait = gait_table({"t_s": fl.t_s, "pos_n": fl.pos_n, "stance": fl.stance},
-                      {"t_s": fr.t_s, "pos_n": fr.pos_n, "stance": fr.stance}, min_stride)
+                      {"t_s": fr.t_s, "pos_n": fr.pos_n, "stance": fr.stance}, min_stride, floors=floors,
+                      floor_z=floor_z)
     result = TwoBootResult(single, fused, fl.t_s, walker, gait, clock, heading, settings, tb,
                            names=dict(names or {label: label for label in LABELS}))
-    floors = settings.floor_settings()
     feet_summary = {}
     for label, f in (("left", fl), ("right", fr)):
         s = single[label]
         feet_summary[label] = {
             "input": result.names[label],
             "single": path_summary(s.t_s, s.pos_n, s.stance, floors, min_stride),
-            "fused": path_summary(f.t_s, f.pos_n, f.stance, floors, min_stride),
+            "fused": {**path_summary(f.t_s, f.pos_n, f.stance, floors, min_stride, floor_z[label]),
+                      "storeys": storeys[label]},
             "mean_step_width_m": _nanmean(gait[label]["step_width_m"]),
             "mean_stride_length_m": _nanmean(gait[label]["stride_length_m"]),
             "stance_choice": s.navigation.choice,
