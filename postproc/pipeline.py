@@ -461,7 +461,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         fps = {s: FootprintAccumulator() for s in signs}
         onsets = {s: _OnsetInnovations() for s in signs}
         gait = selftune.GaitPeriodAccumulator(sample_period(t_head))
-        phase_starts = _RunStarts()
+        phase_starts = _Runs()  # the stance phases
         stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
         n_stance_all = 0
         for ch in stance_stream():
@@ -512,16 +512,15 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
 
         def path_footprints(filter_settings):
-            """A pass of the filter + smoother: its footprints (mid times, (K, 3)) and the stance phases' stops."""
+            """A pass of the filter + smoother: its footprints (mid times, (K,); (K, 3))."""
             path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
-            path_fp, stops = FootprintAccumulator(), _RunStops()
+            path_fp = FootprintAccumulator()
             for ch in stance_stream():
-                stops.push(ch.start, ch.stance)
                 r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
                 path_fp.push(r.t_s, r.pos_n, r.stance)
             r = path_nav.finish()
             path_fp.push(r.t_s, r.pos_n, r.stance)
-            return (*path_fp.finish(), stops.finish(n))
+            return path_fp.finish()
 
         floors = settings.floor_settings()
         storeys = None
@@ -532,11 +531,11 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             heading_decision = dec.as_dict()
             if dec.on:
                 final_filter = aided_settings(settings.filter, dec)
-                gate_iv = None if aided is None else gate_intervals(path_fp[2], ends, aided)
+                gate_iv = None if aided is None else gate_intervals(phase_starts.stops(n), ends, aided)
                 path_fp = None  # the storeys are on the aided path
             lap("heading")
         if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
-            storey_t, storey_fp, _ = path_fp if path_fp is not None else path_footprints(final_filter)
+            storey_t, storey_fp = path_fp if path_fp is not None else path_footprints(final_filter)
             storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
                                      floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
                                      floors.floor_height_m)
@@ -766,39 +765,26 @@ class _LogHistogram:
         return float(10 ** (self.LO + (k + 0.5) * self.STEP))
 
 
-class _RunStarts:
-    """Absolute indices of the first sample of every run of True in a mask pushed in consecutive chunks."""
+class _Runs:
+    """The runs of True in a mask pushed in consecutive chunks: ``starts``, the absolute index of the first
+    sample of every run, and ``stops(n)``, the index after its last (``core.runs.runs``' stops; a run still
+    open at the end of the n samples stops at n)."""
 
     def __init__(self):
         self.starts: list[int] = []
-        self._prev = False
-
-    def push(self, start: int, mask: np.ndarray) -> None:
-        if len(mask):
-            rise = np.flatnonzero(mask & ~np.concatenate(([self._prev], mask[:-1])))
-            self.starts.extend((start + rise).tolist())
-            self._prev = bool(mask[-1])
-
-
-class _RunStops:
-    """Stop index (exclusive) of every run of True in a mask pushed in consecutive chunks (``core.runs.runs``'
-    stops: a run still open at the end stops at n); int64, 8 bytes per run."""
-
-    def __init__(self):
-        self._stops: list[np.ndarray] = []
+        self._stops: list[int] = []
         self._prev = False
 
     def push(self, start: int, mask: np.ndarray) -> None:
         if len(mask):
             mask = np.asarray(mask, bool)
-            fall = np.flatnonzero(~mask & np.concatenate(([self._prev], mask[:-1])))
-            if fall.size:
-                self._stops.append(start + fall)
+            before = np.concatenate(([self._prev], mask[:-1]))
+            self.starts.extend((start + np.flatnonzero(mask & ~before)).tolist())
+            self._stops.extend((start + np.flatnonzero(~mask & before)).tolist())
             self._prev = bool(mask[-1])
 
-    def finish(self, n: int) -> np.ndarray:
-        stops = np.concatenate(self._stops) if self._stops else np.zeros(0, np.int64)
-        return np.append(stops, n).astype(np.int64) if self._prev else stops.astype(np.int64)
+    def stops(self, n: int) -> np.ndarray:
+        return np.array(self._stops + ([n] if self._prev else []), np.int64)
 
 
 class _OnsetInnovations:
