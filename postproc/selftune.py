@@ -56,9 +56,11 @@ Gait cycle (``gait_period``): the lag of the highest autocorrelation peak of ‖
 foot's stride period); no peak above 0.2 means no periodic gait (the confidence is then 0).
 
 Vertical channel (``level_timing_offset``): the height error of a ZUPT-aided path behaves like a small
-timing offset τ between the specific force and the attitude it is rotated with (sensor-specific filter delays,
-the half-sample lead of a first-order strapdown step; about 0.1 m of vertical closure per ms over a 60-80 m
-loop on the developer data). The rotation of f_b by −ω τ, f_b' = exp(−[ω_b×] τ) f_b (first order
+timing offset τ between the specific force and the attitude it is rotated with (sensor-specific filter delays;
+about 0.1 m of vertical closure per ms over a 60-80 m loop on the developer data). The half-sample offset
+of the strapdown step itself, Δt/2, which grows as the rate falls, is not left to τ: the default step
+rotates f_b with the attitude at the middle of its interval (``FilterSettings.strapdown``), so τ is the
+sensor's own offset, the same at every rate (docs/tuning-log.md, "Height at low rates"). The rotation of f_b by −ω τ, f_b' = exp(−[ω_b×] τ) f_b (first order
 f_b − τ ω_b × f_b, the rotation-compensation term of [Savage1998]), shifts it; τ is chosen so that the
 median height change of the level strides (|Δz| < 0.1 m, length > 0.3 m) is zero, assuming most walking is on
 level floors: m(τ) is nearly linear, so two filter runs at ±δ give its zero crossing, clipped to ±τ_max.

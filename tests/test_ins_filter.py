@@ -67,11 +67,14 @@ def test_walk_stance_velocity_and_accuracy(walk, n_states):
 @pytest.mark.parametrize("n_states,factor", [(9, 0.9), (15, 1.0)])
 def test_smoother_reduces_swing_error(walk, n_states, factor):
     """RTS over each swing/stance segment: lower swing velocity and stride-shape errors than the filter alone
-    (9 states: by > 10 %; 15 states, whose bias states soak up part of the heel-strike innovation: lower)."""
+    (9 states: by > 10 %; 15 states, whose bias states soak up part of the heel-strike innovation: lower).
+    The error to remove is the "endpoint" strapdown step's (its specific force half a sample late against the
+    attitude, a swing-long systematic error the ZUPT at the end reveals); with the default step the filter
+    alone is as good on this noise-only walk (docs/tuning-log.md, "Height at low rates")."""
     init = TruthInit(walk.q_nb[0], np.zeros(3))
     common = (walk.t_s, walk.acc_b, walk.gyro_b, walk.stance, init, walk.gravity)
-    filt = run_filter(*common, FilterSettings(smoother="none", n_states=n_states))
-    smooth = run_filter(*common, FilterSettings(smoother="rts", n_states=n_states))
+    filt = run_filter(*common, FilterSettings(smoother="none", n_states=n_states, strapdown="endpoint"))
+    smooth = run_filter(*common, FilterSettings(smoother="rts", n_states=n_states, strapdown="endpoint"))
     ev_f, ep_f = _swing_errors(walk, filt)
     ev_s, ep_s = _swing_errors(walk, smooth)
     assert ev_s < factor * ev_f

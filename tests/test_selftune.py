@@ -128,15 +128,18 @@ def test_stride_quality_flags_each_kind():
 
 
 def test_level_timing_offset_finds_the_half_sample_lead_and_an_injected_delay():
-    # exact (ideal) samples of a level loop: the first-order strapdown step rotates f_n with the attitude at
-    # the END of its interval, half a sample ahead; the level-stride criterion must see that Δt/2 lead, and an
-    # injected delay τ0 on top of it, to within the criterion's resolution (0.3 ms)
+    # exact (ideal) samples of a level loop: the "endpoint" strapdown step rotates f_n with the attitude at the
+    # END of its interval, half a sample ahead; the level-stride criterion must see that Δt/2 lead, the default
+    # step (the middle of the interval) none, and an injected delay τ0 on top of either, all to within the
+    # criterion's resolution (0.3 ms)
     res = sim.simulate("rectangle", seed=1, profile="ideal", rate_hz=400.0)
     t, a, w = _arrays(res)
     init = initial_alignment(t, a, w, CalibrationSettings(), G)
     stance = detect_stance(t, a, w, DetectorSettings(), G).stance
+    endpoint = S.level_timing_offset(t, a, w, stance, init, G, FilterSettings(strapdown="endpoint"))
+    assert endpoint["applied"] and endpoint["tau_s"] == pytest.approx(0.5 / 400.0, abs=3e-4)
     clean = S.level_timing_offset(t, a, w, stance, init, G, FilterSettings())
-    assert clean["applied"] and clean["tau_s"] == pytest.approx(0.5 / 400.0, abs=3e-4)
+    assert clean["applied"] and clean["tau_s"] == pytest.approx(0.0, abs=3e-4)
     tau0 = 1e-3
     shifted = S.level_timing_offset(t, S.rotate_specific_force(a, w, tau0), w, stance, init, G, FilterSettings())
     assert clean["tau_s"] - shifted["tau_s"] == pytest.approx(tau0, abs=3e-4)

@@ -224,9 +224,15 @@ horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``act
             tx = (gyro[k, 0] - st[ibg]) * dt
             ty = (gyro[k, 1] - st[ibg + 1]) * dt
             tz = (gyro[k, 2] - st[ibg + 2]) * dt
-            qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, tx, ty, tz)
+            if prm.midpoint:  # f_b rotated with the attitude at the middle of the step (mechanization.py)
+                qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, 0.5 * tx, 0.5 * ty, 0.5 * tz)
+                rotmat_into(c, qw, qx, qy, qz)
+                qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, 0.5 * tx, 0.5 * ty, 0.5 * tz)
+            else:
+                qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, tx, ty, tz)
             st[iq], st[iq + 1], st[iq + 2], st[iq + 3] = qw, qx, qy, qz
-        rotmat_into(c, qw, qx, qy, qz)
+        if not (prm.midpoint and dt > 0.0):
+            rotmat_into(c, qw, qx, qy, qz)
         fbx, fby, fbz = acc[k, 0] - st[iba], acc[k, 1] - st[iba + 1], acc[k, 2] - st[iba + 2]
         fx = c[0, 0] * fbx + c[0, 1] * fby + c[0, 2] * fbz
         fy = c[1, 0] * fbx + c[1, 1] * fby + c[1, 2] * fbz

@@ -23,6 +23,7 @@ from bootnav.errors import InputError
 from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_GATE, POS,
                                          QUAT, VEL, initial_nominal_state)
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
+from bootnav.postproc.ins.increments import previous_rows, sculling_coning
 from bootnav.postproc.ins.mechanization import strapdown_step
 from bootnav.postproc.ins.prepare import FilterSetup, gated_chunks, saturation_variance
 from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
@@ -105,6 +106,8 @@ class ReferenceNavigator:
         self._k = 0  # samples filtered
         self._t_last = None
         self._prev_zupt = False
+        self._increments = settings.strapdown == "increments"  # sculling and coning (increments.py)
+        self._prev_sample = None
         self._seg = []  # per sample of the open segment: [P_pred, P_post, fpar, dx]
         self._seg_start = 0
         self.applied = np.zeros(N_KINDS, dtype=np.int64)
@@ -163,6 +166,12 @@ class ReferenceNavigator:
         a[1:] = acc
         g = np.zeros((m + 1, 3))
         g[1:] = gyr
+        if self._increments:
+            dt = np.diff(t, prepend=t[0] if self._t_last is None else self._t_last)
+            prev = self._prev_sample
+            rows = [previous_rows(x, None if prev is None else p) for x, p in zip((acc, gyr, dt), prev or (None,) * 3)]
+            self._prev_sample = (acc[-1].copy(), gyr[-1].copy(), float(dt[-1]))
+            a[1:], g[1:] = sculling_coning(acc, gyr, dt, *rows)
         z = np.empty(m + 1, dtype=bool)
         z[0] = self._prev_zupt
         z[1:] = zupt
@@ -189,8 +198,8 @@ class ReferenceNavigator:
         st, kf, prm, n, k = self.st, self.kf, self.prm, self.n, self._k
         # --- time update: eq. 1 and P ← F P Fᵀ + Q
         f_b, omega_b = acc_b[i] - st[BIAS_ACC], gyro_b[i] - st[BIAS_GYRO]
-        st[POS], st[VEL], st[QUAT], f_n = strapdown_step(st[POS], st[VEL], st[QUAT], f_b, omega_b, dt, prm.gravity)
-        c_nb = quat_to_rotmat(st[QUAT])
+        st[POS], st[VEL], st[QUAT], f_n, c_nb = strapdown_step(st[POS], st[VEL], st[QUAT], f_b, omega_b, dt,
+                                                               prm.gravity, prm.midpoint)
         if dt > 0:
             kf.F = np.eye(n) + error_dynamics(f_n, c_nb, n) * dt
             kf.Q = process_noise(prm, dt, self.nominal_dt_s, n, f_b, omega_b, extra, c_nb)

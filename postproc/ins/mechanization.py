@@ -3,14 +3,21 @@
 Per sample n with Δt = t_n − t_{n−1} (nav frame ENU, g_n = [0, 0, −g], specific force f at rest = +g up):
 
     ψ_n = a(ω_n Δt) ψ_{n−1}                       (row 3; a(·) = closed-form Ω, q ⊗ exp(ωΔt/2), normalised)
-    a_n = ψ_n f_n ψ_n⁻¹ + g_n                      (gravity removed on the nav z axis)
+    a_n = ψ_m f_n ψ_m⁻¹ + g_n,  ψ_m = a(ω_n Δt/2) ψ_{n−1}   (gravity removed on the nav z axis)
     v_n = v_{n−1} + a_n Δt                          (row 2)
     p_n = p_{n−1} + v_{n−1} Δt + ½ a_n Δt²          (row 1 plus OpenShoe's ½aΔt² term)
 
-Ordering (as OpenShoe): the attitude is advanced first and sample n's specific force is rotated with ψ_n,
-the attitude at the instant the sample was taken. The paper's literal ψ_{n−1} differs by O(ωΔt).
-With this ordering the scheme is exact for constant body rate and constant nav-frame acceleration
-(the analytic test in tests/test_ins_mechanization.py).
+Which attitude rotates f_n ("midpoint", the default of ``FilterSettings.strapdown``): ψ_m, the attitude at the
+middle of the step. The attitude step uses the rate ω_n over the whole interval (t_{n−1}, t_n], so ψ_n is the
+attitude at the interval's END whatever the sample is: for a point sample of a rate that changes (a foot
+starting from rest) the rectangle step runs half a sample ahead (ψ_n ≈ ψ(t_n + Δt/2)); for a sample that is
+the average over its interval (a block mean, a sensor's accumulate-and-dump: the increments Δθ/Δt, Δv/Δt)
+the step is exact and f_n belongs to the interval's middle. Either way f_n belongs to ψ_m: the first-order
+rotation-compensation term ½ Δθ × Δv of an increment strapdown [Savage1998]. Rotating with ψ_n (OpenShoe's
+ordering, "endpoint") pairs f_n with an attitude Δt/2 later, a timing error of the vertical channel that grows
+with 1/rate (2.5 ms at 200 Hz: about 0.1 m of vertical drift per ms over a 60-80 m loop; docs/tuning-log.md).
+"endpoint" is exact for a constant body rate since the start (the analytic test in
+tests/test_ins_mechanization.py); "midpoint" is second order in ωΔt there, and rate-independent on a foot.
 
 Timestamps: Δt varies sample to sample (jitter is used as recorded, never resampled). Δt = 0 (duplicate
 timestamp): no propagation, the sample may still carry a ZUPT update. A gap (``bootnav.core.timebase``: Δt >
@@ -53,23 +60,30 @@ def validate_imu(t_s, acc_b, gyro_b, stance=None) -> tuple[np.ndarray, np.ndarra
     return t_s, acc_b, gyro_b
 
 
-def strapdown_step(pos_n, vel_n, q_nb, f_b, omega_b, dt, gravity):
-    """One step of eq. 1 (see module docstring). Returns (pos_n, vel_n, q_nb, f_n). Numba-compatible."""
+def strapdown_step(pos_n, vel_n, q_nb, f_b, omega_b, dt, gravity, midpoint: bool = True):
+    """One step of eq. 1 (see module docstring). Returns (pos_n, vel_n, q_nb, f_n, C_nb that rotated f_b)."""
     if dt <= 0.0:
         c = quat_to_rotmat(q_nb)
-        return pos_n.copy(), vel_n.copy(), q_nb.copy(), c @ f_b
-    q = attitude_step(q_nb, omega_b, dt)
-    c = quat_to_rotmat(q)
+        return pos_n.copy(), vel_n.copy(), q_nb.copy(), c @ f_b, c
+    if midpoint:
+        q_mid = attitude_step(q_nb, omega_b, 0.5 * dt)
+        c = quat_to_rotmat(q_mid)
+        q = attitude_step(q_mid, omega_b, 0.5 * dt)
+    else:
+        q = attitude_step(q_nb, omega_b, dt)
+        c = quat_to_rotmat(q)
     f_n = c @ f_b
     acc_n = f_n.copy()
     acc_n[2] -= gravity
     vel = vel_n + acc_n * dt
     pos = pos_n + vel_n * dt + 0.5 * acc_n * dt * dt
-    return pos, vel, q, f_n
+    return pos, vel, q, f_n, c
 
 
-def mechanize(t_s, acc_b, gyro_b, q0_nb, gravity: float, vel0_n=None, pos0_n=None):
+def mechanize(t_s, acc_b, gyro_b, q0_nb, gravity: float, vel0_n=None, pos0_n=None, midpoint: bool = True):
     """Open-loop strapdown over a whole record (no filter). Returns (pos_n, vel_n, q_nb) arrays (N,3),(N,3),(N,4).
+
+    ``midpoint``: which attitude rotates f_b (``FilterSettings.strapdown``: True = "midpoint").
 
     Used for tests and for the paper's "no ZUPT, errors explode after ~10 s" illustration; a Python loop,
     fine for that purpose (the production path is ``fast.py``).
@@ -84,6 +98,6 @@ def mechanize(t_s, acc_b, gyro_b, q0_nb, gravity: float, vel0_n=None, pos0_n=Non
     vel[0] = 0.0 if vel0_n is None else vel0_n
     q[0] = np.asarray(q0_nb, dtype=float) / np.linalg.norm(q0_nb)
     for k in range(1, n):
-        pos[k], vel[k], q[k], _ = strapdown_step(pos[k - 1], vel[k - 1], q[k - 1], acc_b[k], gyro_b[k],
-                                                 tb.dt_s[k], gravity)
+        pos[k], vel[k], q[k], _, _ = strapdown_step(pos[k - 1], vel[k - 1], q[k - 1], acc_b[k], gyro_b[k],
+                                                    tb.dt_s[k], gravity, midpoint)
     return pos, vel, q

@@ -35,6 +35,7 @@ class KernelParams(NamedTuple):
     var_level: float  # σ_level², m²: height change of a level stride (floor flatness)
     level_max_dz_m: float  # a stride whose height changes less than this is level, m
     level_min_stride_m: float  # a move shorter than this (horizontal) is a heel/toe roll, not a stride, m
+    midpoint: bool  # rotate f_b with the attitude at the middle of its step (FilterSettings.strapdown)
     riccati: bool  # paper mode: constant Riccati ZUPT gain instead of the Kalman gain
     smooth: bool  # run the segment RTS smoother
     max_segment: int  # longest smoother segment, samples
@@ -74,6 +75,7 @@ def kernel_params(settings: FilterSettings, gravity: float, nominal_dt_s: float,
         var_level=float(settings.sigma_level_m**2),
         level_max_dz_m=float(settings.level_max_dz_m),
         level_min_stride_m=float(settings.level_min_stride_m),
+        midpoint=settings.strapdown != "endpoint",
         riccati=bool(riccati),
         smooth=bool(smooth),
         max_segment=int(max_segment),

@@ -139,6 +139,16 @@ class FilterSettings:
         Its measurement std, rad: how straight a corridor walk is. 5°.
     hde_min_stride_m : float
         Shortest stride that counts, m (shuffling and turning on the spot give no heading). 0.3 m.
+    strapdown : str
+        The strapdown step (``mechanization.py``, ``increments.py``). "increments" (default): the samples are
+        the sensor's increments over their interval (Δθ/Δt, Δv/Δt: what a DLPF or accumulate-and-dump stage,
+        or a block mean, delivers): f_b rotated with the attitude at the middle of the step, q_{k−1} ⊗
+        exp(θ_k/2) (the rotation-compensation term [Savage1998]), plus the two-sample sculling and coning
+        terms. "midpoint": the middle-of-step rotation alone. "endpoint": the attitude at the end of the step
+        (OpenShoe's ordering [Nilsson2012]): f_n and the attitude half a sample apart, a timing error of Δt/2
+        (2.5 ms at 200 Hz) that makes the height depend on the rate (docs/tuning-log.md, "Height at low
+        rates"). A point sample with the first-order attitude step is half a sample ahead too, so the middle
+        of the step is right for it as well on a foot, which starts from rest.
     level_height : bool
         Height hold on level strides (``measurements.level_height``): at each stance onset, a stride whose
         estimated height change is below ``level_max_dz_m`` gets the pseudo-measurement "no height change since
@@ -202,6 +212,7 @@ class FilterSettings:
     hde_threshold_rad: float = 10.0 * DEG
     sigma_hde_rad: float = 5.0 * DEG
     hde_min_stride_m: float = 0.3
+    strapdown: str = "increments"
     level_height: bool = True
     level_max_dz_m: float = 0.075
     level_min_stride_m: float = 0.10
@@ -243,6 +254,9 @@ class FilterSettings:
                 raise ValueError(f"FilterSettings.{name} must be in [0, 1], got {getattr(self, name)!r}")
         if self.heading_aid != "none" and self.mode == "riccati":
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
+        if self.strapdown not in ("increments", "midpoint", "endpoint"):
+            raise ValueError(f"FilterSettings.strapdown must be 'increments', 'midpoint' or 'endpoint', got "
+                             f"{self.strapdown!r}")
         if not isinstance(self.level_height, bool):
             raise ValueError(f"FilterSettings.level_height must be true or false, got {self.level_height!r}")
         for f in fields(self):

@@ -78,6 +78,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from bootnav.core.runs import runs
+from bootnav.postproc.ins.increments import previous_rows, sculling_coning
 from bootnav.core.timebase import GAP_FACTOR
 from bootnav.errors import InputError
 from bootnav.postproc.ins import fast
@@ -245,6 +246,9 @@ class StreamNavigator:
         # paper mode: ZUPT flag of the last filtered sample and time of the last ZUPT sample (open-loop τ)
         self._prev_zupt = False
         self._last_zupt_t = 0.0
+        # "increments" strapdown: the last filtered sample's (f_b, ω_b, Δt) before the corrections
+        self._increments = settings.strapdown == "increments"
+        self._prev_sample = None
         # rows filtered but not final: _out[name][_out_from:_out_filled], row _out_from = sample _out_start
         self._out = None
         self._out_from = 0
@@ -676,6 +680,13 @@ class StreamNavigator:
         zm = np.empty(L + 1, dtype=np.bool_)
         zm[0] = self._prev_zupt
         zm[1:] = zupt
+        if self._increments and L:  # two-sample sculling and coning (increments.py), the previous sample carried
+            prev = self._prev_sample
+            a_prev = previous_rows(acc[1:], None if prev is None else prev[0])
+            g_prev = previous_rows(gyr[1:], None if prev is None else prev[1])
+            d_prev = previous_rows(dt[1:], None if prev is None else prev[2])
+            self._prev_sample = (acc[L].copy(), gyr[L].copy(), float(dt[L]))
+            acc[1:], gyr[1:] = sculling_coning(acc[1:], gyr[1:], dt[1:], a_prev, g_prev, d_prev)
         xvar = np.empty((L + 1, 6))
         xvar[0] = 0.0
         xvar[1:] = self._q_xvar[:L]
