@@ -182,19 +182,30 @@ def _assert_auto_as_one_block(whole, summary, out):
     assert np.abs(r["q_nb"] - whole.q_nb).max() <= 1e-9
 
 
-def test_heading_auto_on_in_blocks_is_the_one_block_run(walk, tmp_path):
+@pytest.mark.parametrize("variant", ["per segment", "storeys off", "every stride"])
+def test_heading_auto_on_in_blocks_is_the_one_block_run(walk, tmp_path, variant):
     """The shift's rectilinear loop: auto decides on, per segment (the turns' strides not aided); the unaided
-    pass decides, the storeys and the written path are the aided filter's with the gate, as in one block."""
+    pass decides, the storeys and the written path are the aided filter's with the gate, as in one block.
+    Without the storeys the aided path is only the final pass's; with ``heading_aid_segments`` off no gate."""
     d, rec, _ = walk
-    whole = process(rec, _auto_settings())
+
+    def settings(block_s=None):
+        s = _auto_settings(block_s)
+        s.floor_storeys = variant != "storeys off"
+        s.filter.heading_aid_segments = variant != "every stride"
+        return s
+
+    whole = process(rec, settings())
     dec = whole.summary["filter"]["heading_decision"]
-    assert dec["on"] and 0 < dec["segments"]["aided"] < dec["n_strides"]  # the gate is open and closed
-    assert whole.nav.info["heading_aid_updates"] > 0
-    summary, _ = process_to(rec, _auto_settings(13.0), tmp_path / "o")
+    assert dec["on"] and whole.nav.info["heading_aid_updates"] > 0
+    if variant == "per segment":
+        assert 0 < dec["segments"]["aided"] < dec["n_strides"]  # the gate is open and closed
+    summary, _ = process_to(rec, settings(13.0), tmp_path / "o")
     _assert_auto_as_one_block(whole, summary, tmp_path / "o")
-    storeys, theirs = summary["path"]["storeys"], whole.summary["path"]["storeys"]
-    assert storeys["flights"] == theirs["flights"] > 0
-    assert storeys["riser_estimate_m"] == pytest.approx(theirs["riser_estimate_m"], abs=1e-9)
+    if variant != "storeys off":
+        storeys, theirs = summary["path"]["storeys"], whole.summary["path"]["storeys"]
+        assert storeys["flights"] == theirs["flights"] > 0
+        assert storeys["riser_estimate_m"] == pytest.approx(theirs["riser_estimate_m"], abs=1e-9)
 
 
 def _out_and_back(pb, rng):
