@@ -40,16 +40,22 @@ writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWri
    rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
    confidence), the gait period (``selftune.GaitPeriodAccumulator``), the stance findings
    (``checks.stance_findings_of``; ‖ω‖'s median at rest from a 1e-3-decade histogram);
-4. the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
-   a flight's landing corrects the samples before it, so it needs the path before the one written;
+4. with ``heading_aid="auto"``, the heading decision (``building.directions.auto_heading``'s steps): the
+   unaided filter + smoother's footprints (the path ``navigate._run`` decides on: after the timing offset τ,
+   before the storeys), ``heading_plan``'s decision and per-stride flags, the gate as sample intervals
+   (``gate_intervals``: one row per run of aided strides); the passes after it run the aided filter, each
+   sample pushed with its gate flag (``StreamNavigator.push(heading_gate=…)``);
+   the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
+   a flight's landing corrects the samples before it, so it needs the path before the one written (with the
+   aid off, the unaided pass's footprints);
 5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
    interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
    and the footprints' ellipses accumulated as it goes.
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
 the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, ``heading_aid="auto"``,
-revisits, a detector that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
+(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, revisits, a detector
+that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
 scores candidate detectors on the whole record): a configured detector that fails is a warning with the
 path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
 """
@@ -259,8 +265,8 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     block (every recording up to 5 min at the default) runs the stages of ``process`` on it and writes it
     with ``outputs.write_outputs``; a longer HDF5 recording runs the same stages as passes over its blocks
     (``_block_passes``), memory bounded by the block. Options whose stage needs the whole record in memory (crop,
-    a reference, ``--into-recording``, a non-HDF5 input, ``heading_aid="auto"``, revisits, a detector that cannot
-    stream) run as one block whatever the length, with a warning when that is longer than ``block_s``.
+    a reference, ``--into-recording``, a non-HDF5 input, revisits, a detector that cannot stream) run as one
+    block whatever the length, with a warning when that is longer than ``block_s``.
 
     Returns
     -------
@@ -326,8 +332,6 @@ def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str 
         return "a reference is compared with the whole path"
     if into_recording:
         return "--into-recording rewrites the recording"
-    if settings.filter.heading_aid == "auto":
-        return "heading_aid 'auto' decides on the whole unaided path"
     if settings.filter.revisits != "none":
         return "revisits solve a pose graph over all strides"
     from .detectors.stream import stream_refusal
@@ -355,6 +359,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .floors import storey_offsets
+    from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
     from bootnav.core.rotations import euler_zyx_from_quat
 
     from .ellipses import scale_error_covariance, scale_sigmas, unwrapped_yaw
@@ -456,7 +461,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         fps = {s: FootprintAccumulator() for s in signs}
         onsets = {s: _OnsetInnovations() for s in signs}
         gait = selftune.GaitPeriodAccumulator(sample_period(t_head))
-        phase_starts = _RunStarts()
+        phase_starts = _Runs()  # the stance phases
         stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
         n_stance_all = 0
         for ch in stance_stream():
@@ -502,22 +507,40 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         def acc_used(ch):
             return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
 
-        floors = settings.floor_settings()
-        storeys = None
-        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
-            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
+        def gate(ch):
+            """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
+            return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
+
+        def path_footprints(filter_settings):
+            """A pass of the filter + smoother: its footprints (mid times, (K,); (K, 3))."""
+            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
             path_fp = FootprintAccumulator()
             for ch in stance_stream():
-                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated)
+                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
                 path_fp.push(r.t_s, r.pos_n, r.stance)
             r = path_nav.finish()
             path_fp.push(r.t_s, r.pos_n, r.stance)
-            storey_t, storey_fp = path_fp.finish()
+            return path_fp.finish()
+
+        floors = settings.floor_settings()
+        storeys = None
+        final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
+        if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
+            path_fp = path_footprints(settings.filter)
+            dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
+            heading_decision = dec.as_dict()
+            if dec.on:
+                final_filter = aided_settings(settings.filter, dec)
+                gate_iv = None if aided is None else gate_intervals(phase_starts.stops(n), ends, aided)
+                path_fp = None  # the storeys are on the aided path
+            lap("heading")
+        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
+            storey_t, storey_fp = path_fp if path_fp is not None else path_footprints(final_filter)
             storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
                                      floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
                                      floors.floor_height_m)
-            del path_nav, path_fp
             lap("storeys")
+        del path_fp
         snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
 
         # the final pass: the filter + smoother, outputs appended as rows become final
@@ -526,7 +549,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         group = f"/results/{opts.results_name}"
         target = out / "results.h5"
         tmp = atomic.temporary_beside(target)
-        nav = StreamNavigator.from_initial_state(init, gravity, dt0, settings.filter)
+        nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
         fp_acc = FootprintAccumulator()
         yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
         yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
@@ -585,7 +608,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     gyro_rows.put(ch.start, ch.gyro_b)
                     if writer is not None:
                         stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
-                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated))
+                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
                     _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
                 emit(nav.finish())
             lap("navigation")
@@ -643,7 +666,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                                                 for bit, nm in selftune.FLAG_NAMES.items()},
                                "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                "timing_offset": to_jsonable(timing)},
-                "filter": to_jsonable(nav.info),
+                "filter": to_jsonable(nav.info if heading_decision is None
+                                      else {**nav.info, "heading_decision": heading_decision}),
                 "path": path_stats,
                 "uncertainty": final_uncertainty(steps),
                 "confidence": float(confidence),
@@ -741,18 +765,26 @@ class _LogHistogram:
         return float(10 ** (self.LO + (k + 0.5) * self.STEP))
 
 
-class _RunStarts:
-    """Absolute indices of the first sample of every run of True in a mask pushed in consecutive chunks."""
+class _Runs:
+    """The runs of True in a mask pushed in consecutive chunks: ``starts``, the absolute index of the first
+    sample of every run, and ``stops(n)``, the index after its last (``core.runs.runs``' stops; a run still
+    open at the end of the n samples stops at n)."""
 
     def __init__(self):
         self.starts: list[int] = []
+        self._stops: list[int] = []
         self._prev = False
 
     def push(self, start: int, mask: np.ndarray) -> None:
         if len(mask):
-            rise = np.flatnonzero(mask & ~np.concatenate(([self._prev], mask[:-1])))
-            self.starts.extend((start + rise).tolist())
+            mask = np.asarray(mask, bool)
+            before = np.concatenate(([self._prev], mask[:-1]))
+            self.starts.extend((start + np.flatnonzero(mask & ~before)).tolist())
+            self._stops.extend((start + np.flatnonzero(~mask & before)).tolist())
             self._prev = bool(mask[-1])
+
+    def stops(self, n: int) -> np.ndarray:
+        return np.array(self._stops + ([n] if self._prev else []), np.int64)
 
 
 class _OnsetInnovations:

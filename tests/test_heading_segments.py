@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from bootnav.errors import InputError
-from bootnav.postproc.building.directions import (CausalDirections, segment_flags, segment_gate,
-                                                  stride_headings)
+from bootnav.postproc.building.directions import (CausalDirections, gate_intervals, gate_of, segment_flags,
+                                                  segment_gate, stride_headings)
 from bootnav.postproc.ins import FilterSettings, run_filter
 from bootnav.postproc.ins.prepare import gated_chunks
 from tests.test_ins_synthetic import TruthInit, synthetic_walk
@@ -129,3 +129,50 @@ def test_stride_headings_and_segments_agree_on_lengths():
     psi, ends = stride_headings(fp, S.hde_min_stride_m)
     aided, _ = segment_flags(psi, S)
     assert len(psi) == len(ends) == len(aided) == 19
+
+
+def test_gate_intervals_give_segment_gate_over_any_range():
+    """``gate_intervals`` (a long recording's gate, one row per run of aided strides) and ``gate_of`` over any
+    sample range give ``segment_gate``'s mask."""
+    rng = np.random.default_rng(3)
+    stance = np.repeat(rng.random(60) < 0.5, rng.integers(1, 9, 60))
+    stance[-3:] = True  # a phase open at the end stops at n
+    from bootnav.core.runs import runs
+
+    _, stops = runs(stance)
+    ends = np.arange(1, len(stops))
+    aided = rng.random(len(ends)) < 0.5
+    whole = segment_gate(len(stance), stance, ends, aided)
+    iv = gate_intervals(stops, ends, aided)
+    assert np.all(iv[1:, 0] > iv[:-1, 1])  # disjoint, merged
+    cuts = np.unique(np.concatenate(([0, len(stance)], rng.integers(0, len(stance), 7))))
+    np.testing.assert_array_equal(np.concatenate([gate_of(iv, a, b) for a, b in zip(cuts[:-1], cuts[1:])]), whole)
+
+
+@pytest.mark.parametrize("chunk", [1, 37, 100_000])
+def test_stream_navigator_takes_the_gate_per_sample_as_run_filter(chunk):
+    """Samples pushed with their own gate flag are filtered with it, however long they wait in the onset-delay
+    queue: the path of ``run_filter(heading_gate=…)`` for every chunking (the block passes of a long recording).
+    Stance phases of 0.3 s (a run) end before their onset is decided (0.45 s look-ahead): a gate set between
+    pushes (``set_heading_gate``) at the phase's end would reach its onset, still queued (one aid update too
+    many, 0.3 mm off, on this walk)."""
+    from bootnav.postproc.ins.stream import NavRows, StreamNavigator
+
+    w = synthetic_walk(n_strides=16, stance_s=0.3, gyro_noise=0.005, gyro_bias=(0.0, 0.0, 0.01), seed=5)
+    init = TruthInit(w.q_nb[0], np.zeros(3))
+    aid = FilterSettings(heading_aid="dominant_directions", heading_aid_reference_rad=0.0)
+    from bootnav.core.runs import runs
+
+    _, stops = runs(w.stance)
+    ends = np.arange(1, len(stops))
+    aided = (ends // 3) % 2 == 1  # three strides aided, three not, ...
+    gate = segment_gate(len(w.t_s), w.stance, ends, aided)
+    whole = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, aid, heading_gate=gate)
+    full = run_filter(w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity, aid)
+    assert 0 < whole.info["heading_aid_updates"] < full.info["heading_aid_updates"]  # the gate acts
+    nav = StreamNavigator.from_initial_state(init, w.gravity, float(np.median(np.diff(w.t_s))), aid)
+    rows = [nav.push(w.t_s[a:a + chunk], w.acc_b[a:a + chunk], w.gyro_b[a:a + chunk], w.stance[a:a + chunk],
+                     heading_gate=gate[a:a + chunk]) for a in range(0, len(w.t_s), chunk)]
+    r = NavRows.concatenate(rows + [nav.finish()])
+    assert nav.info["heading_aid_updates"] == whole.info["heading_aid_updates"]
+    assert np.abs(r.pos_n - whole.pos_n).max() <= 1e-9

@@ -157,3 +157,66 @@ def test_a_failed_detector_in_many_blocks_is_a_warning_with_a_confidence(walk, t
     settings.selftune.fallback = False  # as the one-block run: the failure refused
     with pytest.raises(InputError, match="stance phase"):
         process_to(rec, settings, tmp_path / "o2")
+
+
+def _auto_settings(block_s=None) -> ProcessSettings:
+    s = _settings()
+    s.filter.heading_aid = "auto"
+    if block_s is not None:
+        s.block_s = block_s
+    return s
+
+
+def _assert_auto_as_one_block(whole, summary, out):
+    """The heading decision, its per-segment counts and the path of the block passes are the one-block run's."""
+    mine, theirs = summary["filter"]["heading_decision"], whole.summary["filter"]["heading_decision"]
+    assert summary["navigation"]["blocks"] > 1 and not any("processed as one" in w for w in summary["warnings"])
+    assert (mine["on"], mine["reason"], mine["segments"], mine["n_strides"], mine["n_straight"]) == \
+        (theirs["on"], theirs["reason"], theirs["segments"], theirs["n_strides"], theirs["n_straight"])
+    for key in ("reference_rad", "share", "cross"):  # footprints summed in another order: rounding
+        assert mine[key] == pytest.approx(theirs[key], abs=1e-9, nan_ok=True), key
+    assert summary["filter"]["heading_aid_updates"] == whole.nav.info["heading_aid_updates"]
+    r = results(out)
+    np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert np.abs(r["q_nb"] - whole.q_nb).max() <= 1e-9
+
+
+@pytest.mark.parametrize("variant", ["per segment", "storeys off", "every stride"])
+def test_heading_auto_on_in_blocks_is_the_one_block_run(walk, tmp_path, variant):
+    """The shift's rectilinear loop: auto decides on, per segment (the turns' strides not aided); the unaided
+    pass decides, the storeys and the written path are the aided filter's with the gate, as in one block.
+    Without the storeys the aided path is only the final pass's; with ``heading_aid_segments`` off no gate."""
+    d, rec, _ = walk
+
+    def settings(block_s=None):
+        s = _auto_settings(block_s)
+        s.floor_storeys = variant != "storeys off"
+        s.filter.heading_aid_segments = variant != "every stride"
+        return s
+
+    whole = process(rec, settings())
+    dec = whole.summary["filter"]["heading_decision"]
+    assert dec["on"] and whole.nav.info["heading_aid_updates"] > 0
+    if variant == "per segment":
+        assert 0 < dec["segments"]["aided"] < dec["n_strides"]  # the gate is open and closed
+    summary, _ = process_to(rec, settings(13.0), tmp_path / "o")
+    _assert_auto_as_one_block(whole, summary, tmp_path / "o")
+    if variant != "storeys off":
+        storeys, theirs = summary["path"]["storeys"], whole.summary["path"]["storeys"]
+        assert storeys["flights"] == theirs["flights"] > 0
+        assert storeys["riser_estimate_m"] == pytest.approx(theirs["riser_estimate_m"], abs=1e-9)
+
+
+def _out_and_back(pb, rng):
+    """A corridor walked out and back: one axis only (no cross strides), so auto decides off."""
+    pb.walk_to(25.0, 0.0).walk_to(0.0, 0.0)
+    pb.stand(float(rng.uniform(2.0, 5.0)))
+
+
+def test_heading_auto_off_in_blocks_is_the_one_block_run(tmp_path):
+    rec = write_long_h5(LongSimulation(60.0, seed=2, block_s=30.0, segment=_out_and_back), tmp_path / "oab.h5")
+    whole = process(rec, _auto_settings())
+    assert not whole.summary["filter"]["heading_decision"]["on"] and whole.nav.info["heading_aid_updates"] == 0
+    summary, _ = process_to(rec, _auto_settings(7.0), tmp_path / "o")
+    _assert_auto_as_one_block(whole, summary, tmp_path / "o")

@@ -325,6 +325,31 @@ def segment_flags(psi: np.ndarray, settings) -> tuple[np.ndarray, dict]:
     return kind == 0, counts
 
 
+def gate_intervals(phase_stops: np.ndarray, stride_end_fp: np.ndarray, aided: np.ndarray) -> np.ndarray:
+    """The aid's gate (``segment_gate``) as sample intervals: (J, 2) int64 rows [first, stop) where it is open,
+    sorted and disjoint (bounded memory for a long recording: one row per run of aided strides).
+
+    ``phase_stops``: the stop index (exclusive) of every stance phase (``core.runs.runs``' stops); stance phase
+    p's stride is open from the end of phase p − 1 (sample 0 for p = 0) to the end of phase p."""
+    stops = np.asarray(phase_stops, np.int64)
+    p = np.unique(np.asarray(stride_end_fp, np.int64)[np.asarray(aided, bool)])
+    if p.size == 0:
+        return np.zeros((0, 2), np.int64)
+    lo = np.where(p > 0, stops[np.maximum(p - 1, 0)], 0)
+    hi = stops[p]
+    new = np.concatenate(([True], p[1:] != p[:-1] + 1))  # a run of consecutive open phases is one interval
+    last = np.concatenate((np.flatnonzero(new)[1:] - 1, [p.size - 1]))
+    return np.column_stack((lo[new], hi[last]))
+
+
+def gate_of(intervals: np.ndarray, i0: int, i1: int) -> np.ndarray:
+    """The per-sample gate of samples i0..i1−1 from ``gate_intervals``' rows."""
+    idx = np.arange(i0, i1, dtype=np.int64)
+    iv = np.asarray(intervals, np.int64).reshape(-1, 2)
+    k = np.searchsorted(iv[:, 0], idx, side="right") - 1
+    return (k >= 0) & (idx < iv[np.maximum(k, 0), 1]) if len(iv) else np.zeros(len(idx), bool)
+
+
 def segment_gate(n_samples: int, stance: np.ndarray, stride_end_fp: np.ndarray, aided: np.ndarray) -> np.ndarray:
     """Per-sample gate of the aid: open over the swing and stance phase of every aided stride (from the end of
     the stance phase before to the end of the one the stride ends in), so that the aid's measurement at that
@@ -333,38 +358,48 @@ def segment_gate(n_samples: int, stance: np.ndarray, stride_end_fp: np.ndarray, 
     from bootnav.core.runs import runs
 
     _, stops = runs(np.asarray(stance, bool))
-    phase_open = np.zeros(len(stops) + 1, bool)
-    phase_open[np.asarray(stride_end_fp, np.int64)[np.asarray(aided, bool)]] = True
-    return phase_open[np.searchsorted(stops, np.arange(n_samples), side="right")]
+    return gate_of(gate_intervals(stops, stride_end_fp, aided), 0, n_samples)
+
+
+def heading_plan(fp_xy: np.ndarray, settings) -> tuple[HeadingDecision, np.ndarray | None, np.ndarray | None]:
+    """``auto_heading``'s decision on the footprints (K, 2) of the unaided path: (decision, index of the
+    footprint each stride ends in, aided flag per stride); both None when the aid is off or acts on every
+    stride (``heading_aid_segments`` off). The decision's reason names the per-segment counts."""
+    dec = decide(fp_xy, settings)
+    if not (dec.on and settings.heading_aid_segments):
+        return dec, None, None
+    psi, ends = stride_headings(fp_xy, settings.hde_min_stride_m)
+    aided, dec.segments = segment_flags(psi, settings)
+    dec.reason += (f"; per segment: {dec.segments['aided']} of {len(psi)} strides in "
+                   f"{dec.segments['aided_legs']} straight legs along the grid aided, "
+                   f"{dec.segments['leg off the grid']} in legs off the grid, "
+                   f"{dec.segments['no grid around']} where the strides around show no grid, "
+                   f"{dec.segments['not in a straight leg']} in turns, curves or short moves")
+    return dec, ends, aided
+
+
+def aided_settings(settings, dec: HeadingDecision):
+    """The filter settings of the aided run: the aid on at the decided grid direction."""
+    from dataclasses import replace
+
+    return replace(settings, heading_aid="dominant_directions", heading_aid_reference_rad=dec.reference_rad)
 
 
 def auto_heading(nav, t_s: np.ndarray, stance: np.ndarray, settings, rerun):
     """``heading_aid = "auto"`` in ``process``: decide on the unaided path ``nav`` (a ``NavSolution``) and,
     when the rule says on, return ``rerun(settings, heading_gate)`` with the aid on at the decided grid
     direction (``heading_gate``: per-sample gate of the aided legs, or None with ``heading_aid_segments``
-    off).
+    off). ``pipeline._block_passes`` takes the same steps over the blocks of a long recording.
 
     The decision (``HeadingDecision.as_dict``) goes into ``nav.info["heading_decision"]`` (the summary's
     ``filter`` section)."""
-    from dataclasses import replace
-
     from bootnav.postproc.strides import footprints
 
     stance = np.asarray(stance, bool)
     _, fp = footprints(t_s, np.asarray(nav.pos_n), stance)
-    dec = decide(fp[:, :2], settings)
+    dec, ends, aided = heading_plan(fp[:, :2], settings)
     if dec.on:
-        gate = None
-        if settings.heading_aid_segments:
-            psi, ends = stride_headings(fp[:, :2], settings.hde_min_stride_m)
-            aided, dec.segments = segment_flags(psi, settings)
-            gate = segment_gate(len(t_s), stance, ends, aided)
-            dec.reason += (f"; per segment: {dec.segments['aided']} of {len(psi)} strides in "
-                           f"{dec.segments['aided_legs']} straight legs along the grid aided, "
-                           f"{dec.segments['leg off the grid']} in legs off the grid, "
-                           f"{dec.segments['no grid around']} where the strides around show no grid, "
-                           f"{dec.segments['not in a straight leg']} in turns, curves or short moves")
-        nav = rerun(replace(settings, heading_aid="dominant_directions", heading_aid_reference_rad=dec.reference_rad),
-                    gate)
+        gate = None if aided is None else segment_gate(len(t_s), stance, ends, aided)
+        nav = rerun(aided_settings(settings, dec), gate)
     nav.info["heading_decision"] = dec.as_dict()
     return nav

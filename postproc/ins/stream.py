@@ -233,6 +233,8 @@ class StreamNavigator:
         self._q_gyro = np.zeros((0, 3))
         self._q_stance = np.zeros(0, dtype=bool)
         self._q_xvar = np.zeros((0, 6))
+        self._q_gate = None  # per-sample heading gate (1, 0, NaN = as set) once a push gave one
+        self._gate_set = 1.0  # set_heading_gate's flag
         self._n_pushed = 0
         self._n_done = 0  # samples filtered = absolute index of the queue's first sample
         self._t_pushed_last = None
@@ -388,7 +390,7 @@ class StreamNavigator:
         }
 
     # ---------------------------------------------------------------------------------------------- push
-    def push(self, t_s, acc_b, gyro_b, stance, saturated=None) -> NavRows:
+    def push(self, t_s, acc_b, gyro_b, stance, saturated=None, heading_gate=None) -> NavRows:
         """Add samples; return the rows that became final.
 
         Parameters
@@ -404,6 +406,10 @@ class StreamNavigator:
             ``apply_onset_delay=False``).
         saturated : array, optional
             Saturation mask of these samples (the forms ``prepare.saturation_variance`` accepts).
+        heading_gate : (m,) bool array, optional
+            The heading aid's per-segment gate of each of these samples (``building.directions``): each
+            sample is filtered with its own flag, however long it waits in the onset-delay queue (as
+            ``run_filter(heading_gate=…)``); None: the flag ``set_heading_gate`` last set when it is filtered.
 
         Returns
         -------
@@ -418,6 +424,15 @@ class StreamNavigator:
         """
         t_s, acc_b, gyro_b, stance = self._check(t_s, acc_b, gyro_b, stance)
         xvar = saturation_variance(saturated, t_s.shape[0], self.settings)
+        if heading_gate is not None or self._q_gate is not None:
+            gate = np.full(t_s.shape[0], np.nan)  # NaN: the flag set_heading_gate set
+            if heading_gate is not None:
+                flags = np.asarray(heading_gate, dtype=bool).reshape(-1)
+                if flags.shape != t_s.shape:
+                    raise InputError(f"push at sample {self._n_pushed}: heading_gate has {flags.shape[0]} flags for "
+                                     f"{t_s.shape[0]} samples: give one per sample")
+                gate[:] = flags
+            self._q_gate = gate if self._q_gate is None else np.concatenate([self._q_gate, gate])
         if self._acc_cal is not None and t_s.shape[0]:
             from bootnav.postproc.calibration import AccelCalibration, apply_accel_calibration
 
@@ -446,7 +461,8 @@ class StreamNavigator:
     def set_heading_gate(self, open_: bool) -> None:
         """Open or close the heading aid's per-segment gate from the next filtered sample (closed: the aid
         keeps its memory of the strides but corrects none; ``building.directions``)."""
-        self._st[HDE_GATE] = 1.0 if open_ else 0.0
+        self._gate_set = 1.0 if open_ else 0.0
+        self._st[HDE_GATE] = self._gate_set
 
     def apply_measurement(self, z, H, R) -> None:
         """Kalman update of the error state at the last filtered sample with z = H δx + ν, ν ~ N(0, R).
@@ -702,14 +718,24 @@ class StreamNavigator:
         rows_out = fast.PathRows(out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"])
         inp = fast.KernelInputs(dt, acc, gyr, zm, xvar, tau)
         filled = n_open + L
-        k = 1
+        if self._q_gate is None or not L:
+            pieces = [(1, L + 1, None)]
+        else:  # input rows a..b-1 of one gate flag each (input row k = queued sample k - 1)
+            g = np.where(np.isnan(self._q_gate[:L]), self._gate_set, self._q_gate[:L])
+            cut = np.flatnonzero(np.diff(g)) + 1
+            edges = np.concatenate(([0], cut, [L]))
+            pieces = [(int(a) + 1, int(b) + 1, float(g[a])) for a, b in zip(edges[:-1], edges[1:])]
         try:
-            while k <= L:
-                k = fast.filter_chunk(k, L + 1, inp, n_open - 1, self.prm, self._active, self.n, self._ric, self._st,
-                                      self._P, rows_out, out["pos_sigma_n"], out["pos_cov_en"], self._bufs, self._seg,
-                                      self._closed, self._batch_rows, self._applied, self._counters)
-                if k <= L:  # closed segments due: smooth them in another thread while the filter goes on
-                    self._hand_on(rows_out)
+            for k, stop, flag in pieces:
+                if flag is not None:
+                    self._st[HDE_GATE] = flag
+                while k < stop:
+                    k = fast.filter_chunk(k, stop, inp, n_open - 1, self.prm, self._active, self.n, self._ric,
+                                          self._st, self._P, rows_out, out["pos_sigma_n"], out["pos_cov_en"],
+                                          self._bufs, self._seg, self._closed, self._batch_rows, self._applied,
+                                          self._counters)
+                    if k < stop:  # closed segments due: smooth them in another thread while the filter goes on
+                        self._hand_on(rows_out)
             if final and self.prm.smooth and filled:
                 fast.close_segment(self._seg, self._closed, self._counters, filled)
         finally:
@@ -726,6 +752,8 @@ class StreamNavigator:
             self._n_done += L
             self._q_t, self._q_acc, self._q_gyro = self._q_t[L:], self._q_acc[L:], self._q_gyro[L:]
             self._q_stance, self._q_xvar = self._q_stance[L:], self._q_xvar[L:]
+            if self._q_gate is not None:
+                self._q_gate = self._q_gate[L:]
         rows = NavRows(self._out_start, out["t_s"][:n_final], out["pos_n"][:n_final], out["vel_n"][:n_final],
                        out["q_nb"][:n_final], out["acc_bias_b"][:n_final], out["gyro_bias_b"][:n_final],
                        out["pos_sigma_n"][:n_final], out["pos_cov_en"][:n_final], out["stance"][:n_final],
