@@ -9,7 +9,7 @@ foot, printed (m, semi-major axis of the horizontal 1σ ellipse):
 * ``own P``: the foot's own navigator's filter covariance in the fusion at the last stride (after the
   constraint updates it took, ``active``), with and without the bound (γ = ∞): what the ellipse would be from
   the fused filter itself (no scale term);
-* ``cons/own(γ=∞)``: min / median / max over strides of the conservative filter part (no scale term) over the
+* ``cons/own(γ=∞)``: min / median / max over strides of the conservative part (``common_frame_covariance``) over the
   γ = ∞ navigator's own: 1 = the first-order alignment term reproduces the filter's initial-yaw variance;
 * ``in 1σ/2σ``: share of strides (%) whose true footprint lies inside the reported 1σ / 2σ ellipse (39.3 /
   86.5 % for a consistent 2-D Gaussian), then the same for the own-P alternative (fused navigator's P + the
@@ -23,7 +23,6 @@ foot, printed (m, semi-major axis of the horizontal 1σ ellipse):
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import tempfile
 from pathlib import Path
@@ -63,7 +62,7 @@ def main(argv=None) -> None:
     from bootnav.postproc.pipeline import process
     from bootnav.postproc.strides import ellipse, phase_ends
     from bootnav.postproc.twoboots import TwoBootSettings
-    from bootnav.postproc.twoboots.run import foot_covariance, fuse_results
+    from bootnav.postproc.twoboots.run import common_frame_covariance, fuse_results
     from bootnav.simulator import custom
     from bootnav.simulator.twoboots import WalkerGeometry, simulate_two_boots, write_two_boots
 
@@ -73,7 +72,8 @@ def main(argv=None) -> None:
     ap.add_argument("--duration", type=float, default=None, help="s, for a simulator scenario")
     args = ap.parse_args(argv)
     geo = WalkerGeometry()
-    scenario = args.scenario if args.scenario != "loop" else custom("loop", lambda pb: pb.stand(5).walk(10).turn_in_place(math.pi / 2).walk(6)
+    scenario = args.scenario if args.scenario != "loop" else custom(
+        "loop", lambda pb: pb.stand(5).walk(10).turn_in_place(math.pi / 2).walk(6)
                   .turn_in_place(math.pi / 2).walk(10).turn_in_place(math.pi / 2).walk(6).stand(5))
     start = dict(right_start_m=(geo.step_length_m, -geo.step_width_m), right_start_frame="left-sensor")
     print("seed foot  active  reported(last,max)  own P(last)  own P γ=∞(last)  cons/own(γ=∞) min/med/max  "
@@ -84,8 +84,6 @@ def main(argv=None) -> None:
             files = write_two_boots(sims, Path(d) / f"s{seed}.h5")
             single = {k: process(p) for k, p in zip(("left", "right"), files)}
             st = single["left"].settings
-            st0 = dataclasses.replace(st, ellipse_scale_sigma=0.0, ellipse_cross_axis_rad=0.0,
-                                      ellipse_calibrated_sigma=0.0)
             runs = {g: fuse_results(single, st, TwoBootSettings(max_separation_m=g, **start))
                     for g in (TwoBootSettings().max_separation_m, 1e9)}
             (bound, fused), (_, free) = runs.items()
@@ -100,10 +98,7 @@ def main(argv=None) -> None:
                 f = getattr(free.fused, label)
                 kw = {} if label == "left" else {"yaw_rad": free.heading["yaw_rad"],
                                                  "yaw_sigma_rad": TwoBootSettings().heading_alignment_sigma_rad}
-                c = foot_covariance(f, single[label], st0, **kw)
-                e = phase_ends(f.stance)
-                sig, x = c["pos_sigma_n"][e], c["cov_extra"]
-                cons = ellipse(sig[:, 0] ** 2 + x[:, 0], sig[:, 1] ** 2 + x[:, 1], c["pos_cov_en"][e] + x[:, 2])[0]
+                cons = ellipse(*common_frame_covariance(f, single[label], st, **kw).T)[0]
                 r = cons / own(free)
                 g = fused.gait[label]["ellipse_major_m"]
                 inside = inside_shares(fused, label, sims[label], single[label], st)

@@ -78,45 +78,67 @@ def foot_input(label: str, res, offset_s: float = 0.0, yaw_rad: float = 0.0, sta
                      yaw_sigma_rad)
 
 
+def common_frame_covariance(f, single, settings, yaw_rad: float = 0.0,
+                            yaw_sigma_rad: float | None = None) -> np.ndarray | None:
+    """The conservative per-foot horizontal covariance (K, 3) = (EE, NN, EN), m², at the end of each stance phase of
+    the fused foot ``f``: its single-foot filter covariance (the same stance mask, so the same stance-phase ends)
+    turned into the common frame by the frame alignment ``yaw_rad`` (P' = R P Rᵀ), plus, for a foot whose frame
+    was aligned, the rest of the alignment's yaw variance (``yaw_sigma_rad``² − ``init_yaw_sigma_rad``², the
+    variance the fused navigator starts with instead) as a rotation of the path about its first footprint
+    (``ellipses.scale_error_covariance``'s cross-axis term: the same first-order form). None when the single-foot
+    run kept no covariance."""
+    from bootnav.postproc.ellipses import scale_error_covariance, unwrapped_yaw
+    from bootnav.postproc.strides import footprints, phase_ends
+
+    nav = getattr(single, "nav", None)
+    sig, cen = getattr(nav, "pos_sigma_n", None), getattr(nav, "pos_cov_en", None)
+    if sig is None or cen is None:
+        return None
+    end = phase_ends(np.asarray(f.stance, bool))
+    sig, cen = np.asarray(sig, float)[end], np.asarray(cen, float)[end]
+    a, b = sig[:, 0] ** 2, sig[:, 1] ** 2
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    cov = np.column_stack((c * c * a - 2 * c * s * cen + s * s * b, s * s * a + 2 * c * s * cen + c * c * b,
+                           c * s * (a - b) + (c * c - s * s) * cen))
+    if yaw_sigma_rad is not None and len(end):
+        rest = yaw_sigma_rad ** 2 - settings.filter.init_yaw_sigma_rad ** 2
+        if rest > 0:
+            _, fp = footprints(f.t_s, f.pos_n, f.stance)
+            cov = cov + scale_error_covariance(fp, unwrapped_yaw(f.q_nb)[end], 0.0, math.sqrt(rest))
+    return cov
+
+
 def foot_covariance(f, single, settings, yaw_rad: float = 0.0, yaw_sigma_rad: float | None = None) -> dict:
     """The ellipse inputs of one fused foot for ``gaitmetrics.gait_table`` (docs/twoboots.md, "Stride ellipses").
 
     The fusion is two filters, not one joint filter: each foot's navigator takes the constraint as a position
     pseudo-measurement of accuracy ``constraint_sigma_m`` and keeps no covariance with the other foot, so after
     an update its own P claims to know the foot to centimetres along the constraint direction although the bound
-    observes only the DIFFERENCE of the feet (the common mode stays as uncertain as before). That P would be
-    over-confident, so the ellipse uses the conservative per-foot value: the foot's single-foot filter covariance
-    (the same stance mask, so the same stance-phase ends), turned into the common frame by the frame alignment
-    ``yaw_rad`` (P' = R P Rᵀ), plus, for a foot whose frame was aligned, the rest of the alignment's yaw variance
-    (``yaw_sigma_rad``² − ``init_yaw_sigma_rad``², the variance the fused navigator starts with instead) as a
-    rotation of the path about its first footprint (``ellipses.scale_error_covariance``'s cross-axis term, the
-    same first-order form), plus the scale/cross-axis term of the fused path (``ellipses.stride_scale_covariance``,
-    with the foot's own sensor calibration status). Returns {} when the single-foot run kept no covariance.
+    observes only the DIFFERENCE of the feet (the common mode stays as uncertain as before). So at each stance
+    phase the filter part is the LARGER (by semi-major axis) of the conservative per-foot value
+    (``common_frame_covariance``) and the fused navigator's own P (larger where the single-foot run had an aid
+    the fused filters do not run, e.g. ``heading_aid``); to it is added the scale/cross-axis term of the fused
+    path (``ellipses.stride_scale_covariance``, with the foot's own sensor calibration status). Returns {} when
+    a covariance is missing.
     """
-    from bootnav.postproc.ellipses import scale_error_covariance, stride_scale_covariance, unwrapped_yaw
-    from bootnav.postproc.strides import footprints, phase_ends
+    from bootnav.postproc.ellipses import stride_scale_covariance
+    from bootnav.postproc.strides import ellipse, phase_ends
 
-    nav = getattr(single, "nav", None)
-    sig, cen = getattr(nav, "pos_sigma_n", None), getattr(nav, "pos_cov_en", None)
-    if sig is None or cen is None:
+    cons = common_frame_covariance(f, single, settings, yaw_rad, yaw_sigma_rad)
+    if cons is None or f.pos_cov_en is None:
         return {}
-    sig, cen = np.asarray(sig, float), np.asarray(cen, float)
-    a, b = sig[:, 0] ** 2, sig[:, 1] ** 2
-    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-    p_ee = c * c * a - 2 * c * s * cen + s * s * b
-    p_nn = s * s * a + 2 * c * s * cen + c * c * b
-    p_en = c * s * (a - b) + (c * c - s * s) * cen
+    end = phase_ends(np.asarray(f.stance, bool))
+    own = np.column_stack((f.pos_sigma_n[end, 0] ** 2, f.pos_sigma_n[end, 1] ** 2, f.pos_cov_en[end]))
+    use_own = ellipse(*own.T)[0] > ellipse(*cons.T)[0]
+    chosen = np.where(use_own[:, None], own, cons)
+    sig = np.array(f.pos_sigma_n, float)  # the covariance at the stance ends is all ``segment_strides`` reads
+    cen = np.array(f.pos_cov_en, float)
+    sig[end, :2] = np.sqrt(np.maximum(chosen[:, :2], 0.0))
+    cen[end] = chosen[:, 2]
     cal = getattr(single, "sensor_calibration", None)
     calibrated = cal is not None and cal.provenance.get("status") == "applied"
-    extra = stride_scale_covariance(f.t_s, f.pos_n, f.stance, f.q_nb, settings, calibrated)
-    if yaw_sigma_rad is not None:
-        rest = yaw_sigma_rad ** 2 - settings.filter.init_yaw_sigma_rad ** 2
-        if rest > 0 and len(extra):
-            _, fp = footprints(f.t_s, f.pos_n, f.stance)
-            yaw = unwrapped_yaw(f.q_nb)[phase_ends(np.asarray(f.stance, bool))]
-            extra = extra + scale_error_covariance(fp, yaw, 0.0, math.sqrt(rest))
-    return {"pos_sigma_n": np.column_stack((np.sqrt(np.maximum(p_ee, 0.0)), np.sqrt(np.maximum(p_nn, 0.0)), sig[:, 2])),
-            "pos_cov_en": p_en, "cov_extra": extra}
+    return {"pos_sigma_n": sig, "pos_cov_en": cen,
+            "cov_extra": stride_scale_covariance(f.t_s, f.pos_n, f.stance, f.q_nb, settings, calibrated)}
 
 
 def _name(src) -> str:
