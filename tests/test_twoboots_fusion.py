@@ -2,6 +2,7 @@
 step width, and the CLI (multi-boot recording and two files)."""
 
 import json
+from dataclasses import replace
 import math
 import subprocess
 import sys
@@ -11,6 +12,7 @@ import pytest
 
 from bootnav.core.runs import runs
 from bootnav.postproc.pipeline import process
+from bootnav.postproc.settings import ProcessSettings
 from bootnav.postproc.twoboots import TwoBootSettings
 from bootnav.postproc.twoboots.align import gait_clock_offset, heading_offset_rad
 from bootnav.postproc.twoboots.fusion import fuse
@@ -44,7 +46,10 @@ def walk(tmp_path_factory):
 
 
 def test_without_the_bound_each_fused_foot_is_its_single_foot_path(walk):
-    L, R = walk["single"]["left"], walk["single"]["right"]
+    # the fusion runs no heading aid (docs/twoboots.md): compared with single feet processed without it
+    plain = ProcessSettings()
+    plain.filter = replace(plain.filter, heading_aid="none")
+    L, R = (process(p, plain) for p in walk["files"])
     out = fuse(foot_input("left", L), foot_input("right", R), L.settings.filter,
                TwoBootSettings(max_separation_m=1e9))
     assert out.n_active == 0 and out.n_checks > 10
