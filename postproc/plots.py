@@ -601,7 +601,7 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
                 '1σ uncertainty</span>')
     if "floor" in st and n_st:
         legend += f"; floor now {int(st['floor'][-1]):+d}"
-    vb = [float(lo[0]), float(-hi[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])]
+    vb = [round(float(v), 3) for v in (lo[0], -hi[1], hi[0] - lo[0], hi[1] - lo[1])]  # mm, as the coordinates
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{title}</title>
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <style>html,body{{height:100%;margin:0;font-family:sans-serif}} body{{display:flex;flex-direction:column;overflow:hidden}}

@@ -150,12 +150,13 @@ def test_smoother_memory_bound_splits_segments_without_jumps(walk):
 
 def test_optional_heading_aid_reduces_drift_on_a_corridor_walk():
     """Straight corridor walk with an uncompensated yaw-gyro bias (0.004 rad/s ≈ 0.23 °/s): heading drifts and the
-    path bends sideways. The optional dominant-direction aid (off by default) at least halves the cross-track
-    error; with the default settings it is never used."""
+    path bends sideways. The dominant-direction aid at least halves the cross-track error; ``run_filter`` with
+    "none", or with the default "auto" (decided by ``process`` on this unaided path), applies none."""
     w = synthetic_walk(n_strides=40, acc_noise=ACC_NOISE, gyro_noise=GYRO_NOISE, gyro_bias=(0, 0, 0.004), seed=8)
     init = TruthInit(w.q_nb[0], np.zeros(3))
     common = (w.t_s, w.acc_b, w.gyro_b, w.stance, init, w.gravity)
-    free = run_filter(*common, FilterSettings(zaru=False))
+    free = run_filter(*common, FilterSettings(heading_aid="none", zaru=False))
+    assert run_filter(*common, FilterSettings(zaru=False)).info["heading_aid_updates"] == 0  # "auto": the unaided pass
     aided = run_filter(*common, FilterSettings(heading_aid="dominant_directions", zaru=False))
     assert free.info["heading_aid_updates"] == 0 and free.info["heading_aid"] == "none"
     assert aided.info["heading_aid_updates"] >= 30

@@ -146,6 +146,8 @@ def decide(fp_xy: np.ndarray, settings) -> HeadingDecision:
 
     ``settings``: a ``FilterSettings`` (``hde_*`` fields)."""
     psi, _ = stride_headings(fp_xy, settings.hde_min_stride_m)
+    if getattr(settings, "mode", "time_varying") == "riccati":
+        return HeadingDecision(False, "off: the paper mode (filter mode 'riccati') has no yaw gain", n_strides=len(psi))
     straight = np.flatnonzero(straight_mask(psi, settings.hde_threshold_rad))
     W, n_min = int(settings.hde_auto_window), int(settings.hde_auto_min_strides)
     windows = []

@@ -254,7 +254,7 @@ class FilterSettings:
         for name in ("hde_auto_min_share", "hde_auto_min_cross"):
             if not 0 <= getattr(self, name) <= 1:
                 raise ValueError(f"FilterSettings.{name} must be in [0, 1], got {getattr(self, name)!r}")
-        if self.heading_aid != "none" and self.mode == "riccati":
+        if self.heading_aid == "dominant_directions" and self.mode == "riccati":  # "auto" decides off there
             raise ValueError("FilterSettings.heading_aid needs mode='time_varying' (the paper mode has no yaw gain)")
         if self.strapdown not in ("increments", "midpoint", "endpoint"):
             raise ValueError(f"FilterSettings.strapdown must be 'increments', 'midpoint' or 'endpoint', got "

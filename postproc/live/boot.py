@@ -166,7 +166,7 @@ class BootView:
                                                                    accel_calibration_file=None))
         # heading_aid "auto": the rule of building.directions on the strides seen so far (causal)
         self._dirs = None
-        if settings.filter.heading_aid == "auto":
+        if settings.filter.heading_aid == "auto" and settings.filter.mode != "riccati":  # no yaw gain there
             from bootnav.postproc.building.directions import CausalDirections
 
             self._dirs = CausalDirections(settings.filter)
