@@ -22,11 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from building_mission import seeds_arg  # noqa: E402  (benchmarks/ is the script's directory)
-from floors_mission import _mahalanobis2, _sim
+from floors_mission import _sim, ellipse_errors
 
 
 def run_one(path: Path, extra: bool, calibrated: bool = False) -> dict:
-    from bootnav.core.rotations import euler_zyx_from_quat
     from bootnav.logger.recording import load
     from bootnav.postproc.pipeline import process
     from bootnav.postproc.settings import ProcessSettings
@@ -44,12 +43,7 @@ def run_one(path: Path, extra: bool, calibrated: bool = False) -> dict:
     _, fp_t = footprints(r.t_s, pos_true, r.stance)
     keep = stride_footprints(fp, s.selftune.min_stride_m)[1:]
     steps = r.steps
-    yaw0 = float(euler_zyx_from_quat(np.asarray(truth["q_nb"][0], float))[2])
-    c, s_ = np.cos(yaw0), np.sin(yaw0)
-    ex, ey = steps["x_m"] - r.pos_n[0, 0], steps["y_m"] - r.pos_n[0, 1]
-    dx = (fp_t[keep, 0] - pos_true[0, 0]) - (c * ex - s_ * ey)
-    dy = (fp_t[keep, 1] - pos_true[0, 1]) - (s_ * ex + c * ey)
-    d2 = _mahalanobis2(dx, dy, steps, yaw0)
+    dx, dy, d2 = ellipse_errors(r, steps, truth, pos_true, fp_t[keep])
     return {"in1": 100 * np.mean(d2 <= 1), "in2": 100 * np.mean(d2 <= 4), "in3": 100 * np.mean(d2 <= 9),
             "oc": float(np.median(np.sqrt(d2)) / np.sqrt(2 * np.log(2))), "final_m": float(np.hypot(dx[-1], dy[-1])),
             "major_final_m": float(steps["ellipse_major_m"][-1])}

@@ -51,7 +51,6 @@ CONFIGS = {"off": dict(level_height=False, storeys=False), "hold": dict(level_he
 
 def run_one(path: Path, config: str) -> dict:
     """One run of ``process`` with the configuration ``config`` (``CONFIGS``) and its figures."""
-    from bootnav.core.rotations import euler_zyx_from_quat
     from bootnav.logger.recording import load
     from bootnav.postproc.pipeline import process
     from bootnav.postproc.settings import ProcessSettings
@@ -84,12 +83,7 @@ def run_one(path: Path, config: str) -> dict:
     out["floor_ok_pct"] = float(100.0 * np.mean(np.asarray(steps["floor"]) == true_floor))
     # ellipses: the estimate turned into the truth's frame by the true initial yaw (the filter's nav frame is
     # the start's heading: an exact relation, nothing fitted), both from their starts
-    yaw0 = float(euler_zyx_from_quat(np.asarray(truth["q_nb"][0], float))[2])
-    c, s_ = np.cos(yaw0), np.sin(yaw0)
-    ex, ey = steps["x_m"] - r.pos_n[0, 0], steps["y_m"] - r.pos_n[0, 1]
-    dx = (fp_t[keep, 0] - pos_true[0, 0]) - (c * ex - s_ * ey)
-    dy = (fp_t[keep, 1] - pos_true[0, 1]) - (s_ * ex + c * ey)
-    d2 = _mahalanobis2(dx, dy, steps, yaw0)
+    dx, dy, d2 = ellipse_errors(r, steps, truth, pos_true, fp_t[keep])
     out["in_1sigma_pct"] = float(100.0 * np.mean(d2 <= 1.0))
     out["in_2sigma_pct"] = float(100.0 * np.mean(d2 <= 4.0))
     # overconfidence: median Mahalanobis distance over that of a consistent 2-D Gaussian, √(2 ln 2) = 1.177
@@ -98,6 +92,20 @@ def run_one(path: Path, config: str) -> dict:
     out["final_h_err_m"] = float(np.hypot(dx[-1], dy[-1]))
     out["run_s"] = run_s
     return out
+
+
+def ellipse_errors(r, steps, truth, pos_true, fp_true_strides):
+    """Each stride's error (dx, dy) in the truth's frame (the estimate turned by the true initial yaw: the filter's
+    nav frame is the start's heading, an exact relation, nothing fitted; both from their starts) and its squared
+    Mahalanobis distance in the stride's ellipse."""
+    from bootnav.core.rotations import euler_zyx_from_quat
+
+    yaw0 = float(euler_zyx_from_quat(np.asarray(truth["q_nb"][0], float))[2])
+    c, s_ = np.cos(yaw0), np.sin(yaw0)
+    ex, ey = steps["x_m"] - r.pos_n[0, 0], steps["y_m"] - r.pos_n[0, 1]
+    dx = (fp_true_strides[:, 0] - pos_true[0, 0]) - (c * ex - s_ * ey)
+    dy = (fp_true_strides[:, 1] - pos_true[0, 1]) - (s_ * ex + c * ey)
+    return dx, dy, _mahalanobis2(dx, dy, steps, yaw0)
 
 
 def _mahalanobis2(dx, dy, steps, yaw) -> np.ndarray:
