@@ -30,9 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "and exit")
     parser.add_argument("--gravity", type=float, default=None, metavar="M/S2",
                         help="local gravity in m/s^2 (default: WGS-84 normal gravity at --latitude, --height)")
-    parser.add_argument("--latitude", type=float, default=45.0, metavar="DEG",
+    parser.add_argument("--latitude", type=float, default=None, metavar="DEG",
                         help="latitude for normal gravity, degrees (default 45)")
-    parser.add_argument("--height", type=float, default=0.0, metavar="M",
+    parser.add_argument("--height", type=float, default=None, metavar="M",
                         help="ellipsoidal height for normal gravity, m (default 0)")
     parser.add_argument("--json", action="store_true", help="print the calibration as JSON instead of a table")
     live = parser.add_argument_group("guided live mode")
@@ -62,9 +62,10 @@ def settings_from_args(args):
             raise InputError(f"{flag} {v}: must be a finite number")
     if args.gravity is not None and not 9.7 <= args.gravity <= 9.9:
         raise InputError(f"--gravity {args.gravity}: gravity on Earth is 9.76-9.84 m/s^2")
-    if not -90 <= args.latitude <= 90:
+    if args.latitude is not None and not -90 <= args.latitude <= 90:
         raise InputError(f"--latitude {args.latitude}: must be within -90..90 degrees")
-    s = SensorCalSettings(gravity_mps2=args.gravity, latitude_deg=args.latitude, height_m=args.height)
+    given = {"gravity_mps2": args.gravity, "latitude_deg": args.latitude, "height_m": args.height}
+    s = SensorCalSettings(**{k: v for k, v in given.items() if v is not None})  # its defaults: the only ones
     if getattr(args, "goal_scale", None) is not None:
         if not (math.isfinite(args.goal_scale) and args.goal_scale > 0):
             raise InputError(f"--goal-scale {args.goal_scale}: must be a positive percentage")
