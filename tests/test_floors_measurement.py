@@ -1,7 +1,8 @@
 """Height hold on level strides (``measurements.level_height``): z, H, R, both engines, a drifting level walk.
 
 Expected values come from the model's equations (measurements.py): at a stance onset with a reference height
-h_ref, a stride with |ĥ − h_ref| < ``level_max_dz_m`` gives z = h_ref − ĥ, H selecting δp_U, R = σ_level²;
+h_ref, a stride with |ĥ − h_ref| < ``level_max_dz_m`` gives z = h_ref − ĥ (ĥ nominal; the gate adds this
+sample's earlier corrections), H selecting δp_U, R = σ_level²;
 any other stride gives nothing and moves the reference to ĥ.
 """
 
@@ -79,17 +80,44 @@ def test_a_heel_or_toe_roll_is_not_held_and_moves_the_reference():
 
 
 def test_level_height_uses_the_height_corrected_by_earlier_updates():
-    """ĥ = p̂_U + δp_U of this sample (the ZUPT's correction comes first, as for the heading aid)."""
+    """The gate sees ĥ = p̂_U + δp_U of this sample (the ZUPT's correction comes first, as for the heading aid),
+    and the correction is counted once: z is against the nominal p̂_U, because the sequential update's
+    innovation is z − δp_U (``kalman.sequential_update``), which is then h_ref − ĥ."""
     meas = LevelHeightMeasurement(PRM, N)
     stance = np.array([True, False, True])
     acc = gyr = np.zeros((3, 3))
     st = initial_nominal_state([1.0, 0.0, 0.0, 0.0], np.zeros(3), np.zeros(3))
     dx = np.zeros(N)
     meas.evaluate(st, dx, acc, gyr, stance, 0)
-    st[POS] = (1.0, 0.0, 0.2)  # the nominal 20 cm up (a step), the correction brings it back to 1 cm
+    st[POS] = (1.0, 0.0, 0.2)  # the nominal 20 cm up (beyond the gate), the correction brings it back to 1 cm
     dx[HEIGHT] = -0.19
-    z, _, _ = meas.evaluate(st, dx, acc, gyr, stance, 2)
-    assert z == pytest.approx([-0.01], abs=1e-12)
+    z, _, _ = meas.evaluate(st, dx, acc, gyr, stance, 2)  # level: held
+    assert z == pytest.approx([-0.2], abs=1e-12)  # h_ref − p̂_U
+    assert z[0] - dx[HEIGHT] == pytest.approx(-0.01, abs=1e-12)  # the innovation: h_ref − ĥ
+
+
+def test_a_zupt_height_correction_at_the_onset_is_not_undone_by_the_hold():
+    """After an unaided stretch (a run whose foot-flats were missed) the onset's ZUPT moves the height by
+    P_zv P_vv⁻¹ δv, here +0.7 m back to the floor the foot left. The hold that follows in the same sample
+    (sequential updates, both engines' convention) must keep that correction: the height ends on the
+    reference, within σ_level of it. Counting the ZUPT's correction twice in z pulled it back down by 0.7 m
+    and the drifted height became the floor of the rest of the walk (docs/tuning-log.md, "Unaided runs and
+    the height hold")."""
+    from bootnav.postproc.ins.kalman import sequential_update
+
+    meas = LevelHeightMeasurement(PRM, N)
+    stance = np.array([True, False, True])
+    acc = gyr = np.zeros((3, 3))
+    st = initial_nominal_state([1.0, 0.0, 0.0, 0.0], np.zeros(3), np.zeros(3))
+    meas.evaluate(st, np.zeros(N), acc, gyr, stance, 0)  # the reference: 0 m
+    st[POS] = (12.0, 0.0, -0.7)  # the forward height after the run: 0.7 m low
+    P = np.eye(N) * 1e-4
+    P[HEIGHT, HEIGHT] = 0.5  # the height is uncertain after the unaided run
+    dx = np.zeros(N)
+    dx[HEIGHT] = 0.7  # the onset ZUPT's correction of this sample
+    z, _, r = meas.evaluate(st, dx, acc, gyr, stance, 2)
+    sequential_update(P, dx, z, 1, HEIGHT, float(r[0, 0]), N, np.zeros((N, 3)), np.empty((N, N)))
+    assert st[POS][2] + dx[HEIGHT] == pytest.approx(0.0, abs=SIGMA_LEVEL)
 
 
 def test_level_height_off_and_in_paper_mode_is_not_active():

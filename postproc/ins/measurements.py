@@ -121,8 +121,10 @@ def heading_aid(st, dx, acc_b, gyro_b, stance, k, prm, z):
 def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     """Height hold on a level stride, at stance onsets: z = h_ref − ĥ = δp_U + ν, H selects δp_U, R = σ_level².
 
-    h_ref is the height of the floor the foot stood on (``LVL_REF_Z``, layout.py); ĥ the height now, after the
-    earlier updates of this sample (the ZUPT). A stride is *level* when its estimated height change
+    h_ref is the height of the floor the foot stood on (``LVL_REF_Z``, layout.py); ĥ the nominal height p̂_U.
+    The gate and the memory use the height after the earlier updates of this sample (the ZUPT), p̂_U + δp_U;
+    z does not add δp_U again, since the sequential update's innovation is z − δp_U (``kalman``). A stride
+    is *level* when its estimated height change
     |ĥ − h_ref| is below ``level_max_dz_m`` (half the lowest riser): the foot's own motion tells a flat
     stride from a stair stride [MunozDiaz2018], and the drift of one stride is far below a riser. Then the
     walker is on the same floor, and the height change since the last footfall is zero up to the floor's
@@ -158,7 +160,9 @@ def level_height(st, dx, acc_b, gyro_b, stance, k, prm, z):
     if st[LVL_PENDING] > 0.5 and sx * sx + sy * sy < prm.level_min_stride_m * prm.level_min_stride_m:
         pass  # a heel or toe roll after a stair stride: no measurement, the reference still follows the foot
     elif st[LVL_HAVE_REF] > 0.5 and abs(h - st[LVL_REF_Z]) < prm.level_max_dz_m:
-        z[0] = st[LVL_REF_Z] - h
+        # against the NOMINAL height: the update's innovation is z − δp_U with δp_U = dx[HEIGHT], the earlier
+        # updates' correction (``kalman.sequential_update``), so z = h_ref − ĥ counted that correction twice
+        z[0] = st[LVL_REF_Z] - st[POS.start + 2]
         m = 1
         st[LVL_PENDING] = 0.0
     else:
