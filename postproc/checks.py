@@ -142,7 +142,7 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
     return warnings
 
 
-def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray) -> np.ndarray:
+def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray, sloping: bool = False) -> np.ndarray:
     """Saturation bitmask (bits as the recording's) from full-scale plateaus, for inputs without a mask.
 
     Parameters
@@ -154,13 +154,19 @@ def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray) -> np.ndarray:
     -------
     ndarray of uint8, shape (N,)
         Bit ``SATURATION_BITS[axis]`` set where that axis sits on a rail
-        (``bootnav.core.arrays.clipped_axes``).
+        (``bootnav.core.arrays.clipped_axes``; with ``sloping``, also the rails that a calibrated output makes
+        slope on a gyro axis without an exact one, ``bootnav.core.arrays.sloping_rails``).
     """
-    from bootnav.core.arrays import clipped_axes
+    from bootnav.core.arrays import GYRO_MIN_FULL_SCALE_RADPS, clipped_axes, sloping_rails
 
     bits = np.zeros(len(acc_b), dtype=np.uint8)
-    for first, x in ((0, acc_b), (3, gyro_b)):
-        for k, mask in clipped_axes(x).items():
+    exact = clipped_axes(gyro_b)
+    # a rail that repeats one value holds most of its plateau samples at it, and the samples just below are
+    # real values; a sloping rail may repeat its top by chance (quantised cross-axis terms), not most of it
+    rails = {k: m for k, m in sloping_rails(gyro_b, GYRO_MIN_FULL_SCALE_RADPS).items()
+             if k not in exact or 2 * np.count_nonzero(exact[k] & m) < np.count_nonzero(m)} if sloping else {}
+    for first, axes in ((0, clipped_axes(acc_b)), (3, exact), (3, rails)):
+        for k, mask in axes.items():
             bits |= mask.astype(np.uint8) << (first + k)
     return bits
 

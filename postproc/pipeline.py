@@ -191,7 +191,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     warnings = check_samples(name, t_s, samples.acc_b, gyro_b, offset, settings.checks)
     sat_bits = samples.saturated
     if settings.detector.detect_clipping:
-        sat_bits = sat_bits | clipping_bits(samples.acc_b, gyro_b)
+        sat_bits = sat_bits | clipping_bits(samples.acc_b, gyro_b, settings.filter.sloping_rails)
     sat_iv = saturation_intervals(t_s, sat_bits, offset)
     warnings += saturation_warnings(sat_iv)
     lap("checks")

@@ -165,3 +165,19 @@ def test_timing_probes_in_threads_equal_serial_runs_bit_for_bit(walk):
     assert got["m_minus"] == serial["m_minus"] and got["m_plus"] == serial["m_plus"]
     assert got["n_level"] == serial["n_level"]
     assert got["innovation_rms_mps"] == float(np.sqrt(np.mean([serial["m_minus_e2"], serial["m_plus_e2"]])))
+
+
+def test_short_walks_keep_their_samples_and_missions_calibrate_the_timing():
+    # the probes' line m(τ) of a walk: slope 3 mm/ms, zero at τ* = +4/3 ms (inside the ±3 ms bound). A walk of 30
+    # level strides (a mocap trial, a 20-m corridor) is not calibrated by default: between recordings of one
+    # sensor τ* scatters by 6-14 ms there (SelfTuneSettings); one of 500 (a mission) is
+    st = S.SelfTuneSettings()
+
+    def timing(n_level):
+        probes = {"m_minus": -0.010, "m_plus": 0.002, "n_level": n_level}
+        return S.timing_from_probes(probes, st.timing_probe_s, st.timing_max_abs_s, st.timing_min_level_strides)
+
+    short, mission = timing(30), timing(500)
+    assert not short["applied"] and short["tau_s"] == 0.0
+    slope = (0.002 + 0.010) / (2 * st.timing_probe_s)
+    assert mission["applied"] and mission["tau_s"] == pytest.approx(0.004 / slope, rel=1e-9)

@@ -4,6 +4,8 @@ where it is used, so that importing the detector registry stays light (``bootnav
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from bootnav.core.timebase import sample_period
@@ -84,6 +86,80 @@ def clipped_axes(x: np.ndarray, *, min_repeats: int = 3, rel_tol: float = 1e-6) 
             mask = col >= peak * (1.0 - rel_tol) if upper else col <= -(peak * (1.0 - rel_tol))
             count = np.count_nonzero(mask)
             if min_repeats <= count < 0.5 * x.shape[0]:
+                out[k] = out[k] | mask if k in out else mask
+    return out
+
+
+RAIL_LEVEL_TOL = 0.02  # rail level wander across swings, fraction of full scale (calibrated outputs' cross-axis terms)
+RAIL_TOP_POWER = 4.0  # a rail's top is flatter than a quartic maximum (a swing peak is about a parabola: 2)
+GYRO_MIN_FULL_SCALE_RADPS = math.radians(125.0)  # the smallest range of MEMS gyros (e.g. BMI160, ICM-42688: ±125 °/s)
+
+
+def _dwell(col: np.ndarray, j: int, level: float) -> tuple[int, int, float]:
+    """First and last sample of the run above ``level`` that holds sample ``j``, and its duration in samples
+    with the crossings interpolated (NaN when the run touches an end of the record)."""
+    from .runs import runs
+
+    ra, rb = runs(col > level)
+    r = int(np.searchsorted(ra, j, side="right")) - 1
+    i0, i1 = int(ra[r]), int(rb[r]) - 1
+    if i0 == 0 or i1 == len(col) - 1:
+        return i0, i1, math.nan
+    return i0, i1, ((i1 - i0) + (col[i0] - level) / (col[i0] - col[i0 - 1])
+                    + (col[i1] - level) / (col[i1] - col[i1 + 1]))
+
+
+def sloping_rails(x: np.ndarray, min_full_scale: float, *, min_repeats: int = 3,
+                  level_tol: float = RAIL_LEVEL_TOL, top_power: float = RAIL_TOP_POWER) -> dict[int, np.ndarray]:
+    """Per-axis rails of an (N, k) uniformly sampled signal that a calibrated output makes slope:
+    {axis: bool (N,)} of the samples on a rail, for the axes that have one.
+
+    A sensor that clips and then applies its factory calibration (scale, cross-axis terms, e.g. MicroStrain's
+    ``scaledGyro``) does not repeat one value at full scale (``clipped_axes`` then sees nothing): the flat
+    top wanders by the cross-axis terms times the other axes' rates, up to ``level_tol`` of full scale. What
+    stays is the shape: a swing peak of a foot is a smooth maximum, a rail is a flat top entered and left
+    steeply. Near a maximum shaped 1 − |t|^p the time it stays within h of its top grows as h^(1/p), so the
+    dwells within h and 2h give its power, p = log 2 / log(T(2h) / T(h)): 2 for a parabola, 1 for a sharp
+    peak, and without bound for a rail (T(2h) only adds the steep ramps). Per axis and sign, the excursions
+    (runs beyond half the extreme) whose maximum lies within h = ``level_tol`` × extreme of the extreme are
+    measured; the sign has a rail when ``min_repeats`` or more of them are flatter than ``top_power`` (the
+    same level reached flat in separate swings: not one odd peak, and not a regular gait's equal smooth
+    peaks). Then the samples within h of the top of every excursion reaching the band are flagged (a short
+    touch of the rail is on it too). A sign whose extreme is below ``min_full_scale`` (the smallest
+    full-scale range such sensors have) holds no rail (an axis that only carries noise on that side).
+    Dimensionless in samples: no time base needed.
+    """
+    from .runs import runs
+
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[0]
+    out: dict[int, np.ndarray] = {}
+    max_ratio = 2.0 ** (1.0 / top_power)
+    for k in range(x.shape[1]):
+        for sign in (1.0, -1.0):
+            col = sign * x[:, k]
+            peak = float(np.nanmax(col)) if n else 0.0
+            if not peak >= min_full_scale:
+                continue
+            h = level_tol * peak
+            a, b = runs(col > 0.5 * peak)
+            if len(a) < min_repeats:
+                continue
+            top = np.maximum.reduceat(col, a)  # top of each excursion
+            near = np.flatnonzero(top >= peak - h)
+            if len(near) < min_repeats:
+                continue
+            mask = np.zeros(n, dtype=bool)
+            flat = 0
+            for e in near:  # one iteration per excursion at the top band (a few dozen at most)
+                j = int(a[e] + np.argmax(col[a[e]:b[e]]))
+                i0, i1, t1 = _dwell(col, j, top[e] - h)
+                t2 = _dwell(col, j, top[e] - 2.0 * h)[2]
+                mask[i0:i1 + 1] = True
+                flat += bool(t2 < max_ratio * t1)
+            if flat >= min_repeats:
                 out[k] = out[k] | mask if k in out else mask
     return out
 

@@ -66,6 +66,12 @@ class FilterSettings:
         (``run_filter(saturated=...)``, ``filter.saturation_variance``): the true value beyond full scale is
         unknown; a foot swing that clips a ±250 °/s gyro peaks ~1-2 rad/s above it, hence 1 rad/s; 5 m/s² for
         a clipped impact. Only the uncertainty of the clipped excess is modelled: it cannot be recovered.
+    sloping_rails : bool
+        Also find the gyro rails that a calibrated output makes slope (``bootnav.core.arrays.sloping_rails``;
+        a sensor that clips and then applies its factory calibration, e.g. MicroStrain's ``scaledGyro``,
+        does not repeat one value at full scale) and treat them as clipped (``sat_gyro_sigma_radps``).
+        Whole-record runs; a recording read in blocks finds exact rails only. False (leave-one-dataset-out
+        gain within the spread, docs/tuning-log.md 2026-12-02).
     zaru : bool
         Zero-angular-rate update in stance (z = ω_m − b̂_g on δb_g; 15 states, time-varying mode): it observes
         the vertical gyro bias that the ZUPT cannot (heading drift) [Groves2013]. Quiet-core noise (below).
@@ -186,6 +192,7 @@ class FilterSettings:
     zupt_onset_max_fraction: float = 1.0 / 3.0
     sat_acc_sigma_mps2: float = 5.0
     sat_gyro_sigma_radps: float = 1.0
+    sloping_rails: bool = False
     zaru: bool = True
     sigma_zaru_radps: float = 0.1 * DEG
     zaru_rate_factor: float = 1.0
@@ -230,6 +237,8 @@ class FilterSettings:
             raise ValueError(f"FilterSettings.engine must be 'fast' or 'reference', got {self.engine!r}")
         if self.smoother not in ("rts", "none"):
             raise ValueError(f"FilterSettings.smoother must be 'rts' or 'none', got {self.smoother!r}")
+        if not isinstance(self.sloping_rails, bool):
+            raise ValueError(f"FilterSettings.sloping_rails must be true or false, got {self.sloping_rails!r}")
         if self.heading_aid not in ("none", "dominant_directions", "auto"):
             raise ValueError(f"FilterSettings.heading_aid must be 'none', 'dominant_directions' or 'auto', got "
                              f"{self.heading_aid!r}")

@@ -64,7 +64,7 @@ def _saturation_bits(res) -> np.ndarray:
     samples = crop(res.recording, res.settings.crop_s, "recording")
     bits = samples.saturated
     if res.settings.detector.detect_clipping:
-        bits = bits | clipping_bits(samples.acc_b, samples.gyro_b)
+        bits = bits | clipping_bits(samples.acc_b, samples.gyro_b, res.settings.filter.sloping_rails)
     return bits
 
 
