@@ -70,8 +70,10 @@ class FilterSettings:
         Also find the gyro rails that a calibrated output makes slope (``bootnav.core.arrays.sloping_rails``;
         a sensor that clips and then applies its factory calibration, e.g. MicroStrain's ``scaledGyro``,
         does not repeat one value at full scale) and treat them as clipped (``sat_gyro_sigma_radps``).
-        Whole-record runs; a recording read in blocks finds exact rails only. False (leave-one-dataset-out
-        gain within the spread, docs/tuning-log.md 2026-12-02).
+        Whole-record runs; a recording read in blocks finds exact rails only. True: a sample on a rail is a
+        lower bound, not a measurement, whether or not the output repeats one value there (physics; the
+        leave-one-dataset-out check is flat, 1.002, as nothing but the railed MicroStrain files moves;
+        docs/tuning-log.md 2026-12-02).
     zaru : bool
         Zero-angular-rate update in stance (z = ω_m − b̂_g on δb_g; 15 states, time-varying mode): it observes
         the vertical gyro bias that the ZUPT cannot (heading drift) [Groves2013]. Quiet-core noise (below).
@@ -192,7 +194,7 @@ class FilterSettings:
     zupt_onset_max_fraction: float = 1.0 / 3.0
     sat_acc_sigma_mps2: float = 5.0
     sat_gyro_sigma_radps: float = 1.0
-    sloping_rails: bool = False
+    sloping_rails: bool = True
     zaru: bool = True
     sigma_zaru_radps: float = 0.1 * DEG
     zaru_rate_factor: float = 1.0
