@@ -261,12 +261,13 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
                progress: Progress | None = None, into_recording: bool = False) -> tuple[dict, dict[str, str]]:
     """``process`` and its outputs in ``out_dir`` (``outputs.check_outputs`` rules): what ``bootnav process`` runs.
 
-    The recording is read in blocks of ``settings.block_s`` seconds (``RecordingReader``). A recording of one
-    block (every recording up to 5 min at the default) runs the stages of ``process`` on it and writes it
-    with ``outputs.write_outputs``; a longer HDF5 recording runs the same stages as passes over its blocks
-    (``_block_passes``), memory bounded by the block. Options whose stage needs the whole record in memory (crop,
-    a reference, ``--into-recording``, a non-HDF5 input, revisits, a detector that cannot stream) run as one
-    block whatever the length, with a warning when that is longer than ``block_s``.
+    The input is read in blocks of ``settings.block_s`` seconds: an HDF5 recording through ``RecordingReader``,
+    any other file through ``source.MemoryReader`` (read whole by ``bootnav import``'s reader), the crop as a
+    window of rows (``source.crop_window``). A window of one block (every recording up to 15 min at the
+    default) runs the stages of ``process`` on it and writes it with ``outputs.write_outputs``; a longer one runs
+    the same stages as passes over its blocks (``_block_passes``), memory bounded by the block. A stage that
+    cannot run in passes (revisits, a detector that cannot stream) runs as one block whatever the length, with a
+    warning when that is longer than ``block_s``.
 
     Returns
     -------
@@ -274,46 +275,74 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         The summary written to summary.json and {kind: path} of every file written.
     """
     import json
+    from types import SimpleNamespace
 
     from bootnav.core.jsonio import to_jsonable
     from bootnav.logger.recording import RecordingReader
 
     from .outputs import ChartWorker, check_outputs, planned_files, write_outputs
+    from .reference_path import load_reference, truth_reference
+    from .source import MemoryReader, crop_window, load_source
 
     settings = settings or ProcessSettings()
     settings.validate()
     path, out = Path(source), Path(out_dir)
-    blocks, whole_why = 1, None
-    if path.is_file() and is_hdf5(path):
-        with RecordingReader(path) as rec:
-            n = rec.n
-            t_head = rec.times(0, min(n, 1 << 16))
-        rows = block_rows(t_head, settings.block_s)
-        blocks = -(-n // rows) if n else 1
-        whole_why = _needs_whole_record(settings, into_recording)
-    elif path.is_file():
-        whole_why = "not an HDF5 recording (`bootnav import` it for bounded memory)"
-    check_outputs(settings, out, [path], into_recording, force)
-    worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
+    ref = None
+    if settings.reference and settings.reference != "truth":  # a bad reference fails before any work
+        ref = load_reference(settings.reference)
+    src = None
+    hdf5 = path.is_file() and is_hdf5(path)
+    if hdf5:
+        reader = RecordingReader(path)
+    else:
+        src = load_source(path)  # missing, unreadable, too short: its message
+        reader = MemoryReader(src.recording)
+    worker = None
     try:
+        window = crop_window(reader, settings.crop_s, str(path))
+        rows = block_rows(window.times(0, min(window.n, 1 << 16)), settings.block_s)
+        blocks = -(-window.n // rows) if window.n else 1
+        whole_why = _needs_whole_record(settings)
+        if blocks <= 1 or whole_why is not None:
+            reader.close()  # ``process`` reads the input itself
+        elif settings.reference == "truth":
+            ref = truth_reference(SimpleNamespace(n=reader.n, t_s=reader.times()) if hdf5 else src.recording,
+                                  path if hdf5 else None)
+        check_outputs(settings, out, [path], into_recording, force)
+        worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
             if blocks <= 1 or whole_why is not None:
-                result = process(path, settings, progress=progress)
+                result = process(path if src is None else src.recording, settings, progress=progress)
                 if blocks > 1:
                     result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
                                            f"since {whole_why}: memory grows with the recording's length")
                     result.summary["warnings"] = result.warnings
                 files = write_outputs(result, out, into_recording, force, charts=worker)
+                worker = None  # closed by write_outputs
                 return result.summary, files
-            warnings: list[str] = []
-            summary, files = _block_passes(path, settings, out, warnings, _StageClock(progress), worker, progress)
+            run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording, ref)
+            summary, files = _block_passes(run, settings, out, [], _StageClock(progress), worker, progress)
             files["summary"] = str(out / "summary.json")
             summary["files"] = files
             atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     finally:
+        reader.close()
         if worker is not None:
             worker.close()
     return summary, files
+
+
+@dataclass
+class _Input:
+    """What the block passes read and where their results go."""
+
+    rec: Any  # source.ReaderWindow: the rows processed (a crop's window, else every row)
+    name: str  # how messages name the input
+    path: Path  # the input file
+    is_hdf5: bool  # a bootnav recording (results link to it; --into-recording writes into it)
+    recording: Recording | None  # an imported file's Recording (written into results.h5), None for HDF5
+    into_recording: bool
+    reference: Any  # reference_path.Reference or None
 
 
 def block_rows(t_head: np.ndarray, block_s: float) -> int:
@@ -324,14 +353,8 @@ def block_rows(t_head: np.ndarray, block_s: float) -> int:
     return max(int(round(block_s / dt0)), 2)
 
 
-def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str | None:
-    """Why a stage of this run needs the whole record in memory (None: it runs in blocks)."""
-    if settings.crop_s:
-        return "--crop selects its window from the loaded recording"
-    if settings.reference:
-        return "a reference is compared with the whole path"
-    if into_recording:
-        return "--into-recording rewrites the recording"
+def _needs_whole_record(settings: ProcessSettings) -> str | None:
+    """Why a stage of this run cannot run as passes over blocks (None: it can)."""
     if settings.filter.revisits != "none":
         return "revisits solve a pose graph over all strides"
     from .detectors.stream import stream_refusal
@@ -342,7 +365,7 @@ def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str 
     return None
 
 
-def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: list[str], lap,
+def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: list[str], lap,
                   worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_to``'s passes over the blocks of a recording longer than one block (module docstring) and its
     outputs but summary.json; (summary, files)."""
@@ -350,14 +373,19 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import RecordingReader, attach_dimension_scales, start_results_file, write_group
+    import contextlib
+    import tempfile
+
+    from bootnav.logger.recording import attach_dimension_scales, write_group
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
     from .detectors.stream import StreamStance
     from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, start_results,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
+    from .reference_path import compute_metrics
+    from .summary import is_closed_loop
     from .floors import storey_offsets
     from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
     from bootnav.core.rotations import euler_zyx_from_quat
@@ -370,9 +398,9 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
     from .navigate import implausible_strides
     from bootnav.core.timebase import sample_period
 
-    name = str(path)
+    name = run.name
     timings = lap.timings
-    with RecordingReader(path) as rec:
+    with contextlib.nullcontext(run.rec) as rec:
         device = rec.meta.get("device")
         sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"))
         warnings += sensor_cal.warnings
@@ -415,7 +443,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         block_checks = replace(settings.checks, min_duration_s=0.0)
         for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
             t, acc, gyro, _ = read(max(i0 - 2, 0), i1)
-            warnings.extend(w for w in check_samples(name, t, acc, gyro, max(i0 - 2, 0), block_checks)
+            warnings.extend(w for w in check_samples(name, t, acc, gyro, rec.start + max(i0 - 2, 0), block_checks)
                             if w not in warnings)
 
         t0_, a0_, g0_, _ = read(0, n_init)
@@ -547,7 +575,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         out.mkdir(parents=True, exist_ok=True)
         opts = settings.output
         group = f"/results/{opts.results_name}"
-        target = out / "results.h5"
+        target = run.path if run.into_recording else out / "results.h5"
         tmp = atomic.temporary_beside(target)
         nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
         fp_acc = FootprintAccumulator()
@@ -566,9 +594,12 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
         n_rows = n_stance = 0
         writer = None
+        # a reference is compared with the whole path: its rows (t, x, y, z, stance) go to a temporary file,
+        # read back memory-mapped by ``compute_metrics`` after the pass
+        spill = tempfile.TemporaryFile(prefix="bootnav-path-") if run.reference is not None else None
         try:
             if opts.write_hdf5:
-                start_results_file(tmp, path, out)  # links to the recording, not a copy
+                start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
             writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
             with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
                 csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
@@ -578,7 +609,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                     if not len(r):
                         return
                     if not np.all(np.isfinite(r.pos_n)):
-                        check_path_finite(name, r.t_s, r.pos_n, r.start)
+                        check_path_finite(name, r.t_s, r.pos_n, rec.start + r.start)
                     quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
                                      r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
                     if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
@@ -586,6 +617,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                         r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
                     append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
                                     TRAJECTORY_FORMATS)
+                    if spill is not None:
+                        np.column_stack((r.t_s, r.pos_n, r.stance)).astype(np.float64).tofile(spill)
                     if writer is not None:
                         writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                        "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
@@ -647,8 +680,19 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
             path_stats["storeys"] = storeys.summary() if storeys is not None else None
             lap("strides")
+            metrics = None
+            if spill is not None:  # as ``process``: the path with its storeys, every row
+                spill.flush()
+                path_rows = np.memmap(spill, np.float64, "r", shape=(n_rows, 5))
+                metrics = compute_metrics(run.reference, path_rows[:, 0], path_rows[:, 1:4], path_rows[:, 4] > 0.5,
+                                          rec.meta.get("mount"), min_stride)
+                del path_rows
+                lap("reference")
             summary = {
-                "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
+                "input": {"source": name, "format": "hdf5" if run.is_hdf5 else "imported",
+                          "samples_total": int(rec.reader.n), "samples_processed": n_rows,
+                          "t_start_s": t_first, "t_end_s": t_last,
+                          "crop_s": list(settings.crop_s) if settings.crop_s else None,
                           "duration_s": t_last - t_first, "rate_hz": float(rate),
                           "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
                 "calibration": to_jsonable(sensor_cal.provenance),
@@ -669,6 +713,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
                 "filter": to_jsonable(nav.info if heading_decision is None
                                       else {**nav.info, "heading_decision": heading_decision}),
                 "path": path_stats,
+                "metrics": to_jsonable(metrics),
+                "closed_loop": is_closed_loop(run.reference),
                 "uncertainty": final_uncertainty(steps),
                 "confidence": float(confidence),
                 **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
@@ -686,7 +732,7 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             if writer is not None:
                 writer.close()
                 attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
-                         "summary": json.dumps(to_jsonable(summary)), "sample_index_start": 0,
+                         "summary": json.dumps(to_jsonable(summary)), "sample_index_start": rec.start,
                          "created_utc": _utc_now(), "stance_method": settings.detector.method,
                          "stance_threshold": json.dumps(summary["stance"]["threshold"]),
                          "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
@@ -710,6 +756,8 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         finally:
             if writer is not None:
                 writer.close()
+            if spill is not None:
+                spill.close()
             tmp.unlink(missing_ok=True)
     return summary, files
 

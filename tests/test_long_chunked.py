@@ -133,13 +133,104 @@ def test_old_command_lines_still_run(walk, tmp_path):
 
 def test_a_stage_that_needs_the_whole_record_runs_one_block_with_a_warning(walk, tmp_path):
     d, rec, whole = walk
-    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--crop", "0", "60", "--no-plots", "--no-hdf5")
+    settings = tmp_path / "revisits.json"
+    settings.write_text(json.dumps({"filter": {"revisits": "entry"}}))
+    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--settings", settings, "--no-plots", "--no-hdf5")
     assert p.returncode == 0, p.stderr
     summary = json.loads((tmp_path / "c" / "summary.json").read_text())
-    assert any("processed as one, since --crop" in w for w in summary["warnings"])
+    assert any("processed as one, since revisits" in w for w in summary["warnings"])
     assert "confidence" in summary  # the whole-record stages ran
     p = _cli(rec, "--out", tmp_path / "b", "--block-s", "-1")
     assert p.returncode == 1 and "block_s" in p.stderr and "Traceback" not in p.stderr
+
+
+def _one_and_many(rec, tmp_path, block_s=4.0, **kw):
+    """The same run in one block and in blocks of ``block_s`` (``process_to``): (one, many) summaries and folders."""
+    runs = []
+    for label, b in (("one", 1000.0), ("many", block_s)):
+        s = _settings()
+        s.block_s = b
+        for k, v in kw.items():
+            setattr(s, k, v)
+        runs.append((*process_to(rec, s, tmp_path / label), tmp_path / label))
+    (one, _, d1), (many, _, d2) = runs
+    assert one["navigation"].get("blocks", 1) == 1 and many["navigation"]["blocks"] > 1
+    assert not any("processed as one" in w for w in many["warnings"])
+    return one, d1, many, d2
+
+
+def _assert_same_outputs(one, d1, many, d2):
+    r1, r2 = results(d1), results(d2)
+    np.testing.assert_array_equal(r2["t_s"], r1["t_s"])
+    np.testing.assert_array_equal(r2["stance"], r1["stance"])
+    assert np.abs(r2["pos_n_m"] - r1["pos_n_m"]).max() <= 1e-9  # as the one-block path above
+    assert (d2 / "trajectory.csv").read_bytes() == (d1 / "trajectory.csv").read_bytes()
+    for key in ("samples_total", "samples_processed", "t_start_s", "t_end_s", "crop_s", "format"):
+        assert many["input"][key] == one["input"][key], key
+    with h5py.File(d1 / "results.h5", "r") as f1, h5py.File(d2 / "results.h5", "r") as f2:
+        assert f2["results/default"].attrs["sample_index_start"] == f1["results/default"].attrs["sample_index_start"]
+        assert f2["imu/t_s"].shape == f1["imu/t_s"].shape  # the recording beside the results (linked or imported)
+
+
+def test_a_crop_in_blocks_is_the_crop_in_one_block(walk, tmp_path):
+    """The crop is a window of rows (``source.crop_window``): the same samples, the recording's clock kept."""
+    d, rec, whole = walk
+    one, d1, many, d2 = _one_and_many(rec, tmp_path, crop_s=(10.0, 100.0))
+    _assert_same_outputs(one, d1, many, d2)
+    t = results(d2)["t_s"]
+    inside = whole.t_s[(whole.t_s >= 10.0) & (whole.t_s <= 100.0)]
+    np.testing.assert_array_equal(t, inside)
+    assert many["input"]["crop_s"] == [10.0, 100.0]
+    with h5py.File(d2 / "results.h5", "r") as f:
+        assert f["results/default"].attrs["sample_index_start"] == int(np.searchsorted(whole.t_s, 10.0))
+
+
+def test_reference_metrics_in_blocks_are_the_one_block_metrics(walk, tmp_path):
+    """A timed reference (every metric of ``compute_metrics``: distance, deviation, height, the timed errors),
+    here the simulated walk's own stride footprints shifted, compared with the path of the final pass."""
+    d, rec, whole = walk
+    fp = whole.steps
+    ref = tmp_path / "ref.csv"
+    ref.write_text("t_s,x_m,y_m,z_m\n" + "".join(f"{t:.3f},{x + 0.3:.4f},{y - 0.2:.4f},{z:.4f}\n" for t, x, y, z in
+                                                zip(fp["t_s"], fp["x_m"], fp["y_m"], fp["z_m"])))
+    one, d1, many, d2 = _one_and_many(rec, tmp_path, reference=str(ref))
+    _assert_same_outputs(one, d1, many, d2)
+    assert {"deviation_error_m", "mean_h_err_m", "height_error_m"} <= set(one["metrics"])
+    assert set(many["metrics"]) == set(one["metrics"])
+    for key, value in one["metrics"].items():
+        if isinstance(value, float):  # metres of a path equal to 1e-9 m: equal to 1e-9 m
+            assert many["metrics"][key] == pytest.approx(value, abs=1e-8), key
+        else:
+            assert many["metrics"][key] == value, key
+    assert many["closed_loop"] == one["closed_loop"]
+
+
+def test_an_imported_file_in_blocks_is_the_one_block_run(walk, tmp_path):
+    """A non-HDF5 input (the canonical imu.csv) is read once and passed through ``source.MemoryReader``;
+    results.h5 holds the imported recording, as the one-block run writes it."""
+    d, rec, whole = walk
+    csv = tmp_path / "imu.csv"
+    r = whole.recording
+    np.savetxt(csv, np.column_stack((r.t_s, r.acc_mps2, r.gyro_radps)), fmt="%.17g", delimiter=",",
+               header="t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps", comments="")
+    one, d1, many, d2 = _one_and_many(csv, tmp_path, crop_s=(5.0, 110.0))
+    _assert_same_outputs(one, d1, many, d2)
+    assert many["input"]["format"] == "imported"
+
+
+def test_into_recording_in_blocks(walk, tmp_path):
+    import shutil
+
+    d, rec, whole = walk
+    copy = tmp_path / "copy.h5"
+    shutil.copy2(rec, copy)
+    s = _settings()
+    s.block_s = 9.0
+    summary, files = process_to(copy, s, tmp_path / "o", into_recording=True)
+    assert summary["navigation"]["blocks"] > 1 and files["hdf5"] == f"{copy}:/results/default"
+    with h5py.File(copy, "r") as f:
+        assert np.abs(f["results/default/pos_n_m"][()] - whole.pos_n).max() <= 1e-9
+        assert "imu" in f and f["imu/t_s"].shape[0] == len(whole.t_s)
 
 
 def test_a_failed_detector_in_many_blocks_is_a_warning_with_a_confidence(walk, tmp_path):
