@@ -396,7 +396,6 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
     from .navigate import implausible_strides
-    from bootnav.core.timebase import sample_period
 
     name = run.name
     timings = lap.timings
@@ -412,7 +411,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         cal = settings.calibration
         gravity = cal.gravity()
         t_head = rec.times(0, min(n, 1 << 16))
-        dt0 = float(np.median(np.diff(t_head)))
+        try:
+            dt0 = _nominal_period(rec)  # the whole record's, as ``process`` takes it (``timebase.sample_period``)
+        except ValueError:  # no positive step: the checks below refuse the record
+            dt0 = float(np.median(np.diff(t_head)))
         rows = block_rows(t_head, settings.block_s)
         chunk_s = settings.block_s
         n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
@@ -447,7 +449,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             if w not in warnings)
 
         t0_, a0_, g0_, _ = read(0, n_init)
-        init = initial_alignment(t0_, a0_, g0_, cal, gravity)
+        init = initial_alignment(t0_, a0_, g0_, cal, gravity, dt_s=dt0)
         warnings += list(init.warnings)
         alignment = alignment_summary(init, gravity, t0_)
         del t0_, a0_, g0_
@@ -488,7 +490,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs}
         fps = {s: FootprintAccumulator() for s in signs}
         onsets = {s: _OnsetInnovations() for s in signs}
-        gait = selftune.GaitPeriodAccumulator(sample_period(t_head))
+        gait = selftune.GaitPeriodAccumulator(dt0)
         phase_starts = _Runs()  # the stance phases
         stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
         n_stance_all = 0
@@ -760,6 +762,47 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 spill.close()
             tmp.unlink(missing_ok=True)
     return summary, files
+
+
+def _nominal_period(rec, rows: int = 1 << 20, cap: int = 1 << 20) -> float:
+    """``timebase.nominal_period`` of every step of a reader's rows (the median of the positive finite steps, s),
+    exact, in passes over its times ``rows`` at a time (bounded memory): each pass counts the steps in the
+    interval [lo, hi) known to hold the two middle order statistics on a 4096-bin histogram and narrows the
+    interval to their bins, until at most ``cap`` steps are left in it (sorted) or it is one float wide.
+    ValueError, as ``sample_period``, without a positive step."""
+    def steps():
+        prev = None
+        for i0 in range(0, rec.n, rows):
+            t = rec.times(i0, min(rec.n, i0 + rows))
+            dt = np.diff(t if prev is None else np.concatenate(([prev], t)))
+            prev = t[-1]
+            yield dt[np.isfinite(dt) & (dt > 0)]
+
+    m, lo, hi = 0, np.inf, -np.inf
+    for dt in steps():
+        if len(dt):
+            m, lo, hi = m + len(dt), min(lo, float(dt.min())), max(hi, float(dt.max()))
+    if m == 0:
+        raise ValueError("the time axis has no positive step")
+    k = ((m - 1) // 2, m // 2)  # np.median: the mean of these order statistics
+    hi = float(np.nextafter(hi, np.inf))
+    below = 0  # steps < lo
+    while True:
+        if float(np.nextafter(lo, np.inf)) >= hi:  # one float wide: every step in it is lo
+            return lo
+        inside = [dt[(dt >= lo) & (dt < hi)] for dt in steps()]
+        count = sum(len(v) for v in inside)
+        if count <= cap:
+            v = np.sort(np.concatenate(inside))
+            return float(np.mean(v[[k[0] - below, k[1] - below]]))
+        edges = np.linspace(lo, hi, 4097)
+        edges[-1] = hi
+        hist = sum(np.bincount(np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 4095), minlength=4096)
+                   for v in inside)
+        cum = below + np.cumsum(hist)
+        b0, b1 = (int(np.searchsorted(cum, kk, side="right")) for kk in k)  # the bins holding the order statistics
+        below = int(cum[b0 - 1]) if b0 else below
+        lo, hi = float(edges[b0]), float(edges[b1 + 1])
 
 
 class _LowestValues:

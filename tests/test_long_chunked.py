@@ -311,3 +311,23 @@ def test_heading_auto_off_in_blocks_is_the_one_block_run(tmp_path):
     assert not whole.summary["filter"]["heading_decision"]["on"] and whole.nav.info["heading_aid_updates"] == 0
     summary, _ = process_to(rec, _auto_settings(7.0), tmp_path / "o")
     _assert_auto_as_one_block(whole, summary, tmp_path / "o")
+
+
+@pytest.mark.parametrize("kind", ["jitter", "quantised", "gaps and repeats"])
+def test_the_nominal_period_of_the_passes_is_the_whole_records(kind):
+    """Δt₀ of the block passes (``pipeline._nominal_period``, passes over the times) is ``timebase.sample_period``
+    of the whole time axis to the last bit, however few steps a pass may hold (``cap``) or read (``rows``)."""
+    from bootnav.core.timebase import sample_period
+    from bootnav.postproc.pipeline import _nominal_period
+    from bootnav.postproc.source import MemoryReader
+    from bootnav.logger.recording import Recording, make_events
+
+    rng = np.random.default_rng(7)
+    n = 50_001
+    dt = {"jitter": 0.005 + rng.normal(0, 2e-6, n), "quantised": np.round(rng.choice([0.004, 0.005, 0.006], n), 3),
+          "gaps and repeats": rng.choice([0.005, 0.0049, 0.0051, 0.0, -0.001, 0.02], n)}[kind]
+    t = np.cumsum(dt)
+    rec = MemoryReader(Recording(path=None, t_s=t, acc_mps2=np.zeros((n, 3)), gyro_radps=np.zeros((n, 3)),
+                                 saturated=None, events=make_events([]), meta={}, attrs={}))
+    for rows, cap in ((1 << 20, 1 << 20), (999, 64), (5, 3)):
+        assert _nominal_period(rec, rows, cap) == sample_period(t)
