@@ -73,8 +73,9 @@ from bootnav.core import atomic
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
-from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
-                     saturation_intervals, saturation_warnings, stride_findings)
+from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, clipping_bits,
+                     join_saturation_intervals, refuse_fatal, saturation_intervals, saturation_warnings,
+                     stride_findings)
 from .ellipses import stride_scale_covariance
 from .floors import snap_storeys
 from .navigate import navigate
@@ -381,6 +382,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
     from .detectors.stream import StreamStance
+    from .ins.filter import propagated_gaps_warning
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, start_results,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
@@ -392,7 +394,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
     from .ellipses import scale_error_covariance, scale_sigmas, unwrapped_yaw
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
-    from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
+    from .summary import HEADLINE_KEYS, PATH_CONVENTIONS, alignment_summary, final_uncertainty, mount_check_of
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
     from .navigate import implausible_strides
@@ -443,10 +445,16 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
         block_checks = replace(settings.checks, min_duration_s=0.0)
+        step_checks = StepWarnings(dt0)  # the warnings of ``check_samples`` on the whole record's steps
+        sat_iv: list[dict] = []
         for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
-            t, acc, gyro, _ = read(max(i0 - 2, 0), i1)
-            warnings.extend(w for w in check_samples(name, t, acc, gyro, rec.start + max(i0 - 2, 0), block_checks)
-                            if w not in warnings)
+            a = max(i0 - 2, 0)
+            t, acc, gyro, sat = read(a, i1)
+            check_samples(name, t, acc, gyro, rec.start + a, block_checks)  # refusals; warnings of the whole below
+            k = max(i0 - a - 1, 0)  # the steps that end in this block
+            step_checks.push(t[k:-1], np.diff(t[k:]))
+            sat_iv = join_saturation_intervals(sat_iv, saturation_intervals(t[i0 - a:], sat[i0 - a:], rec.start + i0))
+        warnings[:0] = step_checks.warnings() + saturation_warnings(sat_iv)  # first, as ``process`` orders them
 
         t0_, a0_, g0_, _ = read(0, n_init)
         init = initial_alignment(t0_, a0_, g0_, cal, gravity, dt_s=dt0)
@@ -677,11 +685,17 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     f"; the fallback to another stance detection (selftune.select_stance) runs on a recording of "
                     f"one block only, this one has {len(blocks)} blocks of {settings.block_s:g} s (settings block_s):"
                     f" the path is the configured detector's, confidence {confidence:.2f}" if st.fallback else ""))
+            if nav.info.get("n_gaps"):  # as ``ins.run_filter`` says it
+                warnings.append(propagated_gaps_warning(nav.info["n_gaps"], nav.info["max_dt_s"]))
             findings = stride_findings(steps, settings.checks, choice)
             warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
             path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
             path_stats["storeys"] = storeys.summary() if storeys is not None else None
             lap("strides")
+            p99 = _percentile(lambda: (np.linalg.norm(read(i0, i1)[2], axis=1) for i0, i1 in blocks), 99)
+            mount = mount_check_of(p99, t_last - t_first, period, float(path_stats.get("distance_m", 0.0)))
+            if not mount["looks_like_foot"]:  # as ``summary.build_summary``
+                warnings.append(mount["message"])
             metrics = None
             if spill is not None:  # as ``process``: the path with its storeys, every row
                 spill.flush()
@@ -716,12 +730,14 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                       else {**nav.info, "heading_decision": heading_decision}),
                 "path": path_stats,
                 "metrics": to_jsonable(metrics),
+                "saturation_intervals": sat_iv,
                 "closed_loop": is_closed_loop(run.reference),
+                "mount": mount,
                 "uncertainty": final_uncertainty(steps),
                 "confidence": float(confidence),
                 **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
                 "timings_s": timings,
-                "conventions": dict(CONVENTIONS),
+                "conventions": dict(PATH_CONVENTIONS),
                 "settings": settings.to_dict(),
                 "warnings": warnings,
             }
@@ -766,10 +782,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
 def _nominal_period(rec, rows: int = 1 << 20, cap: int = 1 << 20) -> float:
     """``timebase.nominal_period`` of every step of a reader's rows (the median of the positive finite steps, s),
-    exact, in passes over its times ``rows`` at a time (bounded memory): each pass counts the steps in the
-    interval [lo, hi) known to hold the two middle order statistics on a 4096-bin histogram and narrows the
-    interval to their bins, until at most ``cap`` steps are left in it (sorted) or it is one float wide.
-    ValueError, as ``sample_period``, without a positive step."""
+    exact, from passes over its times ``rows`` at a time (``_order_statistics``). ValueError, as
+    ``sample_period``, without a positive step."""
     def steps():
         prev = None
         for i0 in range(0, rec.n, rows):
@@ -778,29 +792,46 @@ def _nominal_period(rec, rows: int = 1 << 20, cap: int = 1 << 20) -> float:
             prev = t[-1]
             yield dt[np.isfinite(dt) & (dt > 0)]
 
-    m, lo, hi = 0, np.inf, -np.inf
-    for dt in steps():
-        if len(dt):
-            m, lo, hi = m + len(dt), min(lo, float(dt.min())), max(hi, float(dt.max()))
+    m = sum(len(dt) for dt in steps())
     if m == 0:
         raise ValueError("the time axis has no positive step")
-    k = ((m - 1) // 2, m // 2)  # np.median: the mean of these order statistics
+    return float(np.mean(_order_statistics(steps, ((m - 1) // 2, m // 2), cap)))  # as np.median
+
+
+def _percentile(pieces, q: float, cap: int = 1 << 20) -> float:
+    """``np.percentile(x, q)`` (linear) of the values ``pieces()`` yields, exact (``_order_statistics``)."""
+    m = sum(len(v) for v in pieces())
+    pos = q / 100.0 * (m - 1)
+    lo = int(np.floor(pos))
+    a, b = _order_statistics(pieces, (lo, min(lo + 1, m - 1)), cap)
+    t = pos - lo
+    return float(a + (b - a) * t if t < 0.5 else b - (b - a) * (1 - t))  # numpy's lerp
+
+
+def _order_statistics(pieces, ks: tuple[int, int], cap: int = 1 << 20) -> np.ndarray:
+    """The values of rank ``ks`` (0-based, ascending; ks[0] <= ks[1]) among every value ``pieces()`` yields (a
+    generator called once per pass, e.g. over the blocks of a record), exact with bounded memory: each pass
+    counts the values in the interval [lo, hi) known to hold both on a 4096-bin histogram and narrows it to
+    their bins, until at most ``cap`` values are left in it (then sorted) or it is one float wide."""
+    lo, hi = np.inf, -np.inf
+    for v in pieces():
+        if len(v):
+            lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))
     hi = float(np.nextafter(hi, np.inf))
-    below = 0  # steps < lo
+    below = 0  # values < lo
     while True:
-        if float(np.nextafter(lo, np.inf)) >= hi:  # one float wide: every step in it is lo
-            return lo
-        inside = [dt[(dt >= lo) & (dt < hi)] for dt in steps()]
-        count = sum(len(v) for v in inside)
-        if count <= cap:
+        if float(np.nextafter(lo, np.inf)) >= hi:  # one float wide: every value in it is lo
+            return np.array([lo, lo])
+        inside = [v[(v >= lo) & (v < hi)] for v in pieces()]
+        if sum(len(v) for v in inside) <= cap:
             v = np.sort(np.concatenate(inside))
-            return float(np.mean(v[[k[0] - below, k[1] - below]]))
+            return v[[ks[0] - below, ks[1] - below]]
         edges = np.linspace(lo, hi, 4097)
         edges[-1] = hi
         hist = sum(np.bincount(np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 4095), minlength=4096)
                    for v in inside)
         cum = below + np.cumsum(hist)
-        b0, b1 = (int(np.searchsorted(cum, kk, side="right")) for kk in k)  # the bins holding the order statistics
+        b0, b1 = (int(np.searchsorted(cum, k, side="right")) for k in ks)  # the bins holding the two
         below = int(cum[b0 - 1]) if b0 else below
         lo, hi = float(edges[b0]), float(edges[b1 + 1])
 

@@ -90,6 +90,13 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
     assert summary["navigation"]["configured_failed"] is whole.summary["navigation"]["configured_failed"] is None
     assert summary["navigation"]["timing_offset"]["innovation_rms_mps"] == pytest.approx(
         whole.navigation.timing["innovation_rms_mps"], rel=1e-9)
+    # the whole-record checks and figures of the summary: the gap and saturation warnings (the walk has both), the
+    # saturated bursts, the mount check (‖ω‖'s 99th percentile, exact from passes), the conventions
+    assert any("gaps longer" in w for w in summary["warnings"]) and summary["saturation_intervals"]
+    assert summary["warnings"] == whole.summary["warnings"]
+    assert summary["saturation_intervals"] == whole.summary["saturation_intervals"]
+    assert summary["mount"] == pytest.approx(whole.summary["mount"], rel=1e-12)
+    assert summary["conventions"] == whole.summary["conventions"]
 
 
 def test_many_blocks_flag_the_strides_one_block_flags(walk, tmp_path):
