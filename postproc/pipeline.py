@@ -24,16 +24,22 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
 
-**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The recording is read through
-``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) in blocks of ``settings.block_s``
-seconds, the memory budget (900 s: about 400-440 MB at 200 Hz). A recording of one block — every recording of the
-development datasets — runs the stages above on its arrays, exactly as they always ran, and is written by
-``outputs.write_outputs``. A longer HDF5 recording runs the same stages as passes over its blocks
-(``_block_passes``), each whole-record decision taken in a pass before the one that needs it, the last pass
-writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWriter``, ``plots.ChartStream``):
+**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The input is read through a
+reader of blocks of ``settings.block_s`` seconds, the memory budget (900 s: about 400-440 MB at 200 Hz):
+``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) for an HDF5 recording,
+``source.MemoryReader`` for any other file (read whole by ``bootnav import``'s reader), the crop a window of its
+rows (``source.crop_window``). A window of one block — every recording of the development datasets — runs the
+stages above on its arrays, exactly as they always ran, and is written by ``outputs.write_outputs``. A longer
+window runs the same stages as passes over its blocks (``_block_passes``), each whole-record decision taken in
+a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
+``outputs.ResultsWriter``, ``plots.ChartStream``):
 
+0. the nominal period Δt₀: the median step of the whole record (``_nominal_period``: exact order statistics
+   from passes over the times, ``_order_statistics``), as ``timebase.sample_period`` gives ``process``;
 1. checks and clipping rails: the rails' extremes, then the samples at them (``checks.ClipRails``); the sample
-   checks per block (with the last samples of the block before); the initial alignment on the first seconds;
+   checks per block (with the last samples of the block before), their warnings on the whole record's steps
+   (``checks.StepWarnings``) and the saturated bursts joined across blocks; the initial alignment on the first
+   seconds (with Δt₀);
 2. the adaptive detector's noise floor F: one pass of ``StreamStance``, its histogram quantile then fixed, so
    every block length gives the same stance mask;
 3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.level_timing_offset``'s
@@ -50,14 +56,16 @@ writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWri
    aid off, the unaided pass's footprints);
 5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
    interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
-   and the footprints' ellipses accumulated as it goes.
+   and the footprints' ellipses accumulated as it goes; with a reference, its rows (t, x, y, z, stance) go to a
+   temporary file that ``reference_path.compute_metrics`` reads back memory-mapped;
+6. the mount check: ‖ω‖'s 99th percentile, exact from passes (``_percentile``; ``summary.mount_check_of``).
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
 the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, revisits, a detector
-that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
-scores candidate detectors on the whole record): a configured detector that fails is a warning with the
-path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
+(memory grows with the length): revisits, a detector that cannot stream. Missing in blocks: the stance fallback
+(``selftune.select_stance`` scores candidate detectors on the whole record): a configured detector that fails
+is a warning with the path's confidence; the adaptive detector's representative threshold. ``process`` (the API,
+``eval``, two boots) is still the whole-array path.
 """
 
 from __future__ import annotations
