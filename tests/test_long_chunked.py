@@ -240,21 +240,53 @@ def test_into_recording_in_blocks(walk, tmp_path):
         assert "imu" in f and f["imu/t_s"].shape[0] == len(whole.t_s)
 
 
-def test_a_failed_detector_in_many_blocks_is_a_warning_with_a_confidence(walk, tmp_path):
-    """More stance phases required than the walk has: the configured detector fails (``checks.stance_findings``);
-    one block falls back to another stance detection, many blocks keep the configured path and say so."""
+def _assert_fallback_as_one_block(rec, settings, out, block_s=4.0):
+    """The same run in one block (``process``, ``navigate``'s fallback on whole arrays) and in blocks of
+    ``block_s`` (the fallback's candidates scored in passes): the choice, every candidate's figures, the path."""
+    whole = process(rec, settings)
+    write_outputs(whole, out / "whole")
+    settings.block_s = block_s
+    summary, _ = process_to(rec, settings, out / "blocks")
+    mine, theirs = summary["navigation"], whole.summary["navigation"]
+    assert mine["blocks"] > 1 and not any("processed as one" in w for w in summary["warnings"])
+    for key in ("stance_choice", "fallback_used", "configured_failed"):
+        assert mine[key] == theirs[key], key
+    assert [c["name"] for c in mine["candidates"]] == [c["name"] for c in theirs["candidates"]]
+    for c, d in zip(mine["candidates"], theirs["candidates"]):  # forward runs: the path to rounding
+        assert set(c) == set(d)
+        for key in set(c) - {"name"}:
+            assert c[key] == pytest.approx(d[key], rel=1e-9), (c["name"], key)
+    assert mine["confidence"] == pytest.approx(theirs["confidence"], rel=1e-9)
+    assert summary["warnings"] == whole.summary["warnings"]
+    r = results(out / "blocks")
+    np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert (out / "blocks" / "trajectory.csv").read_bytes() == (out / "whole" / "trajectory.csv").read_bytes()
+    return summary
+
+
+def test_a_failed_stance_mask_falls_back_in_blocks_as_in_one_block(walk, tmp_path):
+    """More stance phases required than the walk has: the configured detector fails (``checks.stance_findings``)
+    and ``navigate``'s fallback chooses another stance detection; in blocks the candidates are scored by passes
+    and the same one is chosen, the same path written. Without the fallback both refuse."""
     d, rec, whole = walk
     settings = _settings()
     settings.checks.min_stance_phases = 10_000
-    settings.block_s = 20.0
-    summary, _ = process_to(rec, settings, tmp_path / "o")
-    nav = summary["navigation"]
-    assert nav["configured_failed"].startswith("stance detector 'adaptive' found") and not nav["fallback_used"]
-    assert any("runs on a recording of one block only" in w for w in summary["warnings"])
-    assert 0 < summary["confidence"] <= 1
+    summary = _assert_fallback_as_one_block(rec, settings, tmp_path)
+    assert summary["navigation"]["configured_failed"].startswith("stance detector 'adaptive' found")
+    assert summary["navigation"]["fallback_used"] and len(summary["navigation"]["candidates"]) >= 4
     settings.selftune.fallback = False  # as the one-block run: the failure refused
     with pytest.raises(InputError, match="stance phase"):
         process_to(rec, settings, tmp_path / "o2")
+
+
+def test_implausible_strides_fall_back_in_blocks_as_in_one_block(walk, tmp_path):
+    """Strides flagged (longer than 1 m: FAST) beyond ``max_bad_fraction``: the configured path fails on its
+    strides after its final pass; the fallback's passes run again, as ``navigate`` runs the filter again."""
+    d, rec, whole = walk
+    settings = _settings(max_stride_m=1.0, max_bad_fraction=0.05)
+    summary = _assert_fallback_as_one_block(rec, settings, tmp_path, block_s=7.0)
+    assert "strides are implausible" in summary["navigation"]["configured_failed"]
 
 
 def _auto_settings(block_s=None) -> ProcessSettings:
@@ -338,3 +370,32 @@ def test_the_nominal_period_of_the_passes_is_the_whole_records(kind):
                                  saturated=None, events=make_events([]), meta={}, attrs={}))
     for rows, cap in ((1 << 20, 1 << 20), (999, 64), (5, 3)):
         assert _nominal_period(rec, rows, cap) == sample_period(t)
+
+
+def test_the_cycle_minimum_candidate_from_blocks_is_the_whole_records(walk):
+    """The "cycle minimum" fallback candidate (the configured mask plus the cycle-minimum windows of the cycles it
+    misses) from StanceChunks spilled to a temporary file equals ``selftune``'s on the whole arrays; here a mask
+    that misses every other stance phase, so the windows are added."""
+    from bootnav.core.runs import runs
+    from bootnav.postproc import selftune
+    from bootnav.postproc.calibration import stance_reference
+    from bootnav.postproc.detectors.stream import StanceChunk
+    from bootnav.postproc.pipeline import _cycle_minimum
+
+    d, rec, whole = walk
+    settings = _settings()
+    starts, stops = runs(whole.stance)
+    holed = whole.stance.copy()
+    for a, b in zip(starts[1::2], stops[1::2]):
+        holed[a:b] = False
+    bias_det, g_det = stance_reference(whole.init, whole.gravity_mps2)
+    period = whole.navigation.period_s
+    sat = whole.saturated.astype(np.uint8)
+    ref = selftune.cycle_minimum_candidate(whole.t_s, whole.acc_b, whole.gyro_b - bias_det, g_det, period,
+                                           settings.detector, settings.selftune, sat.astype(bool), holed)
+    assert ref is not None and (ref & ~holed).any()
+    cuts = [0, 1, 777, 5000, 5001, 12345, len(whole.t_s)]
+    chunks = (StanceChunk(a, whole.t_s[a:b], whole.acc_b[a:b], whole.gyro_b[a:b], holed[a:b], sat[a:b])
+              for a, b in zip(cuts[:-1], cuts[1:]))
+    mine = _cycle_minimum(chunks, len(whole.t_s), bias_det, g_det, period, settings)
+    np.testing.assert_array_equal(mine, ref)
