@@ -62,10 +62,12 @@ a pass before the one that needs it, the last pass writing through incremental s
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
 the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): revisits, a detector that cannot stream. Missing in blocks: the stance fallback
-(``selftune.select_stance`` scores candidate detectors on the whole record): a configured detector that fails
-is a warning with the path's confidence; the adaptive detector's representative threshold. ``process`` (the API,
-``eval``, two boots) is still the whole-array path.
+(memory grows with the length): revisits, a detector that cannot stream. The stance fallback runs in passes
+(``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
+``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
+"cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
+configured one's (its statistic kept) and passes 3-5 run again. Missing in blocks: the adaptive detector's
+representative threshold. ``process`` (the API, ``eval``, two boots) is still the whole-array path.
 """
 
 from __future__ import annotations
