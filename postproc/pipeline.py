@@ -66,8 +66,8 @@ the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as
 (``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
 ``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
 "cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
-configured one's (its statistic kept) and passes 3-5 run again. Missing in blocks: the adaptive detector's
-representative threshold. ``process`` (the API, ``eval``, two boots) is still the whole-array path.
+configured one's (its statistic kept) and passes 3-5 run again. ``process`` (the API, ``eval``, two boots) is
+still the whole-array path.
 """
 
 from __future__ import annotations
@@ -704,6 +704,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             # a reference is compared with the whole path: its rows (t, x, y, z, stance) go to a temporary file,
             # read back memory-mapped by ``compute_metrics`` after the pass
             spill = tempfile.TemporaryFile(prefix="bootnav-path-") if run.reference is not None else None
+            # the adaptive detector's per-sample log10 γ, for its representative threshold 10^median (``adaptive``)
+            gamma_spill = tempfile.TemporaryFile(prefix="bootnav-gamma-") if method == "adaptive" else None
+            n_gamma = 0
             try:
                 if opts.write_hdf5:
                     start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
@@ -746,6 +749,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         if charts is not None:
                             charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
                         gyro_rows.put(ch.start, ch.gyro_b)
+                        if gamma_spill is not None and ch.threshold_log10 is not None:
+                            np.asarray(ch.threshold_log10, np.float64).tofile(gamma_spill)
+                            n_gamma += len(ch)
                         if writer is not None:
                             stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
                         emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
@@ -797,6 +803,14 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 mount = mount_check_of(p99, t_last - t_first, period, float(path_stats.get("distance_m", 0.0)))
                 if not mount["looks_like_foot"]:  # as ``summary.build_summary``
                     warnings.append(mount["message"])
+                threshold = getattr(probe_detector, "threshold", None)
+                if gamma_spill is not None and n_gamma:  # np.median, exact from the spilled rows
+                    gamma_spill.flush()
+                    gam = np.memmap(gamma_spill, np.float64, "r", shape=(n_gamma,))
+                    threshold = float(10.0 ** np.mean(_order_statistics(
+                        lambda: (gam[i:i + (1 << 20)] for i in range(0, n_gamma, 1 << 20)),
+                        ((n_gamma - 1) // 2, n_gamma // 2))))
+                    del gam
                 metrics = None
                 if spill is not None:  # as ``process``: the path with its storeys, every row
                     spill.flush()
@@ -817,8 +831,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     "software": dict(SOFTWARE),
                     "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                                "phases": int(len(fp)), "noise_floor_log10": floor,
-                               # a fixed-threshold detector's γ; the adaptive one's varies per sample (null)
-                               "threshold": to_jsonable(getattr(probe_detector, "threshold", None))},
+                               # a fixed-threshold detector's γ; the adaptive one's 10^median of its γ per sample
+                               "threshold": to_jsonable(threshold)},
                     "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
                                    "fallback_used": failed is not None and not choice.startswith("configured"),
                                    "configured_failed": failed,
@@ -879,6 +893,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     writer.close()
                 if spill is not None:
                     spill.close()
+                if gamma_spill is not None:
+                    gamma_spill.close()
                 tmp.unlink(missing_ok=True)
             break
 

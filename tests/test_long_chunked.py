@@ -97,6 +97,11 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
     assert summary["saturation_intervals"] == whole.summary["saturation_intervals"]
     assert summary["mount"] == pytest.approx(whole.summary["mount"], rel=1e-12)
     assert summary["conventions"] == whole.summary["conventions"]
+    # the adaptive detector's representative threshold 10^median γ: γ = max/min filters and a convex combination of
+    # L = log10 T (and constants), so |Δγ| <= max |ΔL| over the samples, from the statistic's rounding above
+    dL = np.abs(np.log10(np.maximum(r["stance_statistic"], 1e-300)) - np.log10(np.maximum(stat, 1e-300))).max()
+    assert summary["stance"]["threshold"] == pytest.approx(whole.summary["stance"]["threshold"],
+                                                           rel=10.0 ** dL - 1.0 + 1e-15)
 
 
 def test_many_blocks_flag_the_strides_one_block_flags(walk, tmp_path):
