@@ -62,6 +62,7 @@ CASES = [
     ("mag", dict(min_stance_s=0.03, threshold=3e3)),
     ("shoe-literal", dict(threshold=1e3)),  # the paper's printed form with a fixed threshold
     ("adaptive", {}),  # with the whole record's noise floor given
+    ("adaptive", dict(average_s=0.01)),  # the statistic of 10 ms moving means: one more half-mean of context
 ]
 
 

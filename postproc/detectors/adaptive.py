@@ -10,7 +10,8 @@ path explodes) or too loose when walking (ZUPTs in early/late swing).
 
 Rule (all in log10, so it is scale-free: σ's, units and sensor noise only shift L by a constant)::
 
-    T_k   = SHOE statistic (shoe.py, squared form [Skog2010]) over a window of ``window_s`` seconds
+    T_k   = SHOE statistic (shoe.py, squared form [Skog2010]) over a window of ``window_s`` seconds, of the
+            samples' centred moving mean over ``average_s`` seconds
     L_k   = log10 T_k
     M_k   = min  of L over the centred span ``span_s`` (≥ one stride, so it holds one valley)
     P_k   = max  of L over the same span               (the swing peak next to it)
@@ -45,7 +46,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import postprocess
-from bootnav.core.arrays import window_samples
+from bootnav.core.arrays import moving_mean, window_samples
 from .base import FRACTION, NON_NEGATIVE, POSITIVE, StanceDetector, register
 from .shoe import shoe_statistic
 
@@ -60,6 +61,12 @@ class AdaptiveDetector(StanceDetector):
     """SHOE statistic with a per-stride threshold read off the recording itself (no tuning) [Skog2010]
 
     window_s: SHOE window, s; flat optimum over 0.025-0.05 s on the developer recordings.
+    average_s: the statistic reads the samples' centred moving mean over this long, s (round(average_s / Δt)
+        samples, none below 2), so that a foot at rest shows the noise of one bandwidth at every rate from
+        1 / average_s up: white noise of density N has the per-sample variance N² / Δt, so without it the
+        rest valley of log10 T falls by log10 k when a sensor delivers k-fold block means (a lower rate),
+        while the swing peak does not, and α of the range puts the threshold (1 − α) log10 k decades lower:
+        later onsets, earlier offsets and stances split at 100-400 Hz that are whole at 820 Hz. 0 = off.
     sigma_acc_mps2, sigma_gyro_radps: σ_a, σ_ω of SHOE (0.01 m/s², 0.1 °/s [Nilsson2012]); they only shift
         log10 T by a constant, except against the ceiling C.
     span_s: span of the valley / peak search, s; at least one stride, so that it holds one valley.
@@ -87,6 +94,7 @@ class AdaptiveDetector(StanceDetector):
                               "isolated_min_flat_fraction": (lambda v: 0 <= v < 1, "in [0, 1)")}
 
     window_s: float = 0.05
+    average_s: float = 0.0
     sigma_acc_mps2: float = 0.01
     sigma_gyro_radps: float = math.radians(0.1)
     span_s: float = 1.5
@@ -112,12 +120,24 @@ class AdaptiveDetector(StanceDetector):
         """
         return (REST_DG_MPS2 / self.sigma_acc_mps2) ** 2
 
+    def average_samples(self, dt: float) -> int:
+        """Samples of the moving mean the statistic reads (``average_s``; 1 = the samples as they are)."""
+        return window_samples(self.average_s, dt, 1)
+
+    def log_statistic(self, acc_b: np.ndarray, gyro_b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, int]:
+        """(L = log10 T, T, SHOE window in samples) of finite samples every ``dt`` s (the class docstring's
+        rule; ``detectors.stream.StreamStance`` runs the same)."""
+        m = self.average_samples(dt)
+        if m > 1:
+            acc_b, gyro_b = moving_mean(acc_b, m), moving_mean(gyro_b, m)
+        n = window_samples(self.window_s, dt, 3)
+        T = shoe_statistic(acc_b, gyro_b, n, self.sigma_acc_mps2, self.sigma_gyro_radps, self.gravity_mps2)
+        return np.log10(np.maximum(T, self.rest_floor())), T, n
+
     def _classify(self, acc_b, gyro_b, dt, bad):
         from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-        n = window_samples(self.window_s, dt, 3)
-        T = shoe_statistic(acc_b, gyro_b, n, self.sigma_acc_mps2, self.sigma_gyro_radps, self.gravity_mps2)
-        L = np.log10(np.maximum(T, self.rest_floor()))
+        L, T, n = self.log_statistic(acc_b, gyro_b, dt)
         span = window_samples(self.span_s, dt, 3)
         valley = minimum_filter1d(L, span, mode="nearest")
         peak = maximum_filter1d(L, span, mode="nearest")
@@ -130,6 +150,7 @@ class AdaptiveDetector(StanceDetector):
             gamma = np.minimum(gamma, ceiling)
         info = {
             "window_samples": n,
+            "average_samples": self.average_samples(dt),
             "span_samples": span,
             "sigma_acc_mps2": self.sigma_acc_mps2,
             "sigma_gyro_radps": self.sigma_gyro_radps,

@@ -116,7 +116,7 @@ class StreamStance:
         if self._adaptive:
             n_w = window_samples(det.window_s, dt, 3)
             span = window_samples(det.span_s, dt, 3)
-            reach = n_w // 2 + span // 2 + 2
+            reach = n_w // 2 + span // 2 + det.average_samples(dt) // 2 + 2
             durations = det.min_swing_s + det.min_stance_s + det.isolation_s
             # the isolated-run rule looks back for the previous stance start up to span_s before the run
             history_s = det.span_s + det.min_stance_s
@@ -237,12 +237,8 @@ class StreamStance:
         """``adaptive.AdaptiveDetector``'s rule with the noise floor F from the look-back (module docstring)."""
         from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-        from .shoe import shoe_statistic
-
         det, dt = self.detector, self.dt_s
-        n = window_samples(det.window_s, dt, 3)
-        T = shoe_statistic(acc, gyro, n, det.sigma_acc_mps2, det.sigma_gyro_radps, det.gravity_mps2)
-        L = np.log10(np.maximum(T, det.rest_floor()))  # as ``AdaptiveDetector._classify``
+        L, T, n = det.log_statistic(acc, gyro, dt)  # as ``AdaptiveDetector._classify``
         span = window_samples(det.span_s, dt, 3)
         valley = minimum_filter1d(L, span, mode="nearest")
         peak = maximum_filter1d(L, span, mode="nearest")
