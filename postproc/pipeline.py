@@ -53,7 +53,9 @@ a pass before the one that needs it, the last pass writing through incremental s
    sample pushed with its gate flag (``StreamNavigator.push(heading_gate=…)``);
    the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
    a flight's landing corrects the samples before it, so it needs the path before the one written (with the
-   aid off, the unaided pass's footprints);
+   aid off, the unaided pass's footprints); with ``filter.revisits``, before the storeys, a pass of the final
+   filter for the pose graph (``building.revisits.revisit_corrections``: footprints and their variances), whose
+   corrections, interpolated in time, correct the rows of every pass after it;
 5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
    interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
    and the footprints' ellipses accumulated as it goes; with a reference, its rows (t, x, y, z, stance) go to a
@@ -62,7 +64,7 @@ a pass before the one that needs it, the last pass writing through incremental s
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
 the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): revisits, a detector that cannot stream. The stance fallback runs in passes
+(memory grows with the length): a detector that cannot stream. The stance fallback runs in passes
 (``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
 ``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
 "cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
@@ -366,8 +368,6 @@ def block_rows(t_head: np.ndarray, block_s: float) -> int:
 
 def _needs_whole_record(settings: ProcessSettings) -> str | None:
     """Why a stage of this run cannot run as passes over blocks (None: it can)."""
-    if settings.filter.revisits != "none":
-        return "revisits solve a pose graph over all strides"
     from .detectors.stream import stream_refusal
 
     why = stream_refusal(settings.detector)
@@ -399,6 +399,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .reference_path import compute_metrics
     from .summary import is_closed_loop
     from .floors import storey_offsets
+    from .building.revisits import revisit_corrections
     from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
     from bootnav.core.rotations import euler_zyx_from_quat
 
@@ -646,19 +647,37 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
                 return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
 
-            def path_footprints(filter_settings):
-                """A pass of the filter + smoother: its footprints (mid times, (K,); (K, 3))."""
+            def corrected(r):
+                """The revisits' horizontal correction of the rows (``building.revisits.apply_revisits``' rule:
+                the footprints' corrections interpolated in time), in place."""
+                if revisit is not None:
+                    r.pos_n = r.pos_n.copy()
+                    for ax in range(2):
+                        r.pos_n[:, ax] += np.interp(r.t_s, revisit[0], revisit[1][:, ax])
+                return r
+
+            def path_footprints(filter_settings, with_var=False):
+                """A pass of the filter + smoother (its rows corrected by the revisits found): its footprints (mid
+                times, (K,); (K, 3)) and, ``with_var``, the horizontal variance at their times (K,)."""
                 path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
                 path_fp = FootprintAccumulator()
+                var = _PhaseInterpolation() if with_var else None
                 for ch in stance_stream():
-                    r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
+                    r = corrected(path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated,
+                                                heading_gate=gate(ch)))
                     path_fp.push(r.t_s, r.pos_n, r.stance)
-                r = path_nav.finish()
+                    if var is not None:
+                        var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
+                r = corrected(path_nav.finish())
                 path_fp.push(r.t_s, r.pos_n, r.stance)
+                if var is not None:
+                    var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
+                    return (*path_fp.finish(), var.finish())
                 return path_fp.finish()
 
             floors = settings.floor_settings()
             storeys = None
+            revisit, revisit_report = None, None  # the pose graph's (footprint times, corrections (K, 2))
             final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
             if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
                 path_fp = path_footprints(settings.filter)
@@ -669,6 +688,15 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     gate_iv = None if aided is None else gate_intervals(phase_starts.stops(n), ends, aided)
                     path_fp = None  # the storeys are on the aided path
                 lap("heading")
+            if settings.filter.revisits != "none":  # pass 3b: the pose graph over the final filter's strides
+                rt, rfp, rvar = path_footprints(final_filter, with_var=True)
+                t_k, delta, revisit_report = revisit_corrections(rt, rfp, rvar, settings.filter)
+                if delta is not None:
+                    revisit = (t_k, delta)
+                    path_fp = None  # the storeys are on the corrected path
+                else:
+                    path_fp = (rt, rfp)
+                lap("revisits")
             if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
                 storey_t, storey_fp = path_fp if path_fp is not None else path_footprints(final_filter)
                 storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
@@ -720,6 +748,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             return
                         if not np.all(np.isfinite(r.pos_n)):
                             check_path_finite(name, r.t_s, r.pos_n, rec.start + r.start)
+                        corrected(r)
                         quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
                                          r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
                         if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
@@ -843,8 +872,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                                     for bit, nm in selftune.FLAG_NAMES.items()},
                                    "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                    "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable(nav.info if heading_decision is None
-                                          else {**nav.info, "heading_decision": heading_decision}),
+                    "filter": to_jsonable({**nav.info, **({} if heading_decision is None else
+                                                          {"heading_decision": heading_decision}),
+                                           **({} if revisit_report is None else {"revisits": revisit_report})}),
                     "path": path_stats,
                     "metrics": to_jsonable(metrics),
                     "saturation_intervals": sat_iv,
@@ -1040,6 +1070,41 @@ def _order_statistics(pieces, ks: tuple[int, int], cap: int = 1 << 20) -> np.nda
         b0, b1 = (int(np.searchsorted(cum, k, side="right")) for k in ks)  # the bins holding the two
         below = int(cum[b0 - 1]) if b0 else below
         lo, hi = float(edges[b0]), float(edges[b1 + 1])
+
+
+class _PhaseInterpolation:
+    """``np.interp(t_mid, t_s, values)`` at each stance phase's mid time (``strides.footprints``' t_mid) of rows
+    pushed in consecutive chunks: the mid time lies between the phase's first and last sample, so the phase's
+    own rows give numpy's interpolation (bounded memory: the open phase's rows)."""
+
+    def __init__(self):
+        self._out: list[float] = []
+        self._t: list[np.ndarray] = []
+        self._v: list[np.ndarray] = []
+
+    def push(self, t_s, values, stance) -> None:
+        from bootnav.core.runs import runs
+
+        if not len(t_s):
+            return
+        starts, stops = runs(np.asarray(stance, bool))
+        if self._t and (starts.size == 0 or starts[0] > 0):
+            self._close()
+        for a, b in zip(starts.tolist(), stops.tolist()):
+            self._t.append(np.asarray(t_s[a:b], float))
+            self._v.append(np.asarray(values[a:b], float))
+            if b < len(t_s):
+                self._close()
+
+    def _close(self) -> None:
+        if self._t:
+            t, v = np.concatenate(self._t), np.concatenate(self._v)
+            self._out.append(float(np.interp(0.5 * (t[0] + t[-1]), t, v)))
+            self._t, self._v = [], []
+
+    def finish(self) -> np.ndarray:
+        self._close()
+        return np.array(self._out)
 
 
 class _LowestValues:

@@ -145,12 +145,11 @@ def test_old_command_lines_still_run(walk, tmp_path):
 
 def test_a_stage_that_needs_the_whole_record_runs_one_block_with_a_warning(walk, tmp_path):
     d, rec, whole = walk
-    settings = tmp_path / "revisits.json"
-    settings.write_text(json.dumps({"filter": {"revisits": "entry"}}))
-    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--settings", settings, "--no-plots", "--no-hdf5")
+    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--detector", "xio", "--no-plots", "--no-hdf5")
     assert p.returncode == 0, p.stderr
     summary = json.loads((tmp_path / "c" / "summary.json").read_text())
-    assert any("processed as one, since revisits" in w for w in summary["warnings"])
+    assert any("processed as one, since the stance detector 'xio' cannot run block by block" in w
+               for w in summary["warnings"])
     assert "confidence" in summary  # the whole-record stages ran
     p = _cli(rec, "--out", tmp_path / "b", "--block-s", "-1")
     assert p.returncode == 1 and "block_s" in p.stderr and "Traceback" not in p.stderr
@@ -404,3 +403,34 @@ def test_the_cycle_minimum_candidate_from_blocks_is_the_whole_records(walk):
               for a, b in zip(cuts[:-1], cuts[1:]))
     mine = _cycle_minimum(chunks, len(whole.t_s), bias_det, g_det, period, settings)
     np.testing.assert_array_equal(mine, ref)
+
+
+@pytest.mark.parametrize("storeys", [True, False])
+def test_revisits_in_blocks_are_the_one_block_revisits(walk, tmp_path, storeys):
+    """The pose graph over the strides (``building.revisits``) in passes: the final filter's footprints and
+    their variances from a pass, the corrections interpolated in time on the rows of the passes after it (the
+    storeys' and the final one), as ``apply_revisits`` corrects the whole path."""
+    d, rec, _ = walk
+
+    def settings(block_s=None):
+        s = _settings()
+        s.filter.revisits = "entry+stairs"
+        s.floor_storeys = storeys
+        if block_s is not None:
+            s.block_s = block_s
+        return s
+
+    whole = process(rec, settings())
+    write_outputs(whole, tmp_path / "whole")
+    report = whole.nav.info["revisits"]
+    assert report["edges"] and report["max_correction_m"] > 0.01  # the walk has revisits to correct
+    summary, _ = process_to(rec, settings(6.0), tmp_path / "blocks")
+    assert summary["navigation"]["blocks"] > 1 and not any("processed as one" in w for w in summary["warnings"])
+    mine = summary["filter"]["revisits"]
+    assert mine["edges"] == report["edges"]
+    assert mine["max_correction_m"] == pytest.approx(report["max_correction_m"], abs=1e-9)
+    r = results(tmp_path / "blocks")
+    np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert summary["navigation"]["stride_flags"] == whole.summary["navigation"]["stride_flags"]
+    assert (tmp_path / "blocks" / "trajectory.csv").read_bytes() == (tmp_path / "whole" / "trajectory.csv").read_bytes()
