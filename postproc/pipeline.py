@@ -279,7 +279,7 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     window of rows (``source.crop_window``). A window of one block (every recording up to 15 min at the
     default) runs the stages of ``process`` on it and writes it with ``outputs.write_outputs``; a longer one runs
     the same stages as passes over its blocks (``_block_passes``), memory bounded by the block. A stage that
-    cannot run in passes (revisits, a detector that cannot stream) runs as one block whatever the length, with a
+    cannot run in passes (a detector that cannot stream) runs as one block whatever the length, with a
     warning when that is longer than ``block_s``.
 
     Returns
