@@ -557,7 +557,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             gait_txt = ("no periodic gait" if not np.isfinite(period)
                         else f"a gait period of {period:.2f} s but no moment the foot rests")
             if not any(np.isfinite(r["J"]) for r in rows) or rate_ > st_.fail_stance_rate_radps:
-                p99_ = _percentile(lambda: (np.linalg.norm(read(i0, i1)[2], axis=1) for i0, i1 in blocks), 99)
+                p99_ = rate_p99()
                 mount_ = mount_check_of(p99_, t_last - t_first, period, 0.0)
                 if not mount_["looks_like_foot"] or not np.isfinite(period):
                     why = (mount_["message"] if not mount_["looks_like_foot"] else
@@ -575,6 +575,14 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             floor = noise_floor(settings.detector)
         lap("stance_floor")
 
+
+        rate_rows = tempfile.TemporaryFile(prefix="bootnav-rate-")  # ‖ω‖ per sample (8 B each), from pass 2
+
+        def rate_p99() -> float:
+            """‖ω‖'s 99th percentile over the record (``summary.mount_check``'s), exact from the spilled rows."""
+            rate_rows.flush()
+            norms = np.memmap(rate_rows, np.float64, "r", shape=(n,))
+            return _percentile(lambda: (norms[i:i + (1 << 20)] for i in range(0, n, 1 << 20)), 99)
 
         st = settings.selftune
         fallback = None  # the fallback chosen when the configured detector failed (``select_fallback``)
@@ -595,6 +603,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             n_stance_all = 0
             for ch in stance_stream():
                 gait.push(ch.gyro_b)
+                if attempt == 0:  # ‖ω‖ of every sample, for the mount check's percentile
+                    np.linalg.norm(ch.gyro_b, axis=1).tofile(rate_rows)
                 phase_starts.push(ch.start, ch.stance)
                 stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
                 n_stance_all += int(np.count_nonzero(ch.stance))
@@ -828,7 +838,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
                 path_stats["storeys"] = storeys.summary() if storeys is not None else None
                 lap("strides")
-                p99 = _percentile(lambda: (np.linalg.norm(read(i0, i1)[2], axis=1) for i0, i1 in blocks), 99)
+                p99 = rate_p99()
                 mount = mount_check_of(p99, t_last - t_first, period, float(path_stats.get("distance_m", 0.0)))
                 if not mount["looks_like_foot"]:  # as ``summary.build_summary``
                     warnings.append(mount["message"])
@@ -927,7 +937,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     gamma_spill.close()
                 tmp.unlink(missing_ok=True)
             break
-
+        rate_rows.close()
     return summary, files
 
 
