@@ -185,17 +185,18 @@ def still_window_samples(settings: CalibrationSettings, dt_s: float) -> int:
 
 
 def find_still_period(t_s, acc_b, gyro_b, *, min_duration_s: float = 0.5, settings: CalibrationSettings | None = None,
-                      gravity: float = 9.80665) -> slice | None:
+                      gravity: float = 9.80665, dt_s: float | None = None) -> slice | None:
     """The initial still period: the first run of still samples that starts within ``still_search_s`` of
     the start and lasts at least ``min_duration_s`` (truncated to ``max_still_s``). None if there is none.
 
     Only the first ``still_search_s`` + max(``max_still_s``, ``min_duration_s``) of the record can decide it,
     so the still test runs over those seconds and two windows more (a moving mean's value depends on the
     samples within half a window of it, and on the running sum before it, which a prefix leaves as it is):
-    the same period as over the whole record, for the cost of its first seconds."""
+    the same period as over the whole record, for the cost of its first seconds. ``dt_s``: the record's sample
+    period when ``t_s`` is only its first seconds (default: ``sample_period(t_s)``)."""
     s = settings or CalibrationSettings()
     t_s = np.asarray(t_s, dtype=np.float64)
-    dt = sample_period(t_s)
+    dt = sample_period(t_s) if dt_s is None else dt_s
     n = still_window_samples(s, dt)
     k = int(np.searchsorted(t_s, t_s[0] + s.still_search_s + max(s.max_still_s, min_duration_s) + dt)) + 2 * n + 2
     k_valid = len(t_s) if k >= len(t_s) else k - n - 1  # beyond: the prefix's edge, not the record, decides
@@ -213,14 +214,15 @@ def find_still_period(t_s, acc_b, gyro_b, *, min_duration_s: float = 0.5, settin
     return slice(start, max(stop, start + 1))
 
 
-def quiet_core(t_s, gyro_b, still: slice, settings: CalibrationSettings | None = None) -> np.ndarray:
+def quiet_core(t_s, gyro_b, still: slice, settings: CalibrationSettings | None = None, *,
+               dt_s: float | None = None) -> np.ndarray:
     """Bool mask over the samples of ``still``: local rate variance (summed over axes, centred window of
     ``still_window_s``) <= ``still_quiet_ratio`` × its minimum over the period (all True when the ratio is 0)."""
     s = settings or CalibrationSettings()
     g = np.asarray(gyro_b, dtype=np.float64)[still]
     if s.still_quiet_ratio <= 0 or g.shape[0] < 3:
         return np.ones(g.shape[0], dtype=bool)
-    n = max(3, int(round(s.still_window_s / sample_period(t_s))))
+    n = max(3, int(round(s.still_window_s / (sample_period(t_s) if dt_s is None else dt_s))))
     m = moving_mean(g, n)
     var = np.maximum(moving_mean(g**2, n) - m**2, 0.0).sum(axis=1)
     return var <= s.still_quiet_ratio * var.min()
@@ -233,13 +235,14 @@ def roll_pitch_from_specific_force(f_b) -> tuple[float, float]:
 
 
 def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
-                      gravity: float | None = None) -> InitialState:
+                      gravity: float | None = None, *, dt_s: float | None = None) -> InitialState:
     """Roll/pitch from the mean specific force of the initial still period, yaw = 0, gyro bias = its mean
     rate (both over its quiet core, ``quiet_core``). The attitude is the first sample's: when the still period
     starts later (the recording starts in motion), the levelled attitude is carried back to the start by the
     gyro increments in between (``gyro_rotation``). Without a still period: levelling on the first foot-flat
     (``first_rest``), carried back the same way, zero bias and a warning; without a foot-flat either, on the
-    first ``min_still_s`` of data."""
+    first ``min_still_s`` of data. ``dt_s``: the record's sample period when ``t_s`` holds only its first
+    seconds (the block passes of ``pipeline``; default: ``sample_period(t_s)``)."""
     s = settings or CalibrationSettings()
     g = s.gravity() if gravity is None else float(gravity)
     t_s = np.asarray(t_s, dtype=np.float64)
@@ -250,11 +253,11 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
     if t_s.shape[0] < 3:
         raise ValueError(f"too few samples for alignment ({t_s.shape[0]})")
     warnings: list[str] = []
-    still = find_still_period(t_s, acc_b, gyro_b, min_duration_s=s.min_still_s, settings=s, gravity=g)
+    still = find_still_period(t_s, acc_b, gyro_b, min_duration_s=s.min_still_s, settings=s, gravity=g, dt_s=dt_s)
     q_start = None
     if still is None:
         bias = np.zeros(3)
-        rest = first_rest(t_s, acc_b, gyro_b, s, g)
+        rest = first_rest(t_s, acc_b, gyro_b, s, g, dt_s=dt_s)
         if rest is not None:  # level on the first foot-flat, rotated back to the first sample by the gyro
             a, b = rest
             f_mean = acc_b[a:b].mean(axis=0)
@@ -278,7 +281,7 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
                 "few seconds"
             )
     else:
-        quiet = quiet_core(t_s, gyro_b, still, s)  # motion inside the still period is not bias
+        quiet = quiet_core(t_s, gyro_b, still, s, dt_s=dt_s)  # motion inside the still period is not bias
         f_mean = acc_b[still][quiet].mean(axis=0)
         bias = gyro_b[still][quiet].mean(axis=0) if s.use_gyro_bias else np.zeros(3)
         dur = t_s[still.stop - 1] - t_s[still.start]
@@ -301,7 +304,7 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
 
 
 def first_rest(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
-               gravity: float = 9.80665) -> tuple[int, int] | None:
+               gravity: float = 9.80665, *, dt_s: float | None = None) -> tuple[int, int] | None:
     """The first foot-flat within ``still_search_s`` of the start: (start, stop) sample indices, or None.
 
     A recording that starts in motion has no still period, and levelling on its first samples (a swing)
@@ -313,7 +316,7 @@ def first_rest(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
     """
     s = settings or CalibrationSettings()
     t_s = np.asarray(t_s, dtype=np.float64)
-    n = max(3, int(round(s.rest_window_s / sample_period(t_s))))
+    n = max(3, int(round(s.rest_window_s / (sample_period(t_s) if dt_s is None else dt_s))))
     # only the first still_search_s can hold it: the windows over that prefix (memory flat in the record)
     k_end = min(len(t_s), int(np.searchsorted(t_s, t_s[0] + s.still_search_s, side="right")) + 2 * n)
     t_s, acc_b, gyro_b = t_s[:k_end], np.asarray(acc_b)[:k_end], np.asarray(gyro_b)[:k_end]

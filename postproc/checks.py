@@ -131,15 +131,39 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
                + " / ".join(sides) if sides else "neither side is long enough to process; are the times in seconds?")
         raise InputError(f"{name}: sample {i + 1 + offset}: gap of {dt[i]:.3f} s at t = {t_s[i]:.3f} s "
                          f"(> {checks.max_gap_s:g} s cannot be bridged by integration); {how}")
-    gaps = np.flatnonzero(gap_mask(dt, med))
-    if len(gaps):
-        warnings.append(f"{len(gaps)} gaps longer than {GAP_FACTOR:g} x the median interval "
-                        f"({med * 1e3:.2f} ms), longest {dt[gaps].max() * 1e3:.1f} ms at t = {t_s[gaps[np.argmax(dt[gaps])]]:.3f} s "
-                        "(integrated over with the real time step)")
-    dup = int((dt == 0).sum())
-    if dup:
-        warnings.append(f"{dup} duplicate timestamps (zero time step; integrated as no time elapsed)")
-    return warnings
+    steps = StepWarnings(med)
+    steps.push(t_s[:-1], dt)
+    return warnings + steps.warnings()
+
+
+class StepWarnings:
+    """``check_samples``' warnings on the time steps (short gaps, duplicate timestamps) of a record whose steps
+    are pushed in consecutive pieces; ``med``: the record's nominal period (``timebase.nominal_period``), s."""
+
+    def __init__(self, med: float):
+        self.med = med
+        self.n_gaps = self.n_dup = 0
+        self.longest_s, self.t_longest_s = -np.inf, np.nan
+
+    def push(self, t_start_s: np.ndarray, dt: np.ndarray) -> None:
+        """Steps ``dt`` (s) starting at the times ``t_start_s`` (s), after every step pushed before."""
+        gaps = np.flatnonzero(gap_mask(dt, self.med))
+        if len(gaps):
+            self.n_gaps += len(gaps)
+            k = gaps[np.argmax(dt[gaps])]
+            if dt[k] > self.longest_s:  # the first of the longest, as np.argmax over the record
+                self.longest_s, self.t_longest_s = float(dt[k]), float(t_start_s[k])
+        self.n_dup += int((dt == 0).sum())
+
+    def warnings(self) -> list[str]:
+        out = []
+        if self.n_gaps:
+            out.append(f"{self.n_gaps} gaps longer than {GAP_FACTOR:g} x the median interval "
+                       f"({self.med * 1e3:.2f} ms), longest {self.longest_s * 1e3:.1f} ms at t = {self.t_longest_s:.3f} s "
+                       "(integrated over with the real time step)")
+        if self.n_dup:
+            out.append(f"{self.n_dup} duplicate timestamps (zero time step; integrated as no time elapsed)")
+        return out
 
 
 def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray, sloping: bool = False) -> np.ndarray:
@@ -198,6 +222,17 @@ def saturation_intervals(t_s: np.ndarray, saturated: np.ndarray, offset: int = 0
         out.append({"t0_s": float(t_s[a]), "t1_s": float(t_s[b - 1]), "i0": int(a + offset),
                     "i1": int(b - 1 + offset), "samples": int(b - a), "axes": axes})
     return out
+
+
+def join_saturation_intervals(before: list[dict], after: list[dict]) -> list[dict]:
+    """The bursts of two consecutive pieces of a record (``saturation_intervals`` of each): a burst running
+    across the boundary is one, as ``saturation_intervals`` of the whole gives it."""
+    if before and after and after[0]["i0"] == before[-1]["i1"] + 1:
+        a, b = before[-1], after[0]
+        axes = [AXIS_NAMES[k] for k in range(6) if AXIS_NAMES[k] in a["axes"] + b["axes"]]
+        joined = {**a, "t1_s": b["t1_s"], "i1": b["i1"], "samples": a["samples"] + b["samples"], "axes": axes}
+        return before[:-1] + [joined] + after[1:]
+    return before + after
 
 
 def saturation_warnings(intervals: list[dict]) -> list[str]:

@@ -517,6 +517,29 @@ class ResultsWriter:
         self.close()
 
 
+def start_results(tmp: Path, target: Path, source, source_is_hdf5: bool, recording, into_recording: bool) -> None:
+    """The file the results group is added to (``tmp``, committed to ``target``): a copy of the recording
+    (``into_recording``), links to an HDF5 recording (``start_results_file``), or the recording an imported
+    file or an in-memory ``Recording`` is (``recording``), as ``bootnav import`` would write it."""
+    from bootnav.logger.recording import start_results_file, write_recording
+
+    if source_is_hdf5 and source and into_recording:
+        shutil.copy2(source, tmp)  # the whole recording: /imu, /events, /truth, earlier results
+    elif source_is_hdf5 and source:
+        start_results_file(tmp, source, target.parent)  # links to the recording, not a copy
+    else:
+        meta = dict(recording.meta)
+        meta.setdefault("source_file", str(source) if source else "")
+        imported = recording.raw.get("import_result")
+        if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
+            from bootnav.logger.importers.core import write_result_into
+
+            write_result_into(imported, tmp)  # into the temporary itself: its commit is the caller's
+        else:
+            write_recording(tmp, recording.t_s, recording.acc_mps2, recording.gyro_radps, events=recording.events,
+                            meta=meta, saturated=recording.saturated)
+
+
 def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, force: bool = False) -> tuple[Path, str]:
     """Write ``/results/<name>`` (+ ``/steps``) into ``out_dir/results.h5`` or, when asked, the input recording.
 
@@ -538,29 +561,14 @@ def write_hdf5_results(result, out_dir: Path, into_recording: bool = False, forc
     (Path, str)
         The file written and the group.
     """
-    from bootnav.logger.recording import attach_dimension_scales, start_results_file, write_group, write_recording
+    from bootnav.logger.recording import attach_dimension_scales, write_group
 
     name = result.settings.output.results_name
     group = f"/results/{name}"
     target = Path(result.source) if into_recording else out_dir / "results.h5"  # checked by check_outputs
     tmp = atomic.temporary_beside(target)
     try:
-        if result.source_is_hdf5 and result.source and into_recording:
-            shutil.copy2(result.source, tmp)  # the whole recording: /imu, /events, /truth, earlier results
-        elif result.source_is_hdf5 and result.source:
-            start_results_file(tmp, result.source, target.parent)  # links to the recording, not a copy
-        else:
-            rec = result.recording
-            meta = dict(rec.meta)
-            meta.setdefault("source_file", str(result.source) if result.source else "")
-            imported = rec.raw.get("import_result")
-            if imported is not None:  # the exact recording `bootnav import` would write (raw values kept)
-                from bootnav.logger.importers.core import write_result_into
-
-                write_result_into(imported, tmp)  # into the temporary itself: its commit is ours, below
-            else:
-                write_recording(tmp, rec.t_s, rec.acc_mps2, rec.gyro_radps, events=rec.events, meta=meta,
-                                saturated=rec.saturated)
+        start_results(tmp, target, result.source, result.source_is_hdf5, result.recording, into_recording)
         arrays, units = results_arrays(result)
         with ResultsWriter(tmp, group, len(result.t_s), units) as writer:
             writer.append(arrays)

@@ -24,16 +24,22 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
 The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
 ``plots`` do.
 
-**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The recording is read through
-``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) in blocks of ``settings.block_s``
-seconds, the memory budget (900 s: about 400-440 MB at 200 Hz). A recording of one block — every recording of the
-development datasets — runs the stages above on its arrays, exactly as they always ran, and is written by
-``outputs.write_outputs``. A longer HDF5 recording runs the same stages as passes over its blocks
-(``_block_passes``), each whole-record decision taken in a pass before the one that needs it, the last pass
-writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWriter``, ``plots.ChartStream``):
+**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The input is read through a
+reader of blocks of ``settings.block_s`` seconds, the memory budget (900 s: about 400-440 MB at 200 Hz):
+``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) for an HDF5 recording,
+``source.MemoryReader`` for any other file (read whole by ``bootnav import``'s reader), the crop a window of its
+rows (``source.crop_window``). A window of one block — every recording of the development datasets — runs the
+stages above on its arrays, exactly as they always ran, and is written by ``outputs.write_outputs``. A longer
+window runs the same stages as passes over its blocks (``_block_passes``), each whole-record decision taken in
+a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
+``outputs.ResultsWriter``, ``plots.ChartStream``):
 
+0. the nominal period Δt₀: the median step of the whole record (``_nominal_period``: exact order statistics
+   from passes over the times, ``_order_statistics``), as ``timebase.sample_period`` gives ``process``;
 1. checks and clipping rails: the rails' extremes, then the samples at them (``checks.ClipRails``); the sample
-   checks per block (with the last samples of the block before); the initial alignment on the first seconds;
+   checks per block (with the last samples of the block before), their warnings on the whole record's steps
+   (``checks.StepWarnings``) and the saturated bursts joined across blocks; the initial alignment on the first
+   seconds (with Δt₀);
 2. the adaptive detector's noise floor F: one pass of ``StreamStance``, its histogram quantile then fixed, so
    every block length gives the same stance mask;
 3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.level_timing_offset``'s
@@ -47,17 +53,23 @@ writing through incremental sinks (``trajectory.csv`` rows, ``outputs.ResultsWri
    sample pushed with its gate flag (``StreamNavigator.push(heading_gate=…)``);
    the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
    a flight's landing corrects the samples before it, so it needs the path before the one written (with the
-   aid off, the unaided pass's footprints);
+   aid off, the unaided pass's footprints); with ``filter.revisits``, before the storeys, a pass of the final
+   filter for the pose graph (``building.revisits.revisit_corrections``: footprints and their variances), whose
+   corrections, interpolated in time, correct the rows of every pass after it;
 5. the final filter + smoother; each row is written when final, its height corrected by the storey offset
    interpolated in time (``floors.snap_storeys``' rule), the stride flags (``selftune.StrideQualityAccumulator``)
-   and the footprints' ellipses accumulated as it goes.
+   and the footprints' ellipses accumulated as it goes; with a reference, its rows (t, x, y, z, stance) go to a
+   temporary file that ``reference_path.compute_metrics`` reads back memory-mapped;
+6. the mount check: ‖ω‖'s 99th percentile, exact from passes (``_percentile``; ``summary.mount_check_of``).
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
 the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): crop, a reference, ``--into-recording``, non-HDF5 inputs, revisits, a detector
-that cannot stream. Missing in blocks: the stance fallback (``selftune.select_stance``
-scores candidate detectors on the whole record): a configured detector that fails is a warning with the
-path's confidence; the adaptive detector's representative threshold and ``summary["mount"]``.
+(memory grows with the length): a detector that cannot stream. The stance fallback runs in passes
+(``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
+``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
+"cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
+configured one's (its statistic kept) and passes 3-5 run again. ``process`` (the API, ``eval``, two boots) is
+still the whole-array path.
 """
 
 from __future__ import annotations
@@ -73,8 +85,9 @@ from bootnav.core import atomic
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
-from .checks import (ClipRails, check_path_finite, check_samples, clipping_bits, refuse_fatal,
-                     saturation_intervals, saturation_warnings, stride_findings)
+from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, clipping_bits,
+                     join_saturation_intervals, refuse_fatal, saturation_intervals, saturation_warnings,
+                     stride_findings)
 from .ellipses import stride_scale_covariance
 from .floors import snap_storeys
 from .navigate import navigate
@@ -261,12 +274,13 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
                progress: Progress | None = None, into_recording: bool = False) -> tuple[dict, dict[str, str]]:
     """``process`` and its outputs in ``out_dir`` (``outputs.check_outputs`` rules): what ``bootnav process`` runs.
 
-    The recording is read in blocks of ``settings.block_s`` seconds (``RecordingReader``). A recording of one
-    block (every recording up to 5 min at the default) runs the stages of ``process`` on it and writes it
-    with ``outputs.write_outputs``; a longer HDF5 recording runs the same stages as passes over its blocks
-    (``_block_passes``), memory bounded by the block. Options whose stage needs the whole record in memory (crop,
-    a reference, ``--into-recording``, a non-HDF5 input, revisits, a detector that cannot stream) run as one
-    block whatever the length, with a warning when that is longer than ``block_s``.
+    The input is read in blocks of ``settings.block_s`` seconds: an HDF5 recording through ``RecordingReader``,
+    any other file through ``source.MemoryReader`` (read whole by ``bootnav import``'s reader), the crop as a
+    window of rows (``source.crop_window``). A window of one block (every recording up to 15 min at the
+    default) runs the stages of ``process`` on it and writes it with ``outputs.write_outputs``; a longer one runs
+    the same stages as passes over its blocks (``_block_passes``), memory bounded by the block. A stage that
+    cannot run in passes (a detector that cannot stream) runs as one block whatever the length, with a
+    warning when that is longer than ``block_s``.
 
     Returns
     -------
@@ -274,46 +288,74 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         The summary written to summary.json and {kind: path} of every file written.
     """
     import json
+    from types import SimpleNamespace
 
     from bootnav.core.jsonio import to_jsonable
     from bootnav.logger.recording import RecordingReader
 
     from .outputs import ChartWorker, check_outputs, planned_files, write_outputs
+    from .reference_path import load_reference, truth_reference
+    from .source import MemoryReader, crop_window, load_source
 
     settings = settings or ProcessSettings()
     settings.validate()
     path, out = Path(source), Path(out_dir)
-    blocks, whole_why = 1, None
-    if path.is_file() and is_hdf5(path):
-        with RecordingReader(path) as rec:
-            n = rec.n
-            t_head = rec.times(0, min(n, 1 << 16))
-        rows = block_rows(t_head, settings.block_s)
-        blocks = -(-n // rows) if n else 1
-        whole_why = _needs_whole_record(settings, into_recording)
-    elif path.is_file():
-        whole_why = "not an HDF5 recording (`bootnav import` it for bounded memory)"
-    check_outputs(settings, out, [path], into_recording, force)
-    worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
+    ref = None
+    if settings.reference and settings.reference != "truth":  # a bad reference fails before any work
+        ref = load_reference(settings.reference)
+    src = None
+    hdf5 = path.is_file() and is_hdf5(path)
+    if hdf5:
+        reader = RecordingReader(path)
+    else:
+        src = load_source(path)  # missing, unreadable, too short: its message
+        reader = MemoryReader(src.recording)
+    worker = None
     try:
+        window = crop_window(reader, settings.crop_s, str(path))
+        rows = block_rows(window.times(0, min(window.n, 1 << 16)), settings.block_s)
+        blocks = -(-window.n // rows) if window.n else 1
+        whole_why = _needs_whole_record(settings)
+        if blocks <= 1 or whole_why is not None:
+            reader.close()  # ``process`` reads the input itself
+        elif settings.reference == "truth":
+            ref = truth_reference(SimpleNamespace(n=reader.n, t_s=reader.times()) if hdf5 else src.recording,
+                                  path if hdf5 else None)
+        check_outputs(settings, out, [path], into_recording, force)
+        worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
             if blocks <= 1 or whole_why is not None:
-                result = process(path, settings, progress=progress)
+                result = process(path if src is None else src.recording, settings, progress=progress)
                 if blocks > 1:
                     result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
                                            f"since {whole_why}: memory grows with the recording's length")
                     result.summary["warnings"] = result.warnings
                 files = write_outputs(result, out, into_recording, force, charts=worker)
+                worker = None  # closed by write_outputs
                 return result.summary, files
-            warnings: list[str] = []
-            summary, files = _block_passes(path, settings, out, warnings, _StageClock(progress), worker, progress)
+            run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording, ref)
+            summary, files = _block_passes(run, settings, out, [], _StageClock(progress), worker, progress)
             files["summary"] = str(out / "summary.json")
             summary["files"] = files
             atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
     finally:
+        reader.close()
         if worker is not None:
             worker.close()
     return summary, files
+
+
+@dataclass
+class _Input:
+    """What the block passes read and where their results go."""
+
+    rec: Any  # source.ReaderWindow: the rows processed (a crop's window, else every row)
+    name: str  # how messages name the input
+    path: Path  # the input file
+    is_hdf5: bool  # a bootnav recording (results link to it; --into-recording writes into it)
+    recording: Recording | None  # an imported file's Recording (written into results.h5), None for HDF5
+    into_recording: bool
+    reference: Any  # reference_path.Reference or None
 
 
 def block_rows(t_head: np.ndarray, block_s: float) -> int:
@@ -324,16 +366,8 @@ def block_rows(t_head: np.ndarray, block_s: float) -> int:
     return max(int(round(block_s / dt0)), 2)
 
 
-def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str | None:
-    """Why a stage of this run needs the whole record in memory (None: it runs in blocks)."""
-    if settings.crop_s:
-        return "--crop selects its window from the loaded recording"
-    if settings.reference:
-        return "a reference is compared with the whole path"
-    if into_recording:
-        return "--into-recording rewrites the recording"
-    if settings.filter.revisits != "none":
-        return "revisits solve a pose graph over all strides"
+def _needs_whole_record(settings: ProcessSettings) -> str | None:
+    """Why a stage of this run cannot run as passes over blocks (None: it can)."""
     from .detectors.stream import stream_refusal
 
     why = stream_refusal(settings.detector)
@@ -342,7 +376,7 @@ def _needs_whole_record(settings: ProcessSettings, into_recording: bool) -> str 
     return None
 
 
-def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: list[str], lap,
+def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: list[str], lap,
                   worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
     """``process_to``'s passes over the blocks of a recording longer than one block (module docstring) and its
     outputs but summary.json; (summary, files)."""
@@ -350,29 +384,35 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
     from bootnav.core.jsonio import to_jsonable
-    from bootnav.logger.recording import RecordingReader, attach_dimension_scales, start_results_file, write_group
+    import contextlib
+    import tempfile
+
+    from bootnav.logger.recording import attach_dimension_scales, write_group
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
     from .detectors.stream import StreamStance
+    from .ins.filter import propagated_gaps_warning
     from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here,
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, start_results,
                           append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
+    from .reference_path import compute_metrics
+    from .summary import is_closed_loop
     from .floors import storey_offsets
+    from .building.revisits import revisit_corrections
     from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
     from bootnav.core.rotations import euler_zyx_from_quat
 
     from .ellipses import scale_error_covariance, scale_sigmas, unwrapped_yaw
     from .strides import FootprintAccumulator, footprint_strides, footprint_summary
-    from .summary import HEADLINE_KEYS, alignment_summary, final_uncertainty
+    from .summary import HEADLINE_KEYS, PATH_CONVENTIONS, alignment_summary, final_uncertainty, mount_check_of
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
     from .navigate import implausible_strides
-    from bootnav.core.timebase import sample_period
 
-    name = str(path)
+    name = run.name
     timings = lap.timings
-    with RecordingReader(path) as rec:
+    with contextlib.nullcontext(run.rec) as rec:
         device = rec.meta.get("device")
         sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"))
         warnings += sensor_cal.warnings
@@ -384,7 +424,10 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         cal = settings.calibration
         gravity = cal.gravity()
         t_head = rec.times(0, min(n, 1 << 16))
-        dt0 = float(np.median(np.diff(t_head)))
+        try:
+            dt0 = _nominal_period(rec)  # the whole record's, as ``process`` takes it (``timebase.sample_period``)
+        except ValueError:  # no positive step: the checks below refuse the record
+            dt0 = float(np.median(np.diff(t_head)))
         rows = block_rows(t_head, settings.block_s)
         chunk_s = settings.block_s
         n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
@@ -413,13 +456,19 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
         block_checks = replace(settings.checks, min_duration_s=0.0)
+        step_checks = StepWarnings(dt0)  # the warnings of ``check_samples`` on the whole record's steps
+        sat_iv: list[dict] = []
         for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
-            t, acc, gyro, _ = read(max(i0 - 2, 0), i1)
-            warnings.extend(w for w in check_samples(name, t, acc, gyro, max(i0 - 2, 0), block_checks)
-                            if w not in warnings)
+            a = max(i0 - 2, 0)
+            t, acc, gyro, sat = read(a, i1)
+            check_samples(name, t, acc, gyro, rec.start + a, block_checks)  # refusals; warnings of the whole below
+            k = max(i0 - a - 1, 0)  # the steps that end in this block
+            step_checks.push(t[k:-1], np.diff(t[k:]))
+            sat_iv = join_saturation_intervals(sat_iv, saturation_intervals(t[i0 - a:], sat[i0 - a:], rec.start + i0))
+        warnings[:0] = step_checks.warnings() + saturation_warnings(sat_iv)  # first, as ``process`` orders them
 
         t0_, a0_, g0_, _ = read(0, n_init)
-        init = initial_alignment(t0_, a0_, g0_, cal, gravity)
+        init = initial_alignment(t0_, a0_, g0_, cal, gravity, dt_s=dt0)
         warnings += list(init.warnings)
         alignment = alignment_summary(init, gravity, t0_)
         del t0_, a0_, g0_
@@ -428,290 +477,644 @@ def _block_passes(path: Path, settings: ProcessSettings, out: Path, warnings: li
         bias_det, gravity_det = stance_reference(init, gravity)  # as ``navigate`` gives the detector
         probe_detector = settings.detector.build(gravity_det)
 
-        floor = None
-        if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
-            probe = StreamStance(settings.detector, rate, gravity_det, gyro_bias_b=bias_det)
-            lowest = _LowestValues(probe_detector.noise_quantile, n)
-            for i0, i1 in blocks:
-                for ch in probe.push(*read(i0, i1)):
-                    lowest.add_chunk(ch, probe_detector.rest_floor())
-            for ch in probe.finish():
-                lowest.add_chunk(ch, probe_detector.rest_floor())
-            floor = lowest.quantile()
-            if floor is None:  # every sample excluded (saturated): the stream's own floor
-                floor = _stream_noise_floor(probe)
-        lap("stance_floor")
+        chosen: dict = {}  # the fallback's stance: "detector" (settings, floor) or "cycle" (the mask); {}: configured
 
-        def stance_stream():
-            """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking)."""
-            det = StreamStance(settings.detector, rate, gravity_det, noise_floor_log10=floor, gyro_bias_b=bias_det)
+        def detector_stream(det_settings, det_floor):
+            det = StreamStance(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
             for i0, i1 in blocks:
                 yield from det.push(*read(i0, i1))
             yield from det.finish()
 
+        def stance_stream():
+            """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking): the configured
+            detector's, their stance the fallback's when one was chosen (the statistic stays the configured one's,
+            as ``process`` keeps it)."""
+            if "cycle" in chosen:
+                for ch in detector_stream(settings.detector, floor):
+                    ch.stance = ch.stance | chosen["cycle"][ch.start:ch.start + len(ch)]
+                    yield ch
+            elif "detector" in chosen:
+                yield from _with_stance_of(detector_stream(settings.detector, floor),
+                                           detector_stream(*chosen["detector"]))
+            else:
+                yield from detector_stream(settings.detector, floor)
+
+        def noise_floor(det_settings):
+            """The adaptive detector's noise floor F over the whole recording (pass 1)."""
+            det = det_settings.build(gravity_det)
+            probe = StreamStance(det_settings, rate, gravity_det, gyro_bias_b=bias_det)
+            lowest = _LowestValues(det.noise_quantile, n)
+            for i0, i1 in blocks:
+                for ch in probe.push(*read(i0, i1)):
+                    lowest.add_chunk(ch, det.rest_floor())
+            for ch in probe.finish():
+                lowest.add_chunk(ch, det.rest_floor())
+            low = lowest.quantile()
+            return _stream_noise_floor(probe) if low is None else low  # all excluded (saturated): the stream's
+
+        def select_fallback(failed: str, period: float) -> dict:
+            """``navigate``'s fallback in passes: ``selftune.select_stance``'s candidates scored by forward runs
+            over the blocks, the no-rest and mount rules; sets ``chosen``; returns choice, candidates, no_rest
+            and the warnings."""
+            st_ = settings.selftune
+            name0 = f"configured ({settings.detector.method})"
+            specs = [(name0, settings.detector, floor)]
+            for a in st_.alphas:
+                ds = settings.detector.with_method("adaptive", alpha=a)
+                specs.append((f"adaptive alpha={a:g}", ds, noise_floor(ds)))
+            if st_.shoe_threshold:
+                specs.append((f"shoe {st_.shoe_threshold:g}", settings.detector.with_method(
+                    "shoe", threshold=st_.shoe_threshold), None))
+            rows = [_CandidateScore(nm, init, gravity, dt0, settings.filter).run(
+                ((ch, ch.stance) for ch in detector_stream(ds, fl)), period, st_, n) for nm, ds, fl in specs]
+            cyc = _cycle_minimum(detector_stream(settings.detector, floor), n, bias_det, gravity_det, period,
+                                 settings)
+            if cyc is not None:
+                rows.append(_CandidateScore("cycle minimum", init, gravity, dt0, settings.filter).run(
+                    ((ch, ch.stance | cyc[ch.start:ch.start + len(ch)])
+                     for ch in detector_stream(settings.detector, floor)), period, st_, n))
+            best = int(np.argmin([r["J"] for r in rows]))
+            chosen_row = rows[best]
+            sel_warnings = ["no periodic gait found (autocorrelation of |ω| below 0.2 at 0.4-3 s)"] \
+                if not np.isfinite(period) else []
+            sel_warnings.append(f"stance detection: the configured detector fails ({failed}); fallback "
+                                f"'{chosen_row['name']}' chosen (criterion {chosen_row['J']:.3f} m/s vs "
+                                f"{rows[0]['J']:.3f} m/s)")
+            for r in rows:
+                r.pop("_q", None)
+            pick = {}
+            if chosen_row["name"] == "cycle minimum":
+                pick["cycle"] = cyc
+            elif best > 0:
+                pick["detector"] = specs[best][1:]
+            chosen.clear()
+            chosen.update(pick)
+            # the median turning rate at rest of the chosen mask (exact, ``_order_statistics``)
+            g0 = np.asarray(init.gyro_bias_b)
+            rates = lambda: (row_norm(ch.gyro_b[ch.stance] - g0) for ch in stance_stream())  # noqa: E731
+            m = sum(len(v) for v in rates())
+            rate_ = float(np.mean(_order_statistics(rates, ((m - 1) // 2, m // 2)))) if m else np.inf
+            gait_txt = ("no periodic gait" if not np.isfinite(period)
+                        else f"a gait period of {period:.2f} s but no moment the foot rests")
+            if not any(np.isfinite(r["J"]) for r in rows) or rate_ > st_.fail_stance_rate_radps:
+                p99_ = rate_p99()
+                mount_ = mount_check_of(p99_, t_last - t_first, period, 0.0)
+                if not mount_["looks_like_foot"] or not np.isfinite(period):
+                    why = (mount_["message"] if not mount_["looks_like_foot"] else
+                           "a moving foot rests once per stride and repeats its stride: this signal does neither")
+                    raise InputError(f"{name}: not a walking foot: {failed}; no other stance detection finds a "
+                                     f"zero-velocity phase either ({gait_txt}), and {why}")
+                chosen.clear()
+                return {"choice": name0, "candidates": rows, "no_rest": True, "warnings": [
+                    f"no stance detection finds a zero-velocity phase ({failed}; {gait_txt}): the path is mostly "
+                    "unaided inertial integration and its confidence is 0; check that the sensor is on the foot"]}
+            return {"choice": chosen_row["name"], "candidates": rows, "no_rest": False, "warnings": sel_warnings}
+
+        floor = None
+        if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
+            floor = noise_floor(settings.detector)
+        lap("stance_floor")
+
+
+        rate_rows = tempfile.TemporaryFile(prefix="bootnav-rate-")  # ‖ω‖ per sample (8 B each), from pass 2
+
+        def rate_p99() -> float:
+            """‖ω‖'s 99th percentile over the record (``summary.mount_check``'s), exact from the spilled rows."""
+            rate_rows.flush()
+            norms = np.memmap(rate_rows, np.float64, "r", shape=(n,))
+            return _percentile(lambda: (norms[i:i + (1 << 20)] for i in range(0, n, 1 << 20)), 99)
+
         st = settings.selftune
-        timing: dict = {}
-        tau = 0.0
-        # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
-        # it off, the one forward run that scores the path (``selftune.innovation_rms``)
-        signs = (-1, 1) if st.timing_calibration else (0,)
-        probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
-        forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
-        navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs}
-        fps = {s: FootprintAccumulator() for s in signs}
-        onsets = {s: _OnsetInnovations() for s in signs}
-        gait = selftune.GaitPeriodAccumulator(sample_period(t_head))
-        phase_starts = _Runs()  # the stance phases
-        stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
-        n_stance_all = 0
-        for ch in stance_stream():
-            gait.push(ch.gyro_b)
-            phase_starts.push(ch.start, ch.stance)
-            stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
-            n_stance_all += int(np.count_nonzero(ch.stance))
+        fallback = None  # the fallback chosen when the configured detector failed (``select_fallback``)
+        for attempt in range(2):  # the passes again with the fallback's stance when the configured one failed
+            timing: dict = {}
+            tau = 0.0
+            # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
+            # it off, the one forward run that scores the path (``selftune.innovation_rms``)
+            signs = (-1, 1) if st.timing_calibration else (0,)
+            probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
+            forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
+            navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs}
+            fps = {s: FootprintAccumulator() for s in signs}
+            onsets = {s: _OnsetInnovations() for s in signs}
+            gait = selftune.GaitPeriodAccumulator(dt0)
+            phase_starts = _Runs()  # the stance phases
+            stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
+            n_stance_all = 0
+            for ch in stance_stream():
+                gait.push(ch.gyro_b)
+                if attempt == 0:  # ‖ω‖ of every sample, for the mount check's percentile
+                    np.linalg.norm(ch.gyro_b, axis=1).tofile(rate_rows)
+                phase_starts.push(ch.start, ch.stance)
+                stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
+                n_stance_all += int(np.count_nonzero(ch.stance))
+                for s in signs:
+                    f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s) if s else ch.acc_b
+                    r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
+                    fps[s].push(r.t_s, r.pos_n, r.stance)
+                    onsets[s].push(r)
             for s in signs:
-                f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s) if s else ch.acc_b
-                r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
+                r = navs[s].finish()
                 fps[s].push(r.t_s, r.pos_n, r.stance)
                 onsets[s].push(r)
-        for s in signs:
-            r = navs[s].finish()
-            fps[s].push(r.t_s, r.pos_n, r.stance)
-            onsets[s].push(r)
-        period = gait.finish()
-        fp_probe = {s: fps[s].finish() for s in signs}
-        if st.timing_calibration:
-            cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
-            timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
-            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
-            cut = _probe_cut(phase_starts.starts, n, fp_probe, st.timing_max_level_strides)
-            timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
-            timing["probe_s"] = float(rec.times(cut - 1, cut)[0] - t_first)
-            timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
-                                                 st.timing_min_level_strides)
-            tau = timing["tau_s"]
-            innovation = timing["innovation_rms_mps"]
-        else:
-            innovation = float(np.sqrt(onsets[0].mean_square(n)))
-        del navs, fps, fp_probe, onsets
-        method = settings.detector.method
-        findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
-                                      stance_rate.median() if n_stance_all else None, settings.checks, method)
-        warnings += [f.message for f in findings if not f.fatal]
-        fatal = [f.message for f in findings if f.fatal]
-        failed = fatal[0] if fatal else None
-        if failed and not st.fallback:
-            raise InputError(f"{name}: {failed}")
-        lap("timing")
+            period = gait.finish()
+            fp_probe = {s: fps[s].finish() for s in signs}
+            if st.timing_calibration:
+                cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
+                timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
+                timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
+                cut = _probe_cut(phase_starts.starts, n, fp_probe, st.timing_max_level_strides)
+                timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
+                timing["probe_s"] = float(rec.times(cut - 1, cut)[0] - t_first)
+                timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
+                                                     st.timing_min_level_strides)
+                tau = timing["tau_s"]
+                innovation = timing["innovation_rms_mps"]
+            else:
+                innovation = float(np.sqrt(onsets[0].mean_square(n)))
+            del navs, fps, fp_probe, onsets
+            method = settings.detector.method
+            if attempt == 0:  # the configured detector's mask (``navigate``)
+                findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
+                                              stance_rate.median() if n_stance_all else None, settings.checks, method)
+                warnings += [f.message for f in findings if not f.fatal]
+                fatal = [f.message for f in findings if f.fatal]
+                failed = fatal[0] if fatal else None
+                if failed and not st.fallback:
+                    raise InputError(f"{name}: {failed}")
+                n_warn = len(warnings)  # the warnings of the configured path start here
+            lap("timing")
+            if attempt == 0 and failed is not None:  # a fatal stance finding: the fallback's passes
+                fallback = select_fallback(failed, period)
+                warnings += fallback["warnings"]
+                lap("fallback")
+                continue
 
-        def acc_used(ch):
-            return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
+            def acc_used(ch):
+                return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
 
-        def gate(ch):
-            """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
-            return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
+            def gate(ch):
+                """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
+                return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
 
-        def path_footprints(filter_settings):
-            """A pass of the filter + smoother: its footprints (mid times, (K,); (K, 3))."""
-            path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
-            path_fp = FootprintAccumulator()
-            for ch in stance_stream():
-                r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
-                path_fp.push(r.t_s, r.pos_n, r.stance)
-            r = path_nav.finish()
-            path_fp.push(r.t_s, r.pos_n, r.stance)
-            return path_fp.finish()
+            def corrected(r):
+                """The revisits' horizontal correction of the rows (``building.revisits.apply_revisits``' rule:
+                the footprints' corrections interpolated in time), in place."""
+                if revisit is not None:
+                    r.pos_n = r.pos_n.copy()
+                    for ax in range(2):
+                        r.pos_n[:, ax] += np.interp(r.t_s, revisit[0], revisit[1][:, ax])
+                return r
 
-        floors = settings.floor_settings()
-        storeys = None
-        final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
-        if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
-            path_fp = path_footprints(settings.filter)
-            dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
-            heading_decision = dec.as_dict()
-            if dec.on:
-                final_filter = aided_settings(settings.filter, dec)
-                gate_iv = None if aided is None else gate_intervals(phase_starts.stops(n), ends, aided)
-                path_fp = None  # the storeys are on the aided path
-            lap("heading")
-        if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
-            storey_t, storey_fp = path_fp if path_fp is not None else path_footprints(final_filter)
-            storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                     floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
-                                     floors.floor_height_m)
-            lap("storeys")
-        del path_fp
-        snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
-
-        # the final pass: the filter + smoother, outputs appended as rows become final
-        out.mkdir(parents=True, exist_ok=True)
-        opts = settings.output
-        group = f"/results/{opts.results_name}"
-        target = out / "results.h5"
-        tmp = atomic.temporary_beside(target)
-        nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
-        fp_acc = FootprintAccumulator()
-        yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
-        yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
-        quality_acc = selftune.StrideQualityAccumulator()
-        gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
-        charts = None
-        if opts.plots:
-            from .plots import ChartStream
-
-            charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
-        units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
-                 "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m",
-                 "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
-        stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
-        n_rows = n_stance = 0
-        writer = None
-        try:
-            if opts.write_hdf5:
-                start_results_file(tmp, path, out)  # links to the recording, not a copy
-            writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
-            with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
-                csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
-
-                def emit(r) -> None:
-                    nonlocal n_rows, n_stance
-                    if not len(r):
-                        return
-                    if not np.all(np.isfinite(r.pos_n)):
-                        check_path_finite(name, r.t_s, r.pos_n, r.start)
-                    quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
-                                     r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
-                    if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
-                        r.pos_n = r.pos_n.copy()
-                        r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
-                    append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
-                                    TRAJECTORY_FORMATS)
-                    if writer is not None:
-                        writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
-                                       "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
-                                       "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
-                                       "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
-                    fp_acc.push(r.t_s, r.pos_n, r.stance,
-                                np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
-                    yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
-                        np.concatenate((yaw_last, euler_zyx_from_quat(np.asarray(r.q_nb, float))[:, 2])))[1:]
-                    yaw_last[:] = [float(yaw[-1])]
-                    yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
-                    if charts is not None:
-                        charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
-                    n_rows += len(r)
-                    n_stance += int(np.count_nonzero(r.stance))
-
+            def path_footprints(filter_settings, with_var=False):
+                """A pass of the filter + smoother (its rows corrected by the revisits found): its footprints (mid
+                times, (K,); (K, 3)) and, ``with_var``, the horizontal variance at their times (K,)."""
+                path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
+                path_fp = FootprintAccumulator()
+                var = _PhaseInterpolation() if with_var else None
                 for ch in stance_stream():
-                    if charts is not None:
-                        charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
-                    gyro_rows.put(ch.start, ch.gyro_b)
-                    if writer is not None:
-                        stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
-                    emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
-                    _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
-                emit(nav.finish())
-            lap("navigation")
+                    r = corrected(path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated,
+                                                heading_gate=gate(ch)))
+                    path_fp.push(r.t_s, r.pos_n, r.stance)
+                    if var is not None:
+                        var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
+                r = corrected(path_nav.finish())
+                path_fp.push(r.t_s, r.pos_n, r.stance)
+                if var is not None:
+                    var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
+                    return (*path_fp.finish(), var.finish())
+                return path_fp.finish()
 
-            t_mid, fp = fp_acc.finish()
-            min_stride = settings.selftune.min_stride_m
-            quality = quality_acc.finish(period, settings.selftune)
-            confidence = selftune.confidence(innovation, quality.bad_fraction, period, st)
-            split = selftune.split_strides(quality, period, st)
-            if split:
-                warnings.append(split)
-            if not np.isfinite(period):
-                warnings.append("no periodic gait found: the confidence of this path is 0")
-            cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
-            yaw_acc.finish()
-            if cov_h is not None and len(yaw_acc.cov) == len(fp):  # the sensor errors the filter does not model
-                cov_h = cov_h + scale_error_covariance(fp, yaw_acc.cov[:, 0], *scale_sigmas(
-                    settings, sensor_cal.provenance.get("status") == "applied"))
-            # the floor number: the storeys found as heights of whole nominal storeys (as ``process``)
-            floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
-            steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
-                                      cov_h, floor_z)
-            if len(steps["t_s"]) == 0 and not np.isfinite(period):
-                raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
-                                 f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
-            choice = f"configured ({settings.detector.method})"
-            if failed is None and quality.bad_fraction > st.max_bad_fraction:
-                failed = implausible_strides(quality)
-            if failed is not None:
-                warnings.append(f"stance detector '{method}': {failed}" + (
-                    f"; the fallback to another stance detection (selftune.select_stance) runs on a recording of "
-                    f"one block only, this one has {len(blocks)} blocks of {settings.block_s:g} s (settings block_s):"
-                    f" the path is the configured detector's, confidence {confidence:.2f}" if st.fallback else ""))
-            findings = stride_findings(steps, settings.checks, choice)
-            warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-            path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
-            path_stats["storeys"] = storeys.summary() if storeys is not None else None
-            lap("strides")
-            summary = {
-                "input": {"source": name, "format": "hdf5", "samples_total": int(n), "samples_processed": n_rows,
-                          "duration_s": t_last - t_first, "rate_hz": float(rate),
-                          "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
-                "calibration": to_jsonable(sensor_cal.provenance),
-                "alignment": alignment,
-                "software": dict(SOFTWARE),
-                "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
-                           "phases": int(len(fp)), "noise_floor_log10": floor,
-                           # a fixed-threshold detector's γ; the adaptive one's varies per sample (null)
-                           "threshold": to_jsonable(getattr(probe_detector, "threshold", None))},
-                "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
-                               "fallback_used": False, "configured_failed": failed,
-                               "confidence": float(confidence), "gait_period_s": to_jsonable(float(period)),
-                               "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
-                               "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
-                                                for bit, nm in selftune.FLAG_NAMES.items()},
-                               "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
-                               "timing_offset": to_jsonable(timing)},
-                "filter": to_jsonable(nav.info if heading_decision is None
-                                      else {**nav.info, "heading_decision": heading_decision}),
-                "path": path_stats,
-                "uncertainty": final_uncertainty(steps),
-                "confidence": float(confidence),
-                **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
-                "timings_s": timings,
-                "conventions": dict(CONVENTIONS),
-                "settings": settings.to_dict(),
-                "warnings": warnings,
-            }
-            if charts is not None:  # drawn by the chart processes while the files are finished
-                charts.finish(t_mid, fp, steps, summary, settings)
-                if worker is not None:
-                    worker.submit(charts, out)
-            files = {"trajectory": str(out / "trajectory.csv")}
-            files["steps"] = str(write_steps_csv(out / "steps.csv", steps))
-            if writer is not None:
-                writer.close()
-                attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
-                         "summary": json.dumps(to_jsonable(summary)), "sample_index_start": 0,
-                         "created_utc": _utc_now(), "stance_method": settings.detector.method,
-                         "stance_threshold": json.dumps(summary["stance"]["threshold"]),
-                         "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
-                         **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
-                write_group(tmp, group, {}, attrs, replace=False)
-                step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                              "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
-                write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
-                            {"description": "one row per stride, see postproc/strides.py"}, step_units)
-                attach_dimension_scales(tmp, group)
-                attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
-                atomic.commit(tmp, target)
-                files["hdf5"] = f"{target}:{group}"
-            lap("write")
-            if charts is not None:
-                drawn, error = worker.wait() if worker is not None else draw_here(charts, out)
-                if error:
-                    warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
-                files.update(drawn)
-                lap("plots")
-        finally:
-            if writer is not None:
-                writer.close()
-            tmp.unlink(missing_ok=True)
+            floors = settings.floor_settings()
+            storeys = None
+            revisit, revisit_report = None, None  # the pose graph's (footprint times, corrections (K, 2))
+            final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
+            if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
+                path_fp = path_footprints(settings.filter)
+                dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
+                heading_decision = dec.as_dict()
+                if dec.on:
+                    final_filter = aided_settings(settings.filter, dec)
+                    gate_iv = None if aided is None else gate_intervals(phase_starts.stops(n), ends, aided)
+                    path_fp = None  # the storeys are on the aided path
+                lap("heading")
+            if settings.filter.revisits != "none":  # pass 3b: the pose graph over the final filter's strides
+                rt, rfp, rvar = path_footprints(final_filter, with_var=True)
+                t_k, delta, revisit_report = revisit_corrections(rt, rfp, rvar, settings.filter)
+                if delta is not None:
+                    revisit = (t_k, delta)
+                    path_fp = None  # the storeys are on the corrected path
+                else:
+                    path_fp = (rt, rfp)
+                lap("revisits")
+            if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
+                storey_t, storey_fp = path_fp if path_fp is not None else path_footprints(final_filter)
+                storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                         floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                         floors.floor_height_m)
+                lap("storeys")
+            del path_fp
+            snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
+
+            # the final pass: the filter + smoother, outputs appended as rows become final
+            out.mkdir(parents=True, exist_ok=True)
+            opts = settings.output
+            group = f"/results/{opts.results_name}"
+            target = run.path if run.into_recording else out / "results.h5"
+            tmp = atomic.temporary_beside(target)
+            nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
+            fp_acc = FootprintAccumulator()
+            yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
+            yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
+            quality_acc = selftune.StrideQualityAccumulator()
+            gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
+            charts = None
+            if opts.plots:
+                from .plots import ChartStream
+
+                charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
+            units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
+                     "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m",
+                     "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
+            stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
+            n_rows = n_stance = 0
+            writer = None
+            # a reference is compared with the whole path: its rows (t, x, y, z, stance) go to a temporary file,
+            # read back memory-mapped by ``compute_metrics`` after the pass
+            spill = tempfile.TemporaryFile(prefix="bootnav-path-") if run.reference is not None else None
+            # the adaptive detector's per-sample log10 γ, for its representative threshold 10^median (``adaptive``)
+            gamma_spill = tempfile.TemporaryFile(prefix="bootnav-gamma-") if method == "adaptive" else None
+            n_gamma = 0
+            try:
+                if opts.write_hdf5:
+                    start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
+                writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
+                with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
+                    csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
+
+                    def emit(r) -> None:
+                        nonlocal n_rows, n_stance
+                        if not len(r):
+                            return
+                        if not np.all(np.isfinite(r.pos_n)):
+                            check_path_finite(name, r.t_s, r.pos_n, rec.start + r.start)
+                        corrected(r)
+                        quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
+                                         r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
+                        if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
+                            r.pos_n = r.pos_n.copy()
+                            r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
+                        append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
+                                        TRAJECTORY_FORMATS)
+                        if spill is not None:
+                            np.column_stack((r.t_s, r.pos_n, r.stance)).astype(np.float64).tofile(spill)
+                        if writer is not None:
+                            writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
+                                           "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
+                                           "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
+                                           "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
+                        fp_acc.push(r.t_s, r.pos_n, r.stance,
+                                    np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
+                        yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
+                            np.concatenate((yaw_last, euler_zyx_from_quat(np.asarray(r.q_nb, float))[:, 2])))[1:]
+                        yaw_last[:] = [float(yaw[-1])]
+                        yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
+                        if charts is not None:
+                            charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
+                        n_rows += len(r)
+                        n_stance += int(np.count_nonzero(r.stance))
+
+                    for ch in stance_stream():
+                        if charts is not None:
+                            charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
+                        gyro_rows.put(ch.start, ch.gyro_b)
+                        if gamma_spill is not None and ch.threshold_log10 is not None:
+                            np.asarray(ch.threshold_log10, np.float64).tofile(gamma_spill)
+                            n_gamma += len(ch)
+                        if writer is not None:
+                            stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
+                        emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
+                        _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
+                    emit(nav.finish())
+                lap("navigation")
+
+                t_mid, fp = fp_acc.finish()
+                min_stride = settings.selftune.min_stride_m
+                quality = quality_acc.finish(period, settings.selftune)
+                confidence = selftune.confidence(innovation, quality.bad_fraction, period, st)
+                split = selftune.split_strides(quality, period, st)
+                if split:
+                    warnings.append(split)
+                if not np.isfinite(period):
+                    warnings.append("no periodic gait found: the confidence of this path is 0")
+                cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
+                yaw_acc.finish()
+                if cov_h is not None and len(yaw_acc.cov) == len(fp):  # the sensor errors the filter does not model
+                    cov_h = cov_h + scale_error_covariance(fp, yaw_acc.cov[:, 0], *scale_sigmas(
+                        settings, sensor_cal.provenance.get("status") == "applied"))
+                # the floor number: the storeys found as heights of whole nominal storeys (as ``process``)
+                floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
+                steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
+                                          cov_h, floor_z)
+                if len(steps["t_s"]) == 0 and not np.isfinite(period):
+                    raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
+                                     f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
+                if attempt == 0 and failed is None and quality.bad_fraction > st.max_bad_fraction:
+                    failed = implausible_strides(quality)
+                    if st.fallback:  # the configured path's strides fail: the fallback's passes (``navigate``)
+                        del warnings[n_warn:]
+                        fallback = select_fallback(failed, period)
+                        warnings[n_warn:n_warn] = fallback["warnings"]
+                        lap("fallback")
+                        continue
+                    warnings.insert(n_warn, f"stance detector '{method}': {failed}")
+                choice = fallback["choice"] if fallback else f"configured ({settings.detector.method})"
+                if fallback and fallback["no_rest"]:
+                    confidence = 0.0
+                if nav.info.get("n_gaps"):  # as ``ins.run_filter`` says it
+                    warnings.append(propagated_gaps_warning(nav.info["n_gaps"], nav.info["max_dt_s"]))
+                findings = stride_findings(steps, settings.checks, choice)
+                warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
+                path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
+                path_stats["storeys"] = storeys.summary() if storeys is not None else None
+                lap("strides")
+                p99 = rate_p99()
+                mount = mount_check_of(p99, t_last - t_first, period, float(path_stats.get("distance_m", 0.0)))
+                if not mount["looks_like_foot"]:  # as ``summary.build_summary``
+                    warnings.append(mount["message"])
+                threshold = getattr(probe_detector, "threshold", None)
+                if gamma_spill is not None and n_gamma:  # np.median, exact from the spilled rows
+                    gamma_spill.flush()
+                    gam = np.memmap(gamma_spill, np.float64, "r", shape=(n_gamma,))
+                    threshold = float(10.0 ** np.mean(_order_statistics(
+                        lambda: (gam[i:i + (1 << 20)] for i in range(0, n_gamma, 1 << 20)),
+                        ((n_gamma - 1) // 2, n_gamma // 2))))
+                    del gam
+                metrics = None
+                if spill is not None:  # as ``process``: the path with its storeys, every row
+                    spill.flush()
+                    path_rows = np.memmap(spill, np.float64, "r", shape=(n_rows, 5))
+                    metrics = compute_metrics(run.reference, path_rows[:, 0], path_rows[:, 1:4], path_rows[:, 4] > 0.5,
+                                              rec.meta.get("mount"), min_stride)
+                    del path_rows
+                    lap("reference")
+                summary = {
+                    "input": {"source": name, "format": "hdf5" if run.is_hdf5 else "imported",
+                              "samples_total": int(rec.reader.n), "samples_processed": n_rows,
+                              "t_start_s": t_first, "t_end_s": t_last,
+                              "crop_s": list(settings.crop_s) if settings.crop_s else None,
+                              "duration_s": t_last - t_first, "rate_hz": float(rate),
+                              "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
+                    "calibration": to_jsonable(sensor_cal.provenance),
+                    "alignment": alignment,
+                    "software": dict(SOFTWARE),
+                    "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
+                               "phases": int(len(fp)), "noise_floor_log10": floor,
+                               # a fixed-threshold detector's γ; the adaptive one's 10^median of its γ per sample
+                               "threshold": to_jsonable(threshold)},
+                    "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
+                                   "fallback_used": failed is not None and not choice.startswith("configured"),
+                                   "configured_failed": failed,
+                                   "candidates": to_jsonable(fallback["candidates"] if fallback else []),
+                                   "confidence": float(confidence), "gait_period_s": to_jsonable(float(period)),
+                                   "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
+                                   "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
+                                                    for bit, nm in selftune.FLAG_NAMES.items()},
+                                   "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
+                                   "timing_offset": to_jsonable(timing)},
+                    "filter": to_jsonable({**nav.info, **({} if heading_decision is None else
+                                                          {"heading_decision": heading_decision}),
+                                           **({} if revisit_report is None else {"revisits": revisit_report})}),
+                    "path": path_stats,
+                    "metrics": to_jsonable(metrics),
+                    "saturation_intervals": sat_iv,
+                    "closed_loop": is_closed_loop(run.reference),
+                    "mount": mount,
+                    "uncertainty": final_uncertainty(steps),
+                    "confidence": float(confidence),
+                    **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
+                    "timings_s": timings,
+                    "conventions": dict(PATH_CONVENTIONS),
+                    "settings": settings.to_dict(),
+                    "warnings": warnings,
+                }
+                if charts is not None:  # drawn by the chart processes while the files are finished
+                    charts.finish(t_mid, fp, steps, summary, settings)
+                    if worker is not None:
+                        worker.submit(charts, out)
+                files = {"trajectory": str(out / "trajectory.csv")}
+                files["steps"] = str(write_steps_csv(out / "steps.csv", steps))
+                if writer is not None:
+                    writer.close()
+                    attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
+                             "summary": json.dumps(to_jsonable(summary)), "sample_index_start": rec.start,
+                             "created_utc": _utc_now(), "stance_method": settings.detector.method,
+                             "stance_threshold": json.dumps(summary["stance"]["threshold"]),
+                             "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
+                             **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
+                    write_group(tmp, group, {}, attrs, replace=False)
+                    step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
+                                  "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
+                    write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
+                                {"description": "one row per stride, see postproc/strides.py"}, step_units)
+                    attach_dimension_scales(tmp, group)
+                    attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
+                    atomic.commit(tmp, target)
+                    files["hdf5"] = f"{target}:{group}"
+                lap("write")
+                if charts is not None:
+                    drawn, error = worker.wait() if worker is not None else draw_here(charts, out)
+                    if error:
+                        warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
+                    files.update(drawn)
+                    lap("plots")
+            finally:
+                if writer is not None:
+                    writer.close()
+                if spill is not None:
+                    spill.close()
+                if gamma_spill is not None:
+                    gamma_spill.close()
+                tmp.unlink(missing_ok=True)
+            break
+        rate_rows.close()
     return summary, files
+
+
+def _with_stance_of(chunks, other):
+    """``chunks`` (StanceChunks) with the stance of ``other`` (another detector's StanceChunks of the same samples,
+    cut elsewhere): ``navigate``'s fallback keeps the configured detector's statistic and takes another mask."""
+    queue, upto, other = _RowQueue(), 0, iter(other)
+    for ch in chunks:
+        end = ch.start + len(ch)
+        while upto < end:
+            c = next(other)
+            queue.put(c.start, np.asarray(c.stance, bool))
+            upto = c.start + len(c)
+        if len(ch):
+            ch.stance = queue.take(ch.start, end)
+        yield ch
+
+
+class _CandidateScore:
+    """One candidate of ``selftune.select_stance`` scored in a pass (``selftune._row``'s figures): a forward run of
+    the filter (no smoother, the specific force not rotated by τ) on its mask, the RMS of its ZUPT-onset
+    innovations and its stride flags (``selftune.StrideQualityAccumulator`` on the forward path)."""
+
+    def __init__(self, name: str, init, gravity: float, dt0: float, filter_settings):
+        from . import selftune
+        from .ins.stream import StreamNavigator
+
+        self.name = name
+        self.nav = StreamNavigator.from_initial_state(init, gravity, dt0, replace(filter_settings, smoother="none"))
+        self.onsets = _OnsetInnovations()
+        self.quality = selftune.StrideQualityAccumulator()
+        self.gyro = _RowQueue()  # the gyro of the rows the navigator holds back
+        self.phases = _Runs()
+        self.n_stance = 0
+        self.finite = True
+
+    def _rows(self, r) -> None:
+        if len(r):
+            self.onsets.push(r)
+            self.quality.push(r.t_s, r.pos_n, r.stance, self.gyro.take(r.start, r.start + len(r)), r.gyro_bias_b)
+            self.finite = self.finite and bool(np.all(np.isfinite(r.pos_n)))
+
+    def run(self, pairs, period_s: float, settings, n: int) -> dict:
+        """Push every (StanceChunk, mask) of the record; the candidate's row (``select_stance``'s ``candidates``)."""
+        for ch, mask in pairs:
+            mask = np.asarray(mask, bool)
+            self.phases.push(ch.start, mask)
+            self.n_stance += int(np.count_nonzero(mask))
+            self.gyro.put(ch.start, ch.gyro_b)
+            self._rows(self.nav.push(ch.t_s, ch.acc_b, ch.gyro_b, mask, ch.saturated))
+        self._rows(self.nav.finish())
+        frac = self.n_stance / n
+        if len(self.phases.starts) < 2:  # no stance-to-swing edge: not scored
+            return {"name": self.name, "innovation_rms_mps": float("inf"), "bad_fraction": 1.0, "J": float("inf"),
+                    "stance_fraction": frac}
+        e = float(np.sqrt(self.onsets.mean_square(n))) if self.finite else float("inf")
+        q = self.quality.finish(period_s, settings)
+        return {"name": self.name, "innovation_rms_mps": e, "bad_fraction": q.bad_fraction,
+                "J": e + settings.v_pen_mps * q.bad_fraction, "stance_fraction": frac, "_q": q}
+
+
+def _cycle_minimum(chunks, n: int, bias_det, gravity_det: float, period_s: float, settings) -> np.ndarray | None:
+    """``selftune.cycle_minimum_candidate`` of a record pushed as the configured detector's StanceChunks: the
+    samples (t, specific force, rates less the rest bias, saturation) and the configured mask go to temporary
+    files read back memory-mapped; the candidate's arithmetic (the SHOE statistic, its minima and their
+    prominences over the whole record) makes temporaries of the record's length: the fallback's exception to
+    memory bounded by the block (about 60 B per sample while it runs)."""
+    import tempfile
+
+    from . import selftune
+
+    if not np.isfinite(period_s):
+        return None
+    with tempfile.TemporaryFile(prefix="bootnav-cycle-") as f:
+        mm = np.memmap(f, np.float64, "w+", shape=(n, 9))  # t, acc (3), gyro less the bias (3), bad, configured
+        for ch in chunks:
+            a, b = ch.start, ch.start + len(ch)
+            mm[a:b, 0] = ch.t_s
+            mm[a:b, 1:4] = ch.acc_b
+            mm[a:b, 4:7] = ch.gyro_b - bias_det
+            mm[a:b, 7] = np.asarray(ch.saturated) != 0
+            mm[a:b, 8] = np.asarray(ch.stance, bool)
+        mm.flush()
+        t = np.ascontiguousarray(mm[:, 0])
+        return selftune.cycle_minimum_candidate(t, mm[:, 1:4], mm[:, 4:7], gravity_det, period_s, settings.detector,
+                                                settings.selftune, mm[:, 7] > 0.5, mm[:, 8] > 0.5)
+
+
+def _nominal_period(rec, rows: int = 1 << 20, cap: int = 1 << 20) -> float:
+    """``timebase.nominal_period`` of every step of a reader's rows (the median of the positive finite steps, s),
+    exact, from passes over its times ``rows`` at a time (``_order_statistics``). ValueError, as
+    ``sample_period``, without a positive step."""
+    def steps():
+        prev = None
+        for i0 in range(0, rec.n, rows):
+            t = rec.times(i0, min(rec.n, i0 + rows))
+            dt = np.diff(t if prev is None else np.concatenate(([prev], t)))
+            prev = t[-1]
+            yield dt[np.isfinite(dt) & (dt > 0)]
+
+    m = sum(len(dt) for dt in steps())
+    if m == 0:
+        raise ValueError("the time axis has no positive step")
+    return float(np.mean(_order_statistics(steps, ((m - 1) // 2, m // 2), cap)))  # as np.median
+
+
+def _percentile(pieces, q: float, cap: int = 1 << 20) -> float:
+    """``np.percentile(x, q)`` (linear) of the values ``pieces()`` yields, exact (``_order_statistics``)."""
+    m = sum(len(v) for v in pieces())
+    pos = q / 100.0 * (m - 1)
+    lo = int(np.floor(pos))
+    a, b = _order_statistics(pieces, (lo, min(lo + 1, m - 1)), cap)
+    t = pos - lo
+    return float(a + (b - a) * t if t < 0.5 else b - (b - a) * (1 - t))  # numpy's lerp
+
+
+def _order_statistics(pieces, ks: tuple[int, int], cap: int = 1 << 20) -> np.ndarray:
+    """The values of rank ``ks`` (0-based, ascending; ks[0] <= ks[1]) among every value ``pieces()`` yields (a
+    generator called once per pass, e.g. over the blocks of a record), exact with bounded memory: each pass
+    counts the values in the interval [lo, hi) known to hold both on a 4096-bin histogram and narrows it to
+    their bins, until at most ``cap`` values are left in it (then sorted) or it is one float wide."""
+    lo, hi = np.inf, -np.inf
+    for v in pieces():
+        if len(v):
+            lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))
+    hi = float(np.nextafter(hi, np.inf))
+    below = 0  # values < lo
+    while True:
+        if float(np.nextafter(lo, np.inf)) >= hi:  # one float wide: every value in it is lo
+            return np.array([lo, lo])
+        inside = [v[(v >= lo) & (v < hi)] for v in pieces()]
+        if sum(len(v) for v in inside) <= cap:
+            v = np.sort(np.concatenate(inside))
+            return v[[ks[0] - below, ks[1] - below]]
+        edges = np.linspace(lo, hi, 4097)
+        edges[-1] = hi
+        hist = sum(np.bincount(np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 4095), minlength=4096)
+                   for v in inside)
+        cum = below + np.cumsum(hist)
+        b0, b1 = (int(np.searchsorted(cum, k, side="right")) for k in ks)  # the bins holding the two
+        below = int(cum[b0 - 1]) if b0 else below
+        lo, hi = float(edges[b0]), float(edges[b1 + 1])
+
+
+class _PhaseInterpolation:
+    """``np.interp(t_mid, t_s, values)`` at each stance phase's mid time (``strides.footprints``' t_mid) of rows
+    pushed in consecutive chunks: the mid time lies between the phase's first and last sample, so the phase's
+    own rows give numpy's interpolation (bounded memory: the open phase's rows)."""
+
+    def __init__(self):
+        self._out: list[float] = []
+        self._t: list[np.ndarray] = []
+        self._v: list[np.ndarray] = []
+
+    def push(self, t_s, values, stance) -> None:
+        from bootnav.core.runs import runs
+
+        if not len(t_s):
+            return
+        starts, stops = runs(np.asarray(stance, bool))
+        if self._t and (starts.size == 0 or starts[0] > 0):
+            self._close()
+        for a, b in zip(starts.tolist(), stops.tolist()):
+            self._t.append(np.asarray(t_s[a:b], float))
+            self._v.append(np.asarray(values[a:b], float))
+            if b < len(t_s):
+                self._close()
+
+    def _close(self) -> None:
+        if self._t:
+            t, v = np.concatenate(self._t), np.concatenate(self._v)
+            self._out.append(float(np.interp(0.5 * (t[0] + t[-1]), t, v)))
+            self._t, self._v = [], []
+
+    def finish(self) -> np.ndarray:
+        self._close()
+        return np.array(self._out)
 
 
 class _LowestValues:

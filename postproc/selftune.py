@@ -332,6 +332,16 @@ def cycle_minimum_stance(t_s, acc_b, gyro_b, gravity: float, period_s: float, de
     return keep[lab]
 
 
+def cycle_minimum_candidate(t_s, acc_b, gyro_det, g_det: float, period_s: float, detector_settings,
+                            settings: SelfTuneSettings, bad: np.ndarray, configured: np.ndarray) -> np.ndarray | None:
+    """The "cycle minimum" candidate of ``select_stance``: the configured mask plus the cycle-minimum windows
+    (``cycle_minimum_stance``) of the cycles it missed (none of its samples within half a gait period); None
+    when it misses none. ``gyro_det``, ``g_det``: the rates and gravity as the detectors see them."""
+    cyc = cycle_minimum_stance(t_s, acc_b, gyro_det, g_det, period_s, detector_settings, settings, bad)
+    cyc = _uncovered(cyc, configured, t_s, 0.5 * period_s)
+    return configured | cyc if cyc.any() else None
+
+
 def _uncovered(windows: np.ndarray, stance: np.ndarray, t_s: np.ndarray, half_s: float) -> np.ndarray:
     """The runs of ``windows`` with no ``stance`` sample within ± half_s of them (cycles the mask missed)."""
     from scipy.ndimage import label
@@ -609,10 +619,9 @@ def select_stance(t_s, acc_b, gyro_b, init, gravity: float, detector_settings, f
         if saturated is not None:
             sat = np.asarray(saturated)
             bad = sat.astype(bool) if sat.ndim == 1 else sat.any(axis=1)
-        cyc = cycle_minimum_stance(t_s, acc_b, gyro_det, g_det, period, detector_settings, s, bad)
-        cyc = _uncovered(cyc, masks[name0], t_s, 0.5 * period)
-        if cyc.any():
-            masks["cycle minimum"] = masks[name0] | cyc
+        cyc = cycle_minimum_candidate(t_s, acc_b, gyro_det, g_det, period, detector_settings, s, bad, masks[name0])
+        if cyc is not None:
+            masks["cycle minimum"] = cyc
         rows += [_row(n, m, t_s, acc_b, gyro_b, init, gravity, filter_settings, saturated, period, s)
                  for n, m in list(masks.items())[1:]]
     best = int(np.argmin([r["J"] for r in rows])) if failed else 0

@@ -179,3 +179,103 @@ def crop(recording: Recording, crop_s: tuple[float, float] | None, name: str = "
     return Samples(t_s=t_s, acc_b=np.ascontiguousarray(recording.acc_mps2[idx], dtype=np.float64),
                    gyro_b=np.ascontiguousarray(recording.gyro_radps[idx], dtype=np.float64), saturated=sat,
                    index=idx)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Readers of blocks: what the block passes of ``pipeline`` read (``RecordingReader``'s interface)
+
+
+class MemoryReader:
+    """``logger.recording.RecordingReader``'s interface over an in-memory ``Recording`` (an imported file, a
+    ``Recording`` given to the API): the same block passes read it, whatever the input (its memory is the
+    recording's, already loaded)."""
+
+    def __init__(self, recording: Recording):
+        self.recording = recording
+        self.path = Path(recording.path) if recording.path else None
+        self.meta = dict(recording.meta)
+        self.n = int(recording.n)
+
+    def block(self, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows i0..i1-1 as ``(t_s, acc_mps2, gyro_radps, saturated)`` (float64 SI, uint8 bits)."""
+        rec, sl = self.recording, slice(i0, i1)
+        t = np.ascontiguousarray(rec.t_s[sl], dtype=np.float64)
+        sat = (np.asarray(rec.saturated[sl], np.uint8) if rec.saturated is not None
+               else np.zeros(len(t), np.uint8))
+        return (t, np.ascontiguousarray(rec.acc_mps2[sl], dtype=np.float64),
+                np.ascontiguousarray(rec.gyro_radps[sl], dtype=np.float64), sat)
+
+    def temp_degc(self, i0: int, i1: int) -> np.ndarray | None:
+        temp = self.recording.temp_degc
+        return None if temp is None else np.asarray(temp[i0:i1], np.float64)
+
+    def times(self, i0: int = 0, i1: int | None = None) -> np.ndarray:
+        return np.asarray(self.recording.t_s[i0:self.n if i1 is None else i1], np.float64)
+
+    def check_units(self) -> None:
+        """The units were checked when the input was read (``load_source``)."""
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class ReaderWindow:
+    """Rows ``start``..``stop``-1 of a reader (a crop) with the reader's interface, row 0 = row ``start``:
+    the passes count samples in the window, messages and ``sample_index_start`` add ``start``."""
+
+    def __init__(self, reader, start: int = 0, stop: int | None = None):
+        self.reader = reader
+        self.start = int(start)
+        self.stop = int(reader.n if stop is None else stop)
+        self.n = self.stop - self.start
+        self.meta = reader.meta
+
+    def block(self, i0: int, i1: int):
+        return self.reader.block(self.start + i0, self.start + i1)
+
+    def temp_degc(self, i0: int, i1: int):
+        return self.reader.temp_degc(self.start + i0, self.start + i1)
+
+    def times(self, i0: int = 0, i1: int | None = None) -> np.ndarray:
+        return self.reader.times(self.start + i0, self.stop if i1 is None else self.start + i1)
+
+    def check_units(self) -> None:
+        self.reader.check_units()  # on the recording's first rows, as ``load_source`` checks them
+
+
+def crop_window(reader, crop_s: tuple[float, float] | None, name: str, rows: int = 1 << 16) -> ReaderWindow:
+    """``crop_index`` on a reader, reading its times ``rows`` at a time (bounded memory): the same window
+    (``np.searchsorted`` of non-decreasing times, block by block), as a ``ReaderWindow``.
+
+    Raises
+    ------
+    InputError
+        As ``crop_index``.
+    """
+    n = reader.n
+    if crop_s is None:
+        return ReaderWindow(reader, 0, n)
+    t0, t1 = float(crop_s[0]), float(crop_s[1])
+    if not t1 > t0:
+        raise InputError(f"{name}: --crop: end {t1} s must be after start {t0} s")
+    i0 = i1 = None
+    for b0 in range(0, n, rows):
+        t = reader.times(b0, min(n, b0 + rows))
+        if i0 is None and t[-1] >= t0:
+            i0 = b0 + int(np.searchsorted(t, t0, side="left"))
+        if t[-1] > t1:
+            i1 = b0 + int(np.searchsorted(t, t1, side="right"))
+            break
+    i0 = n if i0 is None else i0
+    i1 = n if i1 is None else i1
+    if i1 - i0 < 2:
+        first, last = reader.times(0, 1)[0], reader.times(n - 1, n)[0]
+        raise InputError(f"{name}: --crop {t0:g} {t1:g}: no samples in that window (recording spans "
+                         f"{first:.3f}-{last:.3f} s)")
+    return ReaderWindow(reader, i0, i1)

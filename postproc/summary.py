@@ -28,6 +28,14 @@ HEADLINE_KEYS = ("distance_m", "closure_3d_m", "closure_pct", "floors_climbed", 
                  "strides", "confidence")
 
 
+#: ``CONVENTIONS`` and what a processed path adds: its clock, origin and distance (every ``process`` summary)
+PATH_CONVENTIONS = {**CONVENTIONS,
+                    "time": "t_s = recording time (a crop keeps the recording's clock)",
+                    "origin": ("nav-frame origin = sensor position at the first processed sample; initial yaw = 0, "
+                               "so x is the sensor's initial heading, not true east (no magnetometer)"),
+                    "distance": "sum of horizontal footprint-to-footprint distances (stance phases)"}
+
+
 def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> dict:
     """The summary of one run.
 
@@ -50,11 +58,7 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
     dt = np.diff(t_s)
     summary = {
         "software": dict(SOFTWARE),
-        "conventions": {**CONVENTIONS,
-                        "time": "t_s = recording time (a crop keeps the recording's clock)",
-                        "origin": ("nav-frame origin = sensor position at the first processed sample; initial yaw = 0, "
-                                   "so x is the sensor's initial heading, not true east (no magnetometer)"),
-                        "distance": "sum of horizontal footprint-to-footprint distances (stance phases)"},
+        "conventions": dict(PATH_CONVENTIONS),
         "input": {
             "source": str(result.source) if result.source else "recording",
             "format": "hdf5" if result.source_is_hdf5 else "imported",
@@ -198,7 +202,12 @@ def mount_check(t_s: np.ndarray, gyro_b: np.ndarray, period_s: float, distance_m
         flagged, ``message``.
     """
     p99 = float(np.percentile(np.linalg.norm(np.asarray(gyro_b, float), axis=1), 99))
-    duration = float(t_s[-1] - t_s[0])
+    return mount_check_of(p99, float(t_s[-1] - t_s[0]), period_s, distance_m)
+
+
+def mount_check_of(p99: float, duration: float, period_s: float, distance_m: float) -> dict:
+    """``mount_check`` from its figures: the 99th percentile of ‖ω‖ (rad/s) and the record's span (s); the one
+    definition of the check (a recording read in blocks gives the percentile from passes over them)."""
     periodic = bool(np.isfinite(period_s)) and duration > 0
     advance = distance_m / (duration / period_s) if periodic else float("nan")
     slow = not periodic or advance < MIN_ADVANCE_PER_PERIOD_M

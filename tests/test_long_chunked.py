@@ -90,6 +90,18 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
     assert summary["navigation"]["configured_failed"] is whole.summary["navigation"]["configured_failed"] is None
     assert summary["navigation"]["timing_offset"]["innovation_rms_mps"] == pytest.approx(
         whole.navigation.timing["innovation_rms_mps"], rel=1e-9)
+    # the whole-record checks and figures of the summary: the gap and saturation warnings (the walk has both), the
+    # saturated bursts, the mount check (‖ω‖'s 99th percentile, exact from passes), the conventions
+    assert any("gaps longer" in w for w in summary["warnings"]) and summary["saturation_intervals"]
+    assert summary["warnings"] == whole.summary["warnings"]
+    assert summary["saturation_intervals"] == whole.summary["saturation_intervals"]
+    assert summary["mount"] == pytest.approx(whole.summary["mount"], rel=1e-12)
+    assert summary["conventions"] == whole.summary["conventions"]
+    # the adaptive detector's representative threshold 10^median γ: γ = max/min filters and a convex combination of
+    # L = log10 T (and constants), so |Δγ| <= max |ΔL| over the samples, from the statistic's rounding above
+    dL = np.abs(np.log10(np.maximum(r["stance_statistic"], 1e-300)) - np.log10(np.maximum(stat, 1e-300))).max()
+    assert summary["stance"]["threshold"] == pytest.approx(whole.summary["stance"]["threshold"],
+                                                           rel=10.0 ** dL - 1.0 + 1e-15)
 
 
 def test_many_blocks_flag_the_strides_one_block_flags(walk, tmp_path):
@@ -133,30 +145,152 @@ def test_old_command_lines_still_run(walk, tmp_path):
 
 def test_a_stage_that_needs_the_whole_record_runs_one_block_with_a_warning(walk, tmp_path):
     d, rec, whole = walk
-    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--crop", "0", "60", "--no-plots", "--no-hdf5")
+    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--detector", "xio", "--no-plots", "--no-hdf5")
     assert p.returncode == 0, p.stderr
     summary = json.loads((tmp_path / "c" / "summary.json").read_text())
-    assert any("processed as one, since --crop" in w for w in summary["warnings"])
+    assert any("processed as one, since the stance detector 'xio' cannot run block by block" in w
+               for w in summary["warnings"])
     assert "confidence" in summary  # the whole-record stages ran
     p = _cli(rec, "--out", tmp_path / "b", "--block-s", "-1")
     assert p.returncode == 1 and "block_s" in p.stderr and "Traceback" not in p.stderr
 
 
-def test_a_failed_detector_in_many_blocks_is_a_warning_with_a_confidence(walk, tmp_path):
-    """More stance phases required than the walk has: the configured detector fails (``checks.stance_findings``);
-    one block falls back to another stance detection, many blocks keep the configured path and say so."""
+def _one_and_many(rec, tmp_path, block_s=4.0, **kw):
+    """The same run in one block and in blocks of ``block_s`` (``process_to``): (one, many) summaries and folders."""
+    runs = []
+    for label, b in (("one", 1000.0), ("many", block_s)):
+        s = _settings()
+        s.block_s = b
+        for k, v in kw.items():
+            setattr(s, k, v)
+        runs.append((*process_to(rec, s, tmp_path / label), tmp_path / label))
+    (one, _, d1), (many, _, d2) = runs
+    assert one["navigation"].get("blocks", 1) == 1 and many["navigation"]["blocks"] > 1
+    assert not any("processed as one" in w for w in many["warnings"])
+    return one, d1, many, d2
+
+
+def _assert_same_outputs(one, d1, many, d2):
+    r1, r2 = results(d1), results(d2)
+    np.testing.assert_array_equal(r2["t_s"], r1["t_s"])
+    np.testing.assert_array_equal(r2["stance"], r1["stance"])
+    assert np.abs(r2["pos_n_m"] - r1["pos_n_m"]).max() <= 1e-9  # as the one-block path above
+    assert (d2 / "trajectory.csv").read_bytes() == (d1 / "trajectory.csv").read_bytes()
+    for key in ("samples_total", "samples_processed", "t_start_s", "t_end_s", "crop_s", "format"):
+        assert many["input"][key] == one["input"][key], key
+    with h5py.File(d1 / "results.h5", "r") as f1, h5py.File(d2 / "results.h5", "r") as f2:
+        assert f2["results/default"].attrs["sample_index_start"] == f1["results/default"].attrs["sample_index_start"]
+        assert f2["imu/t_s"].shape == f1["imu/t_s"].shape  # the recording beside the results (linked or imported)
+
+
+def test_a_crop_in_blocks_is_the_crop_in_one_block(walk, tmp_path):
+    """The crop is a window of rows (``source.crop_window``): the same samples, the recording's clock kept."""
+    d, rec, whole = walk
+    one, d1, many, d2 = _one_and_many(rec, tmp_path, crop_s=(10.0, 100.0))
+    _assert_same_outputs(one, d1, many, d2)
+    t = results(d2)["t_s"]
+    inside = whole.t_s[(whole.t_s >= 10.0) & (whole.t_s <= 100.0)]
+    np.testing.assert_array_equal(t, inside)
+    assert many["input"]["crop_s"] == [10.0, 100.0]
+    with h5py.File(d2 / "results.h5", "r") as f:
+        assert f["results/default"].attrs["sample_index_start"] == int(np.searchsorted(whole.t_s, 10.0))
+
+
+def test_reference_metrics_in_blocks_are_the_one_block_metrics(walk, tmp_path):
+    """A timed reference (every metric of ``compute_metrics``: distance, deviation, height, the timed errors),
+    here the simulated walk's own stride footprints shifted, compared with the path of the final pass."""
+    d, rec, whole = walk
+    fp = whole.steps
+    ref = tmp_path / "ref.csv"
+    ref.write_text("t_s,x_m,y_m,z_m\n" + "".join(f"{t:.3f},{x + 0.3:.4f},{y - 0.2:.4f},{z:.4f}\n" for t, x, y, z in
+                                                zip(fp["t_s"], fp["x_m"], fp["y_m"], fp["z_m"])))
+    one, d1, many, d2 = _one_and_many(rec, tmp_path, reference=str(ref))
+    _assert_same_outputs(one, d1, many, d2)
+    assert {"deviation_error_m", "mean_h_err_m", "height_error_m"} <= set(one["metrics"])
+    assert set(many["metrics"]) == set(one["metrics"])
+    for key, value in one["metrics"].items():
+        if isinstance(value, float):  # metres of a path equal to 1e-9 m: equal to 1e-9 m
+            assert many["metrics"][key] == pytest.approx(value, abs=1e-8), key
+        else:
+            assert many["metrics"][key] == value, key
+    assert many["closed_loop"] == one["closed_loop"]
+
+
+def test_an_imported_file_in_blocks_is_the_one_block_run(walk, tmp_path):
+    """A non-HDF5 input (the canonical imu.csv) is read once and passed through ``source.MemoryReader``;
+    results.h5 holds the imported recording, as the one-block run writes it."""
+    d, rec, whole = walk
+    csv = tmp_path / "imu.csv"
+    r = whole.recording
+    np.savetxt(csv, np.column_stack((r.t_s, r.acc_mps2, r.gyro_radps)), fmt="%.17g", delimiter=",",
+               header="t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps", comments="")
+    one, d1, many, d2 = _one_and_many(csv, tmp_path, crop_s=(5.0, 110.0))
+    _assert_same_outputs(one, d1, many, d2)
+    assert many["input"]["format"] == "imported"
+
+
+def test_into_recording_in_blocks(walk, tmp_path):
+    import shutil
+
+    d, rec, whole = walk
+    copy = tmp_path / "copy.h5"
+    shutil.copy2(rec, copy)
+    s = _settings()
+    s.block_s = 9.0
+    summary, files = process_to(copy, s, tmp_path / "o", into_recording=True)
+    assert summary["navigation"]["blocks"] > 1 and files["hdf5"] == f"{copy}:/results/default"
+    with h5py.File(copy, "r") as f:
+        assert np.abs(f["results/default/pos_n_m"][()] - whole.pos_n).max() <= 1e-9
+        assert "imu" in f and f["imu/t_s"].shape[0] == len(whole.t_s)
+
+
+def _assert_fallback_as_one_block(rec, settings, out, block_s=4.0):
+    """The same run in one block (``process``, ``navigate``'s fallback on whole arrays) and in blocks of
+    ``block_s`` (the fallback's candidates scored in passes): the choice, every candidate's figures, the path."""
+    whole = process(rec, settings)
+    write_outputs(whole, out / "whole")
+    settings.block_s = block_s
+    summary, _ = process_to(rec, settings, out / "blocks")
+    mine, theirs = summary["navigation"], whole.summary["navigation"]
+    assert mine["blocks"] > 1 and not any("processed as one" in w for w in summary["warnings"])
+    for key in ("stance_choice", "fallback_used", "configured_failed"):
+        assert mine[key] == theirs[key], key
+    assert [c["name"] for c in mine["candidates"]] == [c["name"] for c in theirs["candidates"]]
+    for c, d in zip(mine["candidates"], theirs["candidates"]):  # forward runs: the path to rounding
+        assert set(c) == set(d)
+        for key in set(c) - {"name"}:
+            assert c[key] == pytest.approx(d[key], rel=1e-9), (c["name"], key)
+    assert mine["confidence"] == pytest.approx(theirs["confidence"], rel=1e-9)
+    assert summary["warnings"] == whole.summary["warnings"]
+    r = results(out / "blocks")
+    np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert (out / "blocks" / "trajectory.csv").read_bytes() == (out / "whole" / "trajectory.csv").read_bytes()
+    return summary
+
+
+def test_a_failed_stance_mask_falls_back_in_blocks_as_in_one_block(walk, tmp_path):
+    """More stance phases required than the walk has: the configured detector fails (``checks.stance_findings``)
+    and ``navigate``'s fallback chooses another stance detection; in blocks the candidates are scored by passes
+    and the same one is chosen, the same path written. Without the fallback both refuse."""
     d, rec, whole = walk
     settings = _settings()
     settings.checks.min_stance_phases = 10_000
-    settings.block_s = 20.0
-    summary, _ = process_to(rec, settings, tmp_path / "o")
-    nav = summary["navigation"]
-    assert nav["configured_failed"].startswith("stance detector 'adaptive' found") and not nav["fallback_used"]
-    assert any("runs on a recording of one block only" in w for w in summary["warnings"])
-    assert 0 < summary["confidence"] <= 1
+    summary = _assert_fallback_as_one_block(rec, settings, tmp_path)
+    assert summary["navigation"]["configured_failed"].startswith("stance detector 'adaptive' found")
+    assert summary["navigation"]["fallback_used"] and len(summary["navigation"]["candidates"]) >= 4
     settings.selftune.fallback = False  # as the one-block run: the failure refused
     with pytest.raises(InputError, match="stance phase"):
         process_to(rec, settings, tmp_path / "o2")
+
+
+def test_implausible_strides_fall_back_in_blocks_as_in_one_block(walk, tmp_path):
+    """Strides flagged (longer than 1 m: FAST) beyond ``max_bad_fraction``: the configured path fails on its
+    strides after its final pass; the fallback's passes run again, as ``navigate`` runs the filter again."""
+    d, rec, whole = walk
+    settings = _settings(max_stride_m=1.0, max_bad_fraction=0.05)
+    summary = _assert_fallback_as_one_block(rec, settings, tmp_path, block_s=7.0)
+    assert "strides are implausible" in summary["navigation"]["configured_failed"]
 
 
 def _auto_settings(block_s=None) -> ProcessSettings:
@@ -220,3 +354,83 @@ def test_heading_auto_off_in_blocks_is_the_one_block_run(tmp_path):
     assert not whole.summary["filter"]["heading_decision"]["on"] and whole.nav.info["heading_aid_updates"] == 0
     summary, _ = process_to(rec, _auto_settings(7.0), tmp_path / "o")
     _assert_auto_as_one_block(whole, summary, tmp_path / "o")
+
+
+@pytest.mark.parametrize("kind", ["jitter", "quantised", "gaps and repeats"])
+def test_the_nominal_period_of_the_passes_is_the_whole_records(kind):
+    """Δt₀ of the block passes (``pipeline._nominal_period``, passes over the times) is ``timebase.sample_period``
+    of the whole time axis to the last bit, however few steps a pass may hold (``cap``) or read (``rows``)."""
+    from bootnav.core.timebase import sample_period
+    from bootnav.postproc.pipeline import _nominal_period
+    from bootnav.postproc.source import MemoryReader
+    from bootnav.logger.recording import Recording, make_events
+
+    rng = np.random.default_rng(7)
+    n = 50_001
+    dt = {"jitter": 0.005 + rng.normal(0, 2e-6, n), "quantised": np.round(rng.choice([0.004, 0.005, 0.006], n), 3),
+          "gaps and repeats": rng.choice([0.005, 0.0049, 0.0051, 0.0, -0.001, 0.02], n)}[kind]
+    t = np.cumsum(dt)
+    rec = MemoryReader(Recording(path=None, t_s=t, acc_mps2=np.zeros((n, 3)), gyro_radps=np.zeros((n, 3)),
+                                 saturated=None, events=make_events([]), meta={}, attrs={}))
+    for rows, cap in ((1 << 20, 1 << 20), (999, 64), (5, 3)):
+        assert _nominal_period(rec, rows, cap) == sample_period(t)
+
+
+def test_the_cycle_minimum_candidate_from_blocks_is_the_whole_records(walk):
+    """The "cycle minimum" fallback candidate (the configured mask plus the cycle-minimum windows of the cycles it
+    misses) from StanceChunks spilled to a temporary file equals ``selftune``'s on the whole arrays; here a mask
+    that misses every other stance phase, so the windows are added."""
+    from bootnav.core.runs import runs
+    from bootnav.postproc import selftune
+    from bootnav.postproc.calibration import stance_reference
+    from bootnav.postproc.detectors.stream import StanceChunk
+    from bootnav.postproc.pipeline import _cycle_minimum
+
+    d, rec, whole = walk
+    settings = _settings()
+    starts, stops = runs(whole.stance)
+    holed = whole.stance.copy()
+    for a, b in zip(starts[1::2], stops[1::2]):
+        holed[a:b] = False
+    bias_det, g_det = stance_reference(whole.init, whole.gravity_mps2)
+    period = whole.navigation.period_s
+    sat = whole.saturated.astype(np.uint8)
+    ref = selftune.cycle_minimum_candidate(whole.t_s, whole.acc_b, whole.gyro_b - bias_det, g_det, period,
+                                           settings.detector, settings.selftune, sat.astype(bool), holed)
+    assert ref is not None and (ref & ~holed).any()
+    cuts = [0, 1, 777, 5000, 5001, 12345, len(whole.t_s)]
+    chunks = (StanceChunk(a, whole.t_s[a:b], whole.acc_b[a:b], whole.gyro_b[a:b], holed[a:b], sat[a:b])
+              for a, b in zip(cuts[:-1], cuts[1:]))
+    mine = _cycle_minimum(chunks, len(whole.t_s), bias_det, g_det, period, settings)
+    np.testing.assert_array_equal(mine, ref)
+
+
+@pytest.mark.parametrize("storeys", [True, False])
+def test_revisits_in_blocks_are_the_one_block_revisits(walk, tmp_path, storeys):
+    """The pose graph over the strides (``building.revisits``) in passes: the final filter's footprints and
+    their variances from a pass, the corrections interpolated in time on the rows of the passes after it (the
+    storeys' and the final one), as ``apply_revisits`` corrects the whole path."""
+    d, rec, _ = walk
+
+    def settings(block_s=None):
+        s = _settings()
+        s.filter.revisits = "entry+stairs"
+        s.floor_storeys = storeys
+        if block_s is not None:
+            s.block_s = block_s
+        return s
+
+    whole = process(rec, settings())
+    write_outputs(whole, tmp_path / "whole")
+    report = whole.nav.info["revisits"]
+    assert report["edges"] and report["max_correction_m"] > 0.01  # the walk has revisits to correct
+    summary, _ = process_to(rec, settings(6.0), tmp_path / "blocks")
+    assert summary["navigation"]["blocks"] > 1 and not any("processed as one" in w for w in summary["warnings"])
+    mine = summary["filter"]["revisits"]
+    assert mine["edges"] == report["edges"]
+    assert mine["max_correction_m"] == pytest.approx(report["max_correction_m"], abs=1e-9)
+    r = results(tmp_path / "blocks")
+    np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert summary["navigation"]["stride_flags"] == whole.summary["navigation"]["stride_flags"]
+    assert (tmp_path / "blocks" / "trajectory.csv").read_bytes() == (tmp_path / "whole" / "trajectory.csv").read_bytes()

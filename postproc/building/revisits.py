@@ -116,28 +116,42 @@ def solve_graph(xy: np.ndarray, step_var: np.ndarray, edges: list[tuple[int, int
 def apply_revisits(nav, t_s: np.ndarray, stance: np.ndarray, settings):
     """Correct ``nav.pos_n`` (a ``NavSolution``) by the pose graph when revisits are found; the report goes
     into ``nav.info["revisits"]``. Returns ``nav`` (its position array replaced, never modified in place)."""
-    from bootnav.postproc.strides import footprints, stride_footprints
+    from bootnav.postproc.strides import footprints
 
     t_fp, fp = footprints(t_s, np.asarray(nav.pos_n), np.asarray(stance, bool))
+    sig = np.asarray(nav.pos_sigma_n) if getattr(nav, "pos_sigma_n", None) is not None else None
+    var_h = np.interp(t_fp, t_s, sig[:, 0] ** 2 + sig[:, 1] ** 2) if sig is not None else None
+    t_fp, delta, report = revisit_corrections(t_fp, fp, var_h, settings)
+    if delta is not None:
+        pos = np.array(nav.pos_n, dtype=float, copy=True)
+        for ax in range(2):
+            pos[:, ax] += np.interp(t_s, t_fp, delta[:, ax])
+        nav.pos_n = pos
+    nav.info["revisits"] = report
+    return nav
+
+
+def revisit_corrections(t_fp: np.ndarray, fp: np.ndarray, var_h: np.ndarray | None, settings):
+    """The pose graph's horizontal corrections at the strides' footprints: ``(t_fp, delta, report)`` of the
+    footprints kept (moves of at least ``hde_min_stride_m``), ``delta`` (K, 2) m or None without a revisit.
+    ``var_h``: the horizontal position variance sum (m²) at each footprint's time (None: unknown). The one
+    definition of the correction: the whole path (``apply_revisits``) and the block passes (``pipeline``)
+    interpolate ``delta`` in time between the footprints."""
+    from bootnav.postproc.strides import stride_footprints
+
     keep = stride_footprints(fp, settings.hde_min_stride_m) if len(fp) else np.zeros(0, int)
     t_fp, fp = t_fp[keep], fp[keep]
     edges = detect_revisits(fp, settings)
     report = {"mode": settings.revisits, "edges": [{"from_stride": int(i), "to_stride": int(j), "kind": k}
                                                    for i, j, k in edges], "max_correction_m": 0.0}
-    if edges:
-        sig = np.asarray(nav.pos_sigma_n) if getattr(nav, "pos_sigma_n", None) is not None else None
-        if sig is not None:
-            var_h = np.interp(t_fp, t_s, sig[:, 0] ** 2 + sig[:, 1] ** 2)
-            step_var = np.maximum(np.diff(var_h), 0.0)
-        else:
-            step_var = np.zeros(len(fp) - 1)
-        step_var = np.maximum(step_var, settings.revisit_step_sigma_m**2)
-        xy = solve_graph(fp[:, :2], step_var, edges, settings.revisit_sigma_m)
-        delta = xy - fp[:, :2]
-        pos = np.array(nav.pos_n, dtype=float, copy=True)
-        for ax in range(2):
-            pos[:, ax] += np.interp(t_s, t_fp, delta[:, ax])
-        nav.pos_n = pos
-        report["max_correction_m"] = float(np.linalg.norm(delta, axis=1).max())
-    nav.info["revisits"] = report
-    return nav
+    if not edges:
+        return t_fp, None, report
+    if var_h is not None:
+        step_var = np.maximum(np.diff(np.asarray(var_h)[keep]), 0.0)
+    else:
+        step_var = np.zeros(len(fp) - 1)
+    step_var = np.maximum(step_var, settings.revisit_step_sigma_m**2)
+    xy = solve_graph(fp[:, :2], step_var, edges, settings.revisit_sigma_m)
+    delta = xy - fp[:, :2]
+    report["max_correction_m"] = float(np.linalg.norm(delta, axis=1).max())
+    return t_fp, delta, report

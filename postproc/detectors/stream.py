@@ -57,6 +57,7 @@ class StanceChunk:
     stance: np.ndarray  # (m,) bool
     saturated: np.ndarray  # (m,) uint8 saturation bitmask (bits ax, ay, az, gx, gy, gz), for the navigator's push
     statistic: np.ndarray | None = None  # (m,) the detector's statistic (``StanceResult.statistic``'s rows)
+    threshold_log10: np.ndarray | None = None  # (m,) the adaptive detector's per-sample log10 γ (else None)
 
     def __len__(self) -> int:
         return int(self.t_s.shape[0])
@@ -201,9 +202,10 @@ class StreamStance:
             return []
         t, acc, gyro, bad = self._t, self._acc, self._gyro, self._bad
         gyro_det = gyro if self._gyro_bias is None else gyro - self._gyro_bias
-        stance, stat = self._detect(t, acc, gyro_det, bad, self._decided - self._b0, end - self._b0)
+        stance, stat, gamma = self._detect(t, acc, gyro_det, bad, self._decided - self._b0, end - self._b0)
         a, b = self._decided - self._b0, end - self._b0
-        chunk = StanceChunk(self._decided, t[a:b], acc[a:b], gyro[a:b], stance[a:b], self._bits[a:b], stat[a:b])
+        chunk = StanceChunk(self._decided, t[a:b], acc[a:b], gyro[a:b], stance[a:b], self._bits[a:b], stat[a:b],
+                            None if gamma is None else gamma[a:b])
         self._decided = end
         keep = max(0, end - self._history - self._b0)
         self._t, self._acc, self._gyro, self._bad = t[keep:], acc[keep:], gyro[keep:], bad[keep:]
@@ -211,9 +213,10 @@ class StreamStance:
         self._b0 += keep
         return [chunk]
 
-    def _detect(self, t, acc, gyro, bad, a, b) -> tuple[np.ndarray, np.ndarray]:
+    def _detect(self, t, acc, gyro, bad, a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The detector's ``detect`` on the buffer with the nominal period (``base.StanceDetector.detect``'s
-        steps; samples a..b−1 are the ones being decided): (stance mask, statistic) of the buffer."""
+        steps; samples a..b−1 are the ones being decided): (stance mask, statistic, the adaptive detector's
+        log10 γ or None) of the buffer."""
         from . import postprocess
         from bootnav.core.arrays import dilate
 
@@ -221,13 +224,14 @@ class StreamStance:
         dt = self.dt_s
         acc0 = np.where(np.isfinite(acc), acc, 0.0) if bad.any() else acc
         gyro0 = np.where(np.isfinite(gyro), gyro, 0.0) if bad.any() else gyro
+        gamma = None
         if self._adaptive:
-            raw, n_window, stat = self._adaptive_raw(acc0, gyro0, bad, a, b)
+            raw, n_window, stat, gamma = self._adaptive_raw(acc0, gyro0, bad, a, b)
         else:
             raw, stat, _, n_window, _ = det._classify(acc0, gyro0, dt, bad)
         stance = postprocess.clean_stance(raw, t, dt, min_swing_s=det.min_swing_s)
         stance &= ~dilate(bad, max(n_window, window_samples(det.saturation_guard_s, dt, 0)))
-        return det._drop_short_runs(stance, t, dt), stat
+        return det._drop_short_runs(stance, t, dt), stat, gamma
 
     def _adaptive_raw(self, acc, gyro, bad, a, b):
         """``adaptive.AdaptiveDetector``'s rule with the noise floor F from the look-back (module docstring)."""
@@ -248,7 +252,7 @@ class StreamStance:
         gamma = np.maximum(valley + det.alpha * (peak - valley), floor + det.floor_decades)
         if det.max_rate_radps:
             gamma = np.minimum(gamma, np.log10(det.max_rate_radps**2 / det.sigma_gyro_radps**2))
-        return L < gamma, n, T
+        return L < gamma, n, T, gamma
 
 
 def _as_bits(saturated, m: int, at: int) -> np.ndarray:

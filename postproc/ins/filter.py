@@ -107,6 +107,13 @@ def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_f
     return out
 
 
+def propagated_gaps_warning(n_gaps: int, largest_s: float) -> str:
+    """The warning of a run with timestamp gaps (steps > ``GAP_FACTOR`` nominal periods): the filter propagates
+    each as one step."""
+    return (f"{n_gaps} timestamp gap(s) > {GAP_FACTOR:g} x nominal period (largest {largest_s:.4g} s) were "
+            "propagated as single steps")
+
+
 def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: FilterSettings | None = None,
                progress=None, saturated=None, heading_gate=None) -> NavSolution:
     """ZUPT-aided INS over a whole record: filter (and by default RTS smoother) on the raw timestamps.
@@ -173,8 +180,7 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     if not stance.any():
         warnings.append("no stance sample: the filter ran open loop (pure strapdown) — the path is not usable")
     if tb.gap_mask.any():
-        warnings.append(f"{int(tb.gap_mask.sum())} timestamp gap(s) > {GAP_FACTOR:g} x nominal period "
-                        f"(largest {tb.dt_s.max():.4g} s) were propagated as single steps")
+        warnings.append(propagated_gaps_warning(int(tb.gap_mask.sum()), float(tb.dt_s.max())))
 
     t0 = time.perf_counter()
     if settings.engine == "fast":
