@@ -148,11 +148,41 @@ def apply_calibration_arguments(args, cal) -> None:
         cal.accel_calibration_file = args.accel_calibration
 
 
+#: Flags that contradict each other: (flag, attribute, flags, attributes, why the second would be ignored).
+CONTRADICTIONS = (
+    ("--gravity", "gravity", ("--latitude", "--height"), ("latitude", "height"),
+     "--gravity fixes g; --latitude and --height only choose the WGS-84 normal gravity: give one or the other"),
+    ("--floors-from-height", "floors_from_height", ("--stair-min-dz",), ("stair_min_dz",),
+     "--floors-from-height counts floors from the height itself, without stair strides: drop --stair-min-dz"),
+    ("--reference", "reference", ("--closed-loop",), ("closed_loop",),
+     'a closed loop is a reference of its own (--reference \'{"closed_loop": true}\'): give one of them'),
+    ("--no-hdf5", "no_hdf5", ("--into-recording", "--results-name"), ("into_recording", "results_name"),
+     "with --no-hdf5 no results group is written: drop the HDF5 options or --no-hdf5"),
+)
+
+
+def _given(args, attr: str) -> bool:
+    value = getattr(args, attr, None)
+    return value is not None and value is not False
+
+
+def check_flag_combinations(args) -> None:
+    """A flag that another flag makes meaningless is refused (one line naming both), never silently ignored."""
+    from bootnav.errors import InputError
+
+    for flag, attr, others, other_attrs, why in CONTRADICTIONS:
+        if _given(args, attr):
+            for other, other_attr in zip(others, other_attrs):
+                if _given(args, other_attr):
+                    raise InputError(f"{flag} with {other}: {why}")
+
+
 def build_settings(args):
     """Defaults < --settings file < command-line options."""
     from bootnav.errors import InputError
     from bootnav.postproc.settings import ProcessSettings
 
+    check_flag_combinations(args)
     s = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
     if args.detector:  # argparse checked the name
         s.detector = s.detector.with_method(args.detector)
@@ -385,7 +415,11 @@ def run(args) -> int:
     from bootnav.postproc.twoboots import cli as two_boots
 
     if two_boots.wanted(args):
+        if args.into_recording:
+            raise InputError("--into-recording: a two-boot run writes its own folder (two_boots.json, left/, right/); "
+                             "drop the option")
         return two_boots.run(args, settings, StageProgress(quiet=args.quiet))
+    two_boots.refuse_two_boot_flags(args)
     outs = [args.out] if len(args.input) == 1 else [str(Path(args.out) / n) for n in output_names(args.input)]
     others = [settings.reference if _is_file(settings.reference) else None, args.settings, args.accel_calibration,
               args.calibration]

@@ -1,0 +1,60 @@
+"""A ``bootnav process`` flag that another flag (or the kind of run) makes meaningless is refused with one line
+naming both, never silently ignored (issue 25: "a flag the chosen detector ignores is an error")."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from bootnav.cli import main
+from bootnav.errors import InputError
+from bootnav.postproc import cli_process
+from tests.conftest import REPO
+
+REC = REPO / "recordings" / "gaitmap_level_walk_left.h5"
+
+
+def _settings(*argv: str):
+    p = argparse.ArgumentParser()
+    cli_process.add_arguments(p)
+    return cli_process.build_settings(p.parse_args(["x.h5", "--out", "o", *argv]))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--gravity", "9.81", "--latitude", "10"], "--gravity with --latitude"),
+    (["--gravity", "9.81", "--height", "100"], "--gravity with --height"),
+    (["--floors-from-height", "--stair-min-dz", "0.2"], "--floors-from-height with --stair-min-dz"),
+    (["--reference", "truth", "--closed-loop"], "--reference with --closed-loop"),
+    (["--no-hdf5", "--into-recording"], "--no-hdf5 with --into-recording"),
+    (["--no-hdf5", "--results-name", "x"], "--no-hdf5 with --results-name"),
+])
+def test_contradicting_flags_are_refused(argv, message):
+    with pytest.raises(InputError, match="^" + message + ": "):
+        _settings(*argv)
+
+
+def test_each_flag_alone_is_taken():
+    assert _settings("--gravity", "9.81").calibration.gravity_mps2 == 9.81
+    assert _settings("--latitude", "10", "--height", "100").calibration.latitude_deg == 10
+    assert _settings("--floors-from-height").floor_stair_min_dz_m is None
+    assert _settings("--closed-loop").reference == '{"closed_loop": true}'
+    assert _settings("--no-hdf5").output.write_hdf5 is False
+
+
+@pytest.mark.parametrize("flag", [["--max-separation", "0.5"], ["--clock", "gait"], ["--right-offset-s", "0.1"],
+                                  ["--boots", "a,b"], ["--two-boot-settings", "tb.json"]])
+def test_a_two_boot_flag_on_a_single_foot_is_refused(flag, tmp_path, capsys):
+    assert main(["process", str(REC), "--out", str(tmp_path / "o"), "--no-plots", "-q", *flag]) == 1
+    err = capsys.readouterr().err
+    assert f"{flag[0]} applies to two boots of one walker only" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("flag, message", [(["--boots", "a,b"], "--boots a,b: chooses two boots of one multi-boot"),
+                                           (["--into-recording"], "--into-recording: a two-boot run writes")])
+def test_a_flag_two_boots_ignore_is_refused(flag, message, tmp_path, capsys):
+    assert main(["process", str(REC), str(REC), "--two-boots", "--out", str(tmp_path / "o"), "--no-plots", "-q",
+                 *flag]) == 1
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
