@@ -382,6 +382,10 @@ class RecordingWriter:
     def enabled(self) -> tuple[str, ...]:
         return tuple(self._arrays)
 
+    def times(self) -> np.ndarray:
+        """The ``t_s`` of the rows appended so far (read back from the file)."""
+        return self._arrays["t_s"][: self.n]
+
     def append(self, t_s, acc, gyro, *, saturated=None, **optional) -> None:
         """Append a block of samples. ``optional`` takes temp, t_device, t_host, seq.
 

@@ -496,7 +496,7 @@ class SerialRecorder:
         w = self._writer
         if w is None or w.n == 0:
             return None
-        return w._arrays["t_s"][: w.n]
+        return w.times()
 
     def _status(self, now: float) -> None:
         if self.status_stream is None:
