@@ -77,7 +77,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "an input is never overwritten")
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
     p.add_argument("--block-s", "--chunk-s", dest="block_s", type=float, metavar="S",
-                   help="seconds of samples held in memory at once (settings block_s, default 300): a longer "
+                   help="seconds of samples held in memory at once (settings block_s, default 900): a longer "
                         "recording runs as passes over blocks of S s, memory bounded by the block "
                         "(docs/long-recordings.md); --chunk-s is its old name")
     p.add_argument("--memory-limit", type=float, metavar="MB", help=argparse.SUPPRESS)  # deprecated: --block-s
