@@ -235,8 +235,8 @@ def build_settings(args):
 
 
 class StageProgress:
-    """The pipeline's ``progress(stage, fraction)`` shown through ``bootnav.cli.Progress``: one rewritten line
-    on a tty, plain periodic lines (no carriage returns) when stderr is a log or a pipe.
+    """The pipeline's ``progress(stage, fraction)`` shown through ``bootnav.core.progress.Progress``: one
+    rewritten line on a tty, plain periodic lines (no carriage returns) when stderr is a log or a pipe.
 
     Parameters
     ----------

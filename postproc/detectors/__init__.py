@@ -188,8 +188,8 @@ def _field_default(f):
     return f.default_factory() if f.default is MISSING else f.default
 
 
-def detect_stance(t_s, acc_b, gyro_b, settings: DetectorSettings | None = None, gravity: float = STANDARD_GRAVITY_MPS2, *,
-                  saturated=None) -> StanceResult:
+def detect_stance(t_s, acc_b, gyro_b, settings: DetectorSettings | None = None,
+                  gravity: float = STANDARD_GRAVITY_MPS2, *, saturated=None) -> StanceResult:
     """Stance mask of one recording with the detector the settings name.
 
     Parameters
