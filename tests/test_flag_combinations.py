@@ -58,3 +58,32 @@ def test_a_flag_two_boots_ignore_is_refused(flag, message, tmp_path, capsys):
                  *flag]) == 1
     assert message in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def _pdr_settings(*argv: str):
+    from bootnav.postproc.pdr import cli as pdr_cli
+
+    p = argparse.ArgumentParser()
+    pdr_cli.add_arguments(p)
+    return pdr_cli.build_settings(p.parse_args(["x.csv", "--out", "o", *argv]))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--heading", "mag", "--heading0", "90"], "--heading0: heading 'mag' does not use it"),
+    (["--heading", "gyro", "--declination", "5"], "--declination: heading 'gyro' does not use it"),
+    (["--complementary-tau", "5"], "--complementary-tau: heading 'auto' does not use it"),
+    (["--heading", "gyro", "--mag-tilt", "none"], "--mag-tilt: heading 'gyro' does not use it"),
+    (["--mag-calibration", "ellipse"], "--mag-calibration: heading 'auto' does not use it"),
+    (["--heading", "compass", "--gyro-signed-magnitude"], "--gyro-signed-magnitude: heading 'compass' does not"),
+    (["--engineered"], "--engineered: step detector 'robust' has no literal form"),
+])
+def test_a_pdr_flag_the_chosen_method_ignores_is_refused(argv, message):
+    with pytest.raises(InputError, match="^" + message):
+        _pdr_settings(*argv)
+
+
+def test_pdr_flags_their_method_reads_are_taken():
+    assert _pdr_settings("--heading", "gyro", "--heading0", "90").heading0_deg == 90
+    assert _pdr_settings("--heading", "complementary", "--complementary-tau", "5", "--mag-tilt", "none",
+                         "--declination", "3").complementary_tau_s == 5
+    assert _pdr_settings("--detector", "zero_crossing", "--engineered").detector_params["literal"] is False
