@@ -874,6 +874,14 @@ def _boots_attr(f: h5py.File, path: Path) -> list[str]:
     return labels
 
 
+def load_aux(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The ``/aux`` columns of an imported recording (magnetometer, heading, FSR, ...), {} if none."""
+    with h5py.File(path, "r") as f:
+        if "aux" not in f:
+            return {}
+        return {k: f["aux"][k][()] for k in f["aux"]}
+
+
 def boot_labels(path: str | os.PathLike) -> list[str]:
     """Labels of the boots of a multi-boot recording in port order (e.g. ``["left", "right"]``); ``[]`` for a
     single-boot recording.
