@@ -87,3 +87,15 @@ def test_pdr_flags_their_method_reads_are_taken():
     assert _pdr_settings("--heading", "complementary", "--complementary-tau", "5", "--mag-tilt", "none",
                          "--declination", "3").complementary_tau_s == 5
     assert _pdr_settings("--detector", "zero_crossing", "--engineered").detector_params["literal"] is False
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--two-files"], "--two-files splits a --two-boots simulation"),
+    (["--two-boots", "--plot", "p.png"], "--plot is not available with --two-boots"),
+    (["--two-boots", "--mount", "left_boot"], "--mount is not available with --two-boots"),
+])
+def test_a_simulate_flag_that_would_be_ignored_is_refused(argv, message, tmp_path, capsys):
+    out = tmp_path / "w.h5"
+    assert main(["simulate", "--scenario", "paper-straight", "--out", str(out), *argv]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
