@@ -231,6 +231,13 @@ def build_settings(args):
         s.output.write_hdf5 = False
     if args.no_plots:
         s.output.plots = False
+    # the values the flags set are checked by the code that checks a settings file (types, finite numbers,
+    # ranges: ``settings.from_plain``), so a flag is refused exactly as the same value in a file would be, and
+    # the settings saved with the results always load again
+    try:
+        ProcessSettings.from_dict(s.to_dict())
+    except InputError as exc:
+        raise InputError(f"command line: {exc}") from None
     return s
 
 

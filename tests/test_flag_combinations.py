@@ -99,3 +99,18 @@ def test_a_simulate_flag_that_would_be_ignored_is_refused(argv, message, tmp_pat
     assert main(["simulate", "--scenario", "paper-straight", "--out", str(out), *argv]) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_flag_value_is_checked_as_the_same_value_in_a_settings_file(tmp_path):
+    """A flag goes through the settings file's checks (``settings.from_plain``): refused with the same reason,
+    so the settings saved with a run always load again."""
+    import json
+
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps({"block_s": 1e9}))
+    with pytest.raises(InputError) as from_file:
+        _settings("--settings", str(f))
+    with pytest.raises(InputError, match="^command line: ") as from_flag:
+        _settings("--block-s", "1e9")
+    assert str(from_file.value).split(": ", 1)[1] == str(from_flag.value).split(": ", 1)[1]
+    assert _settings("--block-s", "600").block_s == 600
