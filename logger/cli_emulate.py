@@ -226,7 +226,9 @@ def _run_multi(args, kinds, corrupt: list[float]) -> int:
         for t in threads:
             t.join(0.1)
     if args.report:
-        Path(args.report).write_text(json.dumps({"boots": [asdict(e.report) for e in emulators]}))
+        from bootnav.core import atomic
+
+        atomic.write_text(args.report, json.dumps({"boots": [asdict(e.report) for e in emulators]}))
     for e in errors:
         if isinstance(e, TimeoutError):
             raise BootnavError(str(e)) from e

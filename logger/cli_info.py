@@ -80,6 +80,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     import numpy as np
 
     from bootnav.logger.recording import EVENT_DTYPE, IMU_DATASETS, decode_attr, recording_group, si_factors
+    from bootnav.logger.mpu6050 import STANDARD_GRAVITY
     from bootnav.logger.samplestats import read_summary
 
     with recording_group(path, boot) as (_, g):
@@ -129,7 +130,7 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
         if not math.isfinite(fs):
             return float("nan")
         si = fs * si_factors(channel_attrs)[0]
-        return si / 9.80665 if scale_name == "g" else math.degrees(si)
+        return si / STANDARD_GRAVITY if scale_name == "g" else math.degrees(si)
 
     summary = {
         "file": str(shown),

@@ -18,18 +18,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--label", action="append", default=None,
                         help="boot label of each --port, in order (default with two ports: left, right); "
                              "the mount becomes LABEL_boot")
-    parser.add_argument("--baud", type=int, default=500_000,
+    parser.add_argument("--baud", type=int, default=None,
                         help="baud rate (default 500000: carries 1 kHz; see firmware-protocol/PROTOCOL.md)")
     parser.add_argument("--out", required=True, metavar="FILE.h5", help="recording to create")
     parser.add_argument("--force", action="store_true",
                         help="replace --out if it is an existing recording (never a file that is not HDF5)")
     parser.add_argument("--duration", type=float, default=None, metavar="S",
                         help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
-    parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
+    parser.add_argument("--flush-interval", type=float, default=None, metavar="S",
                         help="write to disk at least every S s; a crash loses at most this much (default 0.5 s)")
-    parser.add_argument("--header-wait", type=float, default=1.5, metavar="S",
+    parser.add_argument("--header-wait", type=float, default=None, metavar="S",
                         help="wait S s for the sensor's header frame before assuming ±16 g / ±2000 °/s (default 1.5 s)")
-    parser.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
+    parser.add_argument("--connect-timeout", type=float, default=None, metavar="S",
                         help="give up if the port cannot be opened at start within S seconds (default 10 s)")
     parser.add_argument("--mount", default="", help="where the sensor sits, e.g. left_boot, right_boot (one port)")
     parser.add_argument("--subject", default="", help="who wears the boot (a name or code), stored in /meta")
@@ -70,6 +70,14 @@ def check_free_space(out, n_boots: int = 1, quiet: bool = False) -> float:
     return minutes
 
 
+def given_knobs(args) -> dict:
+    """The recorder knobs given on the command line; the others keep ``RecorderSettings``' defaults (the one
+    place of each default: the numbers in the help texts are checked against it, ``tests/test_one_default.py``)."""
+    knobs = (("baud", "baud"), ("flush_interval_s", "flush_interval"), ("header_wait_s", "header_wait"),
+             ("connect_timeout_s", "connect_timeout"))
+    return {field: getattr(args, attr) for field, attr in knobs if getattr(args, attr, None) is not None}
+
+
 def run(args) -> int:
     import os
     from pathlib import Path
@@ -79,7 +87,7 @@ def run(args) -> int:
     from bootnav.logger.serial_recorder import RecorderSettings, SerialRecorder
 
     out = Path(args.out)
-    if not MIN_BAUD <= args.baud <= MAX_BAUD:
+    if args.baud is not None and not MIN_BAUD <= args.baud <= MAX_BAUD:
         raise BootnavError(f"--baud {args.baud}: outside {MIN_BAUD}..{MAX_BAUD}; the sensor's rate is 500000 "
                            "(see firmware-protocol/PROTOCOL.md)")
     for flag, value in (("--flush-interval", args.flush_interval), ("--header-wait", args.header_wait),
@@ -95,12 +103,8 @@ def run(args) -> int:
 
     if len(args.port) > 1 or args.label:
         return _run_multi(args)
-    settings = RecorderSettings(
-        port=args.port[0], out=args.out, baud=args.baud, duration_s=args.duration,
-        flush_interval_s=args.flush_interval, header_wait_s=args.header_wait,
-        connect_timeout_s=args.connect_timeout, mount=args.mount, subject=args.subject,
-        session_notes=args.notes,
-    )
+    settings = RecorderSettings(port=args.port[0], out=args.out, duration_s=args.duration, mount=args.mount,
+                                subject=args.subject, session_notes=args.notes, **given_knobs(args))
     recorder = SerialRecorder(settings, status_stream=None if args.quiet else sys.stderr)
     stats = _run_until_stopped(recorder)
     if not recorder.wrote_file:
@@ -146,8 +150,7 @@ def _run_multi(args) -> int:
         raise BootnavError("--mount names one sensor; with several ports the mount of each is LABEL_boot "
                            "(choose the labels with --label)")
     settings = MultiRecorderSettings(
-        ports=ports, labels=labels, out=args.out, baud=args.baud, duration_s=args.duration,
-        flush_interval_s=args.flush_interval, header_wait_s=args.header_wait, connect_timeout_s=args.connect_timeout,
+        ports=ports, labels=labels, out=args.out, duration_s=args.duration, **given_knobs(args),
         mounts=[f"{label}_boot" for label in labels], subject=args.subject, session_notes=args.notes)
     recorder = MultiBootRecorder(settings, status_stream=None if args.quiet else sys.stderr)
     all_stats = _run_until_stopped(recorder)

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.core.jsonio import to_jsonable
 from bootnav.core.timebase import T_US_MODULUS, unwrap_counter
 from bootnav.logger import mpu6050
@@ -102,7 +103,7 @@ class EmulatorReport:
     settings: dict = field(default_factory=dict)
 
     def write(self, path) -> None:
-        Path(path).write_text(json.dumps(asdict(self)))
+        atomic.write_text(path, json.dumps(asdict(self)))
 
 
 @dataclass

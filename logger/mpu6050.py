@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import math
 
-STANDARD_GRAVITY = 9.80665  # m/s^2, used for g -> m/s^2 everywhere
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
+
+STANDARD_GRAVITY = STANDARD_GRAVITY_MPS2  # m/s^2, used for g -> m/s^2 everywhere (bootnav.core.conventions)
 
 ACCEL_RANGE_G = {0: 2, 1: 4, 2: 8, 3: 16}  # AFS_SEL code -> +-g
 ACCEL_LSB_PER_G = {0: 16384.0, 1: 8192.0, 2: 4096.0, 3: 2048.0}

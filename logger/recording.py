@@ -382,6 +382,10 @@ class RecordingWriter:
     def enabled(self) -> tuple[str, ...]:
         return tuple(self._arrays)
 
+    def times(self) -> np.ndarray:
+        """The ``t_s`` of the rows appended so far (read back from the file)."""
+        return self._arrays["t_s"][: self.n]
+
     def append(self, t_s, acc, gyro, *, saturated=None, **optional) -> None:
         """Append a block of samples. ``optional`` takes temp, t_device, t_host, seq.
 
@@ -868,6 +872,14 @@ def _boots_attr(f: h5py.File, path: Path) -> list[str]:
     if not isinstance(labels, list) or not all(isinstance(x, str) for x in labels):
         raise InputError(f"{path}: root attribute boots is {decode_attr(raw)!r}, expected a JSON list of boot labels")
     return labels
+
+
+def load_aux(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The ``/aux`` columns of an imported recording (magnetometer, heading, FSR, ...), {} if none."""
+    with h5py.File(path, "r") as f:
+        if "aux" not in f:
+            return {}
+        return {k: f["aux"][k][()] for k in f["aux"]}
 
 
 def boot_labels(path: str | os.PathLike) -> list[str]:

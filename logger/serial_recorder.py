@@ -496,7 +496,7 @@ class SerialRecorder:
         w = self._writer
         if w is None or w.n == 0:
             return None
-        return w._arrays["t_s"][: w.n]
+        return w.times()
 
     def _status(self, now: float) -> None:
         if self.status_stream is None:
@@ -592,15 +592,16 @@ class MultiRecorderSettings:
     ports: list[str]
     labels: list[str]
     out: str
-    baud: int = 500_000
+    # the knobs shared with one boot's recorder: its defaults (one place for each)
+    baud: int = RecorderSettings.baud
     duration_s: float | None = None
-    flush_interval_s: float = 0.5
-    header_wait_s: float = 1.5
-    connect_timeout_s: float = 10.0
+    flush_interval_s: float = RecorderSettings.flush_interval_s
+    header_wait_s: float = RecorderSettings.header_wait_s
+    connect_timeout_s: float = RecorderSettings.connect_timeout_s
     mounts: list[str] = field(default_factory=list)  # per boot; default <label>_boot
     subject: str = ""
     session_notes: str = ""
-    status_interval_s: float = 0.5
+    status_interval_s: float = RecorderSettings.status_interval_s
     clock_outlier_sigma: float = 3.0  # refit of the host-clock line without blocks this far off (fit_host_clock)
 
     def port_settings(self, i: int) -> RecorderSettings:

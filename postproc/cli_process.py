@@ -77,7 +77,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "an input is never overwritten")
     p.add_argument("--jobs", type=int, metavar="N", help="parallel processes for several inputs (default: all cores)")
     p.add_argument("--block-s", "--chunk-s", dest="block_s", type=float, metavar="S",
-                   help="seconds of samples held in memory at once (settings block_s, default 300): a longer "
+                   help="seconds of samples held in memory at once (settings block_s, default 900): a longer "
                         "recording runs as passes over blocks of S s, memory bounded by the block "
                         "(docs/long-recordings.md); --chunk-s is its old name")
     p.add_argument("--memory-limit", type=float, metavar="MB", help=argparse.SUPPRESS)  # deprecated: --block-s
@@ -148,11 +148,41 @@ def apply_calibration_arguments(args, cal) -> None:
         cal.accel_calibration_file = args.accel_calibration
 
 
+#: Flags that contradict each other: (flag, attribute, flags, attributes, why the second would be ignored).
+CONTRADICTIONS = (
+    ("--gravity", "gravity", ("--latitude", "--height"), ("latitude", "height"),
+     "--gravity fixes g; --latitude and --height only choose the WGS-84 normal gravity: give one or the other"),
+    ("--floors-from-height", "floors_from_height", ("--stair-min-dz",), ("stair_min_dz",),
+     "--floors-from-height counts floors from the height itself, without stair strides: drop --stair-min-dz"),
+    ("--reference", "reference", ("--closed-loop",), ("closed_loop",),
+     'a closed loop is a reference of its own (--reference \'{"closed_loop": true}\'): give one of them'),
+    ("--no-hdf5", "no_hdf5", ("--into-recording", "--results-name"), ("into_recording", "results_name"),
+     "with --no-hdf5 no results group is written: drop the HDF5 options or --no-hdf5"),
+)
+
+
+def _given(args, attr: str) -> bool:
+    value = getattr(args, attr, None)
+    return value is not None and value is not False
+
+
+def check_flag_combinations(args) -> None:
+    """A flag that another flag makes meaningless is refused (one line naming both), never silently ignored."""
+    from bootnav.errors import InputError
+
+    for flag, attr, others, other_attrs, why in CONTRADICTIONS:
+        if _given(args, attr):
+            for other, other_attr in zip(others, other_attrs):
+                if _given(args, other_attr):
+                    raise InputError(f"{flag} with {other}: {why}")
+
+
 def build_settings(args):
     """Defaults < --settings file < command-line options."""
     from bootnav.errors import InputError
     from bootnav.postproc.settings import ProcessSettings
 
+    check_flag_combinations(args)
     s = ProcessSettings.from_file(args.settings) if args.settings else ProcessSettings()
     if args.detector:  # argparse checked the name
         s.detector = s.detector.with_method(args.detector)
@@ -201,12 +231,19 @@ def build_settings(args):
         s.output.write_hdf5 = False
     if args.no_plots:
         s.output.plots = False
+    # the values the flags set are checked by the code that checks a settings file (types, finite numbers,
+    # ranges: ``settings.from_plain``), so a flag is refused exactly as the same value in a file would be, and
+    # the settings saved with the results always load again
+    try:
+        ProcessSettings.from_dict(s.to_dict())
+    except InputError as exc:
+        raise InputError(f"command line: {exc}") from None
     return s
 
 
 class StageProgress:
-    """The pipeline's ``progress(stage, fraction)`` shown through ``bootnav.cli.Progress``: one rewritten line
-    on a tty, plain periodic lines (no carriage returns) when stderr is a log or a pipe.
+    """The pipeline's ``progress(stage, fraction)`` shown through ``bootnav.core.progress.Progress``: one
+    rewritten line on a tty, plain periodic lines (no carriage returns) when stderr is a log or a pipe.
 
     Parameters
     ----------
@@ -385,7 +422,11 @@ def run(args) -> int:
     from bootnav.postproc.twoboots import cli as two_boots
 
     if two_boots.wanted(args):
+        if args.into_recording:
+            raise InputError("--into-recording: a two-boot run writes its own folder (two_boots.json, left/, right/); "
+                             "drop the option")
         return two_boots.run(args, settings, StageProgress(quiet=args.quiet))
+    two_boots.refuse_two_boot_flags(args)
     outs = [args.out] if len(args.input) == 1 else [str(Path(args.out) / n) for n in output_names(args.input)]
     others = [settings.reference if _is_file(settings.reference) else None, args.settings, args.accel_calibration,
               args.calibration]

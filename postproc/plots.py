@@ -286,87 +286,67 @@ def make_plots(result, out_dir: str | Path) -> dict[str, Path]:
     return draw_charts(ChartStream.from_result(result), out_dir)
 
 
-def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> dict[str, Path]:
-    """Write charts 1-7 (those of ``keys``, names of ``FILES``) from a finished ``ChartStream`` into
-    ``out_dir``; returns {name: path}."""
-    plt = _pyplot()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    info = stream.info
-    summary, settings = info["summary"], info["settings"]
-    imu, nav = stream.imu, stream.nav
-    edges = stream.imu.column_edges_s()
-    stance_on, sat_on = nav.hi[:, 10] > 0.5, imu.hi[:, 6] > 0.5  # a column with any such sample
-    t0, t1 = stream.imu.t_start_s, stream.imu.t_end_s
-    src = Path(str(summary["input"]["source"])).name
-    paths: dict[str, Path] = {}
+class _Charts:
+    """What the charts of one ``draw_charts`` call share: pyplot, the output folder, the stream's summary and
+    settings, the time axis with its stance and saturation shading, and the reference in the estimate's frame."""
 
-    def save(fig, key):
+    def __init__(self, stream: ChartStream, out_dir: str | Path, keys):
+        self.plt = _pyplot()
+        self.out = Path(out_dir)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.stream, self.keys = stream, keys
+        self.info = info = stream.info
+        self.summary, self.settings = info["summary"], info["settings"]
+        self.imu, self.nav = stream.imu, stream.nav
+        self.edges = stream.imu.column_edges_s()
+        self.stance_on, self.sat_on = self.nav.hi[:, 10] > 0.5, self.imu.hi[:, 6] > 0.5  # a column with any such sample
+        self.t0, self.t1 = stream.imu.t_start_s, stream.imu.t_end_s
+        self.src = Path(str(self.summary["input"]["source"])).name
+        self.paths: dict[str, Path] = {}
+        ref = info["reference"]
+        self.ref_pts = self.ref_t = self.ref_est = None
+        self.title_ref = ""
+        if ref is not None:
+            self.ref_pts, self.ref_t, self.ref_est = ref["points"], ref["t_s"], ref["est"]
+            if ref["yaw"] is not None:
+                self.title_ref = f" (estimate rotated {np.degrees(ref['yaw']):+.1f}° onto the reference)"
+
+    def save(self, fig, key):
         fig.tight_layout()
         fig.set_layout_engine(None)  # the placeholder tight_layout leaves would cost savefig a second draw
         png = {"format": "png", "pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}}
-        atomic.replace_with(out / FILES[key], lambda tmp: fig.savefig(tmp, **png))  # never half written
-        plt.close(fig)
-        paths[key] = out / FILES[key]
+        atomic.replace_with(self.out / FILES[key], lambda tmp: fig.savefig(tmp, **png))  # never half written
+        self.plt.close(fig)
+        self.paths[key] = self.out / FILES[key]
 
-    def time_axes(ax, ylabel, first=False):
-        _shade(ax, edges, stance_on, "tab:green", "stance" if first else None)
-        _shade(ax, edges, sat_on, "tab:red", "saturated" if first else None)
+    def time_axes(self, ax, ylabel, first=False):
+        _shade(ax, self.edges, self.stance_on, "tab:green", "stance" if first else None)
+        _shade(ax, self.edges, self.sat_on, "tab:red", "saturated" if first else None)
         ax.set_ylabel(ylabel)
-        ax.set_xlim(t0, t1)
+        ax.set_xlim(self.t0, self.t1)
 
-    # 1 raw IMU + stance
-    if "raw_imu" in keys:
-        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(TIME_FIG_W_IN, 7), sharex=True,
-                                         gridspec_kw={"height_ratios": [3, 3, 1]})
-        _lines(a1, imu, 0, ["acc x", "acc y", "acc z"])
-        time_axes(a1, "specific force (m/s²)", first=True)
-        _legend(a1, loc="upper right", ncol=5)
-        _lines(a2, imu, 3, ["gyro x", "gyro y", "gyro z"])
-        time_axes(a2, "angular rate (rad/s)")
-        _legend(a2, loc="upper right", ncol=3)
-        _trace(a3, nav, 10, "k", 0.8)
-        a3.set_ylim(-0.2, 1.2)
-        a3.set_yticks([0, 1])
-        a3.set_ylabel("stance")
-        a3.set_xlabel("time (s)")
-        a1.set_title(f"Raw IMU (body frame) with stance indicator — {src} — detector {summary['stance']['method']}")
-        save(fig, "raw_imu")
-
-    def time_chart(key, first, labels, ylabel, title, loc, extra=None, reference=None):
+    def time_chart(self, key, first, labels, ylabel, title, loc, extra=None, reference=None):
         """Charts 2-4: three nav-frame components against time, stance and saturation shaded."""
-        if key not in keys:
+        if key not in self.keys:
             return
-        fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
-        _lines(ax, nav, first, labels)
+        fig, ax = self.plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
+        _lines(ax, self.nav, first, labels)
         if extra is not None:
-            _trace(ax, nav, extra, "k", 0.6, "|a|", alpha=0.6)
+            _trace(ax, self.nav, extra, "k", 0.6, "|a|", alpha=0.6)
         if reference is not None:
             reference(ax)
-        time_axes(ax, ylabel, first=True)
+        self.time_axes(ax, ylabel, first=True)
         ax.set_xlabel("time (s)")
         ax.set_title(title)
         _legend(ax, loc=loc, ncol=6 if extra is not None else 5)
-        save(fig, key)
+        self.save(fig, key)
 
-    # 2 gravity-free acceleration, 3 velocity, 4 position vs time
-    time_chart("acc_gravity_free", 0, ["a east", "a north", "a up"], "acceleration (m/s²)",
-               "Acceleration in the navigation frame, gravity removed", "upper right", extra=3)
-    time_chart("velocity", 4, ["v east", "v north", "v up"], "velocity (m/s)",
-               "Velocity of the boot (zero in stance: ZUPT)", "upper right")
-    ref = info["reference"]
-    ref_pts = ref_t = ref_est = None
-    title_ref = ""
-    if ref is not None:
-        ref_pts, ref_t, ref_est = ref["points"], ref["t_s"], ref["est"]
-        if ref["yaw"] is not None:
-            title_ref = f" (estimate rotated {np.degrees(ref['yaw']):+.1f}° onto the reference)"
-
-    def reference_vs_time(ax, offset=np.zeros(3), axes=(0, 1, 2)):
+    def reference_vs_time(self, ax, offset=np.zeros(3), axes=(0, 1, 2)):
         """The reference on a time chart, in the estimate's frame: its curves when it has times, else its
         end point at the end of the recording."""
-        if ref_est is None:
+        if self.ref_est is None:
             return
+        ref_t, ref_est, t0, t1 = self.ref_t, self.ref_est, self.t0, self.t1
         for k in axes:
             name = "reference" if k == axes[0] else None
             if ref_t is not None:
@@ -377,14 +357,31 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
                 ax.plot([t1], [ref_est[-1, k] - offset[k]], "*", ms=11, mec="k",
                         color=AXIS_COLORS[k] if len(axes) > 1 else "k", label=name and "reference end")
 
-    time_chart("position", 7, ["x (east)", "y (north)", "z (up)"], "position (m)",
-               "Position vs time" + ("" if ref_est is None else " (dotted: reference)" if ref_t is not None
-                                     else " (stars: the reference's end point)"), "upper left",
-               reference=reference_vs_time)
-    _, pos, fp = stream.path_drawn()
+
+def _raw_imu_chart(c: _Charts) -> None:
+    """Chart 1: raw IMU + stance."""
+    fig, (a1, a2, a3) = c.plt.subplots(3, 1, figsize=(TIME_FIG_W_IN, 7), sharex=True,
+                                       gridspec_kw={"height_ratios": [3, 3, 1]})
+    _lines(a1, c.imu, 0, ["acc x", "acc y", "acc z"])
+    c.time_axes(a1, "specific force (m/s²)", first=True)
+    _legend(a1, loc="upper right", ncol=5)
+    _lines(a2, c.imu, 3, ["gyro x", "gyro y", "gyro z"])
+    c.time_axes(a2, "angular rate (rad/s)")
+    _legend(a2, loc="upper right", ncol=3)
+    _trace(a3, c.nav, 10, "k", 0.8)
+    a3.set_ylim(-0.2, 1.2)
+    a3.set_yticks([0, 1])
+    a3.set_ylabel("stance")
+    a3.set_xlabel("time (s)")
+    a1.set_title(f"Raw IMU (body frame) with stance indicator — {c.src} — detector {c.summary['stance']['method']}")
+    c.save(fig, "raw_imu")
+
+
+def _path_stats(summary: dict, metrics: dict) -> str:
+    """The path charts' figures: distance and end-point error or closure, then the reference metrics."""
     summ = summary.get("path", {})
     stats = f"distance {summ.get('distance_m', 0):.2f} m"
-    m = info["metrics"] or {}
+    m = metrics or {}
     if "final_error_m" in m:
         stats += f", end-point error {m['final_error_m']:.2f} m"
     elif "closure_3d_m" in summ:
@@ -395,79 +392,109 @@ def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> 
     elif "stride_mae_m" in m:
         stats += (f"\nstride length MAE {m['stride_mae_m']:.3f} m vs reference, "
                   f"distance err {m['distance_error_pct']:.1f} %")
+    return stats
 
-    # 5 path from above
+
+def _path_2d_chart(c: _Charts, pos: np.ndarray, fp: np.ndarray, stats: str) -> None:
+    """Chart 5: the path from above."""
+    fig, ax = c.plt.subplots(figsize=(7.5, 7.5))
+    ax.plot(pos[:, 0], pos[:, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
+    if len(fp):
+        ax.plot(fp[:, 0], fp[:, 1], ".", color="tab:blue", ms=4, label="footprints (stance)")
+    if c.ref_pts is not None:
+        ax.plot(c.ref_pts[:, 0], c.ref_pts[:, 1], ":", color="k", lw=2, label="reference path")
+    ax.plot(pos[0, 0], pos[0, 1], "o", color="tab:green", ms=9, label="start")
+    ax.plot(pos[-1, 0], pos[-1, 1], "s", color="tab:red", ms=8, label="end")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    ax.set_title(f"Path from above{c.title_ref}\n{stats}", fontsize=10)
+    _legend(ax, loc="upper right")
+    c.save(fig, "path_2d")
+
+
+def _path_3d_chart(c: _Charts, pos: np.ndarray, stats: str) -> None:
+    """Chart 6: the 3-D path, equal scales on the three axes."""
+    fig = c.plt.figure(figsize=(8, 7))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(pos[:, 0], pos[:, 1], pos[:, 2], color="tab:blue", lw=0.9, label="estimated path")
+    if c.ref_pts is not None:
+        ax.plot(c.ref_pts[:, 0], c.ref_pts[:, 1], c.ref_pts[:, 2], ":", color="k", lw=2, label="reference path")
+    ax.scatter(*pos[0], color="tab:green", s=40, label="start")
+    ax.scatter(*pos[-1], color="tab:red", marker="s", s=40, label="end")
+    lo, hi = pos.min(axis=0), pos.max(axis=0)
+    span = max(float((hi - lo).max()), 1.0)
+    mid = (lo + hi) / 2
+    for setter, v in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
+        setter(v - span / 2, v + span / 2)  # equal scale on all three axes
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    ax.set_zlabel("z up (m)")
+    ax.set_title(f"3-D path — {stats.splitlines()[0]}", fontsize=10)
+    _legend(ax, loc="upper left")
+    c.save(fig, "path_3d")
+
+
+def _height_chart(c: _Charts) -> None:
+    """Chart 7: height with the floor lines, the stair signal and the counted floor level."""
+    summ = c.summary.get("path", {})
+    floors = c.settings.floor_settings()
+    fig, ax = c.plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
+    t_fp, fp_n = c.info["t_fp"], c.info["fp_n"]
+    z0 = float(fp_n[0, 2]) if len(fp_n) else float(c.stream.path.first[2][2])
+    _trace(ax, c.nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
+    if len(fp_n):
+        z_fp = fp_n[:, 2] - z0
+        stair = floor_signal(z_fp, floors)
+        # a level walk has no stair to draw (with storeys on, the signal is the held footprint height itself)
+        if floors.stair_min_dz_m is not None and np.any(np.abs(np.diff(z_fp)) >= floors.stair_min_dz_m):
+            ax.plot(t_fp, stair, color="tab:purple", lw=1, ls="--",
+                    label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
+        ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
+                color="tab:orange", lw=1.5, label="floor level (counted)")
+        zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
+    else:
+        zmin = zmax = 0.0
+    k_lo = int(np.round(zmin / floors.floor_height_m)) - 1  # one storey of context below and above
+    k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
+    for k in range(k_lo, k_hi + 1):
+        ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
+        ax.text(c.t1, k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
+                ha="right", fontsize=8, color="grey")
+    c.reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
+    c.time_axes(ax, "height above start (m)", first=True)
+    ax.set_xlabel("time (s)")
+    ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
+                 f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
+    _legend(ax, loc="upper left")
+    c.save(fig, "height")
+
+
+def draw_charts(stream: ChartStream, out_dir: str | Path, keys=tuple(FILES)) -> dict[str, Path]:
+    """Write charts 1-7 (those of ``keys``, names of ``FILES``) from a finished ``ChartStream`` into
+    ``out_dir``; returns {name: path}."""
+    c = _Charts(stream, out_dir, keys)
+    if "raw_imu" in keys:
+        _raw_imu_chart(c)
+    # 2 gravity-free acceleration, 3 velocity, 4 position vs time
+    c.time_chart("acc_gravity_free", 0, ["a east", "a north", "a up"], "acceleration (m/s²)",
+                 "Acceleration in the navigation frame, gravity removed", "upper right", extra=3)
+    c.time_chart("velocity", 4, ["v east", "v north", "v up"], "velocity (m/s)",
+                 "Velocity of the boot (zero in stance: ZUPT)", "upper right")
+    c.time_chart("position", 7, ["x (east)", "y (north)", "z (up)"], "position (m)",
+                 "Position vs time" + ("" if c.ref_est is None else " (dotted: reference)" if c.ref_t is not None
+                                       else " (stars: the reference's end point)"), "upper left",
+                 reference=c.reference_vs_time)
+    _, pos, fp = stream.path_drawn()
+    stats = _path_stats(c.summary, c.info["metrics"])
     if "path_2d" in keys:
-        fig, ax = plt.subplots(figsize=(7.5, 7.5))
-        ax.plot(pos[:, 0], pos[:, 1], color="tab:blue", lw=0.9, label="estimated path (boot)")
-        if len(fp):
-            ax.plot(fp[:, 0], fp[:, 1], ".", color="tab:blue", ms=4, label="footprints (stance)")
-        if ref_pts is not None:
-            ax.plot(ref_pts[:, 0], ref_pts[:, 1], ":", color="k", lw=2, label="reference path")
-        ax.plot(pos[0, 0], pos[0, 1], "o", color="tab:green", ms=9, label="start")
-        ax.plot(pos[-1, 0], pos[-1, 1], "s", color="tab:red", ms=8, label="end")
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel("x east (m)")
-        ax.set_ylabel("y north (m)")
-        ax.set_title(f"Path from above{title_ref}\n{stats}", fontsize=10)
-        _legend(ax, loc="upper right")
-        save(fig, "path_2d")
-
-    # 6 3-D path
+        _path_2d_chart(c, pos, fp, stats)
     if "path_3d" in keys:
-        fig = plt.figure(figsize=(8, 7))
-        ax = fig.add_subplot(projection="3d")
-        ax.plot(pos[:, 0], pos[:, 1], pos[:, 2], color="tab:blue", lw=0.9, label="estimated path")
-        if ref_pts is not None:
-            ax.plot(ref_pts[:, 0], ref_pts[:, 1], ref_pts[:, 2], ":", color="k", lw=2, label="reference path")
-        ax.scatter(*pos[0], color="tab:green", s=40, label="start")
-        ax.scatter(*pos[-1], color="tab:red", marker="s", s=40, label="end")
-        lo, hi = pos.min(axis=0), pos.max(axis=0)
-        span = max(float((hi - lo).max()), 1.0)
-        mid = (lo + hi) / 2
-        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
-            setter(c - span / 2, c + span / 2)  # equal scale on all three axes
-        ax.set_box_aspect((1, 1, 1))
-        ax.set_xlabel("x east (m)")
-        ax.set_ylabel("y north (m)")
-        ax.set_zlabel("z up (m)")
-        ax.set_title(f"3-D path — {stats.splitlines()[0]}", fontsize=10)
-        _legend(ax, loc="upper left")
-        save(fig, "path_3d")
-
-    # 7 height with floor lines
+        _path_3d_chart(c, pos, stats)
     if "height" in keys:
-        floors = settings.floor_settings()
-        fig, ax = plt.subplots(figsize=(TIME_FIG_W_IN, 4.5))
-        t_fp, fp_n = info["t_fp"], info["fp_n"]
-        z0 = float(fp_n[0, 2]) if len(fp_n) else float(stream.path.first[2][2])
-        _trace(ax, nav, 9, "tab:blue", 0.9, "height of the boot", offset=z0)
-        if len(fp_n):
-            z_fp = fp_n[:, 2] - z0
-            stair = floor_signal(z_fp, floors)
-            # a level walk has no stair to draw (with storeys on, the signal is the held footprint height itself)
-            if floors.stair_min_dz_m is not None and np.any(np.abs(np.diff(z_fp)) >= floors.stair_min_dz_m):
-                ax.plot(t_fp, stair, color="tab:purple", lw=1, ls="--",
-                        label=f"stair height (strides with |dz| >= {floors.stair_min_dz_m:g} m)")
-            ax.step(t_fp, floor_levels(floor_signal(z_fp, floors), floors) * floors.floor_height_m, where="post",
-                    color="tab:orange", lw=1.5, label="floor level (counted)")
-            zmin, zmax = min(z_fp.min(), 0.0), max(z_fp.max(), 0.0)
-        else:
-            zmin = zmax = 0.0
-        k_lo = int(np.round(zmin / floors.floor_height_m)) - 1  # one storey of context below and above
-        k_hi = int(np.round(zmax / floors.floor_height_m)) + 1
-        for k in range(k_lo, k_hi + 1):
-            ax.axhline(k * floors.floor_height_m, color="grey", ls="--", lw=0.8)
-            ax.text(t1, k * floors.floor_height_m, f"floor {k:+d} " if k else "start floor ", va="bottom",
-                    ha="right", fontsize=8, color="grey")
-        reference_vs_time(ax, offset=np.array([0.0, 0.0, z0]), axes=(2,))
-        time_axes(ax, "height above start (m)", first=True)
-        ax.set_xlabel("time (s)")
-        ax.set_title(f"Height vs time — floors climbed {summ.get('floors_climbed', 0)}, descended "
-                     f"{summ.get('floors_descended', 0)} (floor height {floors.floor_height_m:g} m)")
-        _legend(ax, loc="upper left")
-        save(fig, "height")
-    return paths
+        _height_chart(c)
+    return c.paths
 
 
 def reference_in_estimate_frame(ref_pts: np.ndarray, yaw_rad: float | None, start_n: np.ndarray) -> np.ndarray:
@@ -513,50 +540,9 @@ def _html_floors(t_drawn: np.ndarray, steps: dict) -> np.ndarray:
     return np.where(i >= 0, fl[np.clip(i, 0, len(fl) - 1)], 0)
 
 
-def make_html(result, out_dir: str | Path) -> Path:
-    """``path.html`` of a whole run (``pipeline.ProcessResult``); see ``draw_html``."""
-    return draw_html(ChartStream.from_result(result, time_charts=False), out_dir)
-
-
-def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
-    """``path.html``: the path from above as a self-contained SVG page (no network, no library), for a trainer.
-
-    Metre grid with labels and a scale bar that follow the zoom; the reference (when given, in the estimate's
-    frame) dotted; one colour per counted floor with a floor selector on multi-storey walks; start, end and
-    a marker per stride (hover: stride number, time, height, floor, length, 1-σ ellipse); the 1-σ horizontal
-    ellipse of every stride, shaded, with a key and a switch; wheel zooms, drag pans, "fit" (or a
-    window resize) fits the whole path to the window. Equal axes (1 m east = 1 m north), north up. The path
-    is the decimated one of ``ChartStream`` (``decimate.PathExtremes``), the strides all of them.
-    """
-    import html
-    import json
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    info = stream.info
-    _, t_drawn, pos = stream.path.points()
-    xy = pos[:, :2]
-    ref = None if info["reference"] is None else info["reference"]["est"][:, :2]
-    every = np.vstack([xy, np.zeros((1, 2))] + ([ref] if ref is not None else []))
-    lo, hi = every.min(axis=0), every.max(axis=0)
-    pad = 0.05 * max(float((hi - lo).max()), 1.0)
-    lo, hi = lo - pad, hi + pad
-    r_dot = 0.006 * float((hi - lo).max())
-
-    def points(a):  # SVG y grows downwards: plot -y so that north is up
-        return " ".join(f"{x:.3f},{-y:.3f}" for x, y in a)
-
-    level = _html_floors(t_drawn, info["steps"])
-    floor_ids = sorted(set(level.tolist()))
-    cuts = np.flatnonzero(np.diff(level)) + 1
-    lines = []
-    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(xy)]):  # one polyline per run on one floor (joined)
-        k = int(level[a])
-        color = _floor_color(floor_ids, k)
-        lines.append(f'<polyline class="path" data-floor="{k}" style="stroke:{color}" '
-                     f'points="{points(xy[max(a - 1, 0):b])}"/>')
-    st = info["steps"]
-    st_floor = level[np.minimum(np.searchsorted(t_drawn, st["t_s"]), len(level) - 1)]
+def _html_strides(st: dict, st_floor: np.ndarray, r_dot: float) -> tuple[str, str, bool]:
+    """path.html's marker of every stride (hover: number, time, height, floor, length, 1-σ ellipse) and, when the
+    steps carry them, the strides' 1-σ ellipses: (markers SVG, ellipses SVG, whether there are ellipses)."""
     n_st = len(st["t_s"])
     has_unc = all(c in st for c in ELLIPSE_COLUMNS) and n_st > 0
     if has_unc:
@@ -576,32 +562,15 @@ def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
         f'<ellipse class="unc" data-floor="{k}" cx="{x:.3f}" cy="{-y:.3f}" rx="{a:.3f}" ry="{b_:.3f}" '
         f'transform="rotate({-np.degrees(o):.2f} {x:.3f} {-y:.3f})"/>'
         for x, y, a, b_, o, k in zip(st["x_m"], st["y_m"], ea, eb, eo, st_floor)) if has_unc else ""
-    ref_svg = (f'<polyline id="reference" points="{points(ref)}"><title>reference</title></polyline>'
-               if ref is not None else "")
-    summary = info["summary"]
-    p = summary.get("path", {})
-    title = html.escape(f"{Path(str(summary['input']['source'])).name}: {p.get('distance_m', 0):.2f} m, "
-                        f"{endpoint_label(summary)} {p.get('closure_3d_m', float('nan')):.2f} m")
-    floor_ui = ""
-    if len(floor_ids) > 1:
-        opts = "".join(f'<option value="{k}">floor {k:+d}</option>' for k in floor_ids)
-        floor_ui = f'<label>floor <select id="floor"><option value="all">all floors</option>{opts}</select></label>'
-    # the key: each floor's colour, then the markers
-    key = "".join(f'<span class="key" data-floor="{k}"><span class="sw" style="background:{_floor_color(floor_ids, k)}">'
-                  f'</span>{"start floor" if k == 0 else f"floor {k:+d}"}</span>' for k in floor_ids)
-    key += (f'<span class="key"><span class="sw dot" style="background:{START_COLOR}"></span>start</span>'
-            f'<span class="key"><span class="sw dot" style="background:{END_COLOR}"></span>end</span>'
-            f'<span class="key"><span class="sw dot" style="background:#1f77b4;opacity:.8"></span>stride</span>')
-    legend = "line = path, coloured by floor" + (", dotted = reference" if ref is not None else "")
-    if has_unc:
-        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's, plus the sensor's scale "
-                   "and cross-axis tolerance; 39 % inside if it is honest, 2σ = twice as large)")
-        floor_ui += '<label><input type="checkbox" id="unc" checked> uncertainty</label>'
-        key += ('<span class="key"><span class="sw" style="background:#ff7f0e;opacity:.35"></span>'
-                '1σ uncertainty</span>')
-    if "floor" in st and n_st:
-        legend += f"; floor now {int(st['floor'][-1]):+d}"
-    vb = [round(float(v), 3) for v in (lo[0], -hi[1], hi[0] - lo[0], hi[1] - lo[1])]  # mm, as the coordinates
+    return dots, ellipses, has_unc
+
+
+def _html_page(title: str, legend: str, floor_ui: str, key: str, vb: list[float], ref_svg: str, ellipses: str,
+               lines: str, dots: str, r_dot: float, end_xy: np.ndarray) -> str:
+    """The self-contained page of ``draw_html`` around its SVG parts: header, zoomable view, metre grid and
+    scale bar (script), floor and uncertainty switches."""
+    import json
+
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{title}</title>
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <style>html,body{{height:100%;margin:0;font-family:sans-serif}} body{{display:flex;flex-direction:column;overflow:hidden}}
@@ -618,9 +587,9 @@ vertical-align:middle}} .sw.dot{{width:.8em;height:.8em;border-radius:50%}}</sty
 <header><h3>{title}</h3><p>Metres, north up (x east, y north); {legend}. Wheel = zoom, drag = pan, hover a stride
 for details. {floor_ui}<button id="fit">fit</button></p><p id="key">{key}</p></header>
 <div id="wrap"><svg id="v" viewBox="{' '.join(f'{v:.3f}' for v in vb)}" preserveAspectRatio="xMidYMid meet">
-<g id="grid"></g>{ref_svg}<g id="uncs">{ellipses}</g>{''.join(lines)}{dots}
+<g id="grid"></g>{ref_svg}<g id="uncs">{ellipses}</g>{lines}{dots}
 <circle id="start" cx="0" cy="0" r="{2 * r_dot:.3f}" style="fill:{START_COLOR}"><title>start</title></circle>
-<circle id="end" cx="{xy[-1, 0]:.3f}" cy="{-xy[-1, 1]:.3f}" r="{2 * r_dot:.3f}" style="fill:{END_COLOR}"><title>end</title></circle>
+<circle id="end" cx="{end_xy[0]:.3f}" cy="{-end_xy[1]:.3f}" r="{2 * r_dot:.3f}" style="fill:{END_COLOR}"><title>end</title></circle>
 </svg><div id="scale"><div id="bar"></div><span id="scalelabel"></span></div></div>
 <script>
 const s=document.getElementById('v'),home={json.dumps(vb)},NS='http://www.w3.org/2000/svg';let b=home.slice(),d=null;
@@ -654,6 +623,81 @@ const fl=document.getElementById('floor');if(fl)fl.onchange=()=>{{for(const el o
 draw();
 </script></body></html>
 """
+    return page
+
+
+def make_html(result, out_dir: str | Path) -> Path:
+    """``path.html`` of a whole run (``pipeline.ProcessResult``); see ``draw_html``."""
+    return draw_html(ChartStream.from_result(result, time_charts=False), out_dir)
+
+
+def draw_html(stream: ChartStream, out_dir: str | Path) -> Path:
+    """``path.html``: the path from above as a self-contained SVG page (no network, no library), for a trainer.
+
+    Metre grid with labels and a scale bar that follow the zoom; the reference (when given, in the estimate's
+    frame) dotted; one colour per counted floor with a floor selector on multi-storey walks; start, end and
+    a marker per stride (hover: stride number, time, height, floor, length, 1-σ ellipse); the 1-σ horizontal
+    ellipse of every stride, shaded, with a key and a switch; wheel zooms, drag pans, "fit" (or a
+    window resize) fits the whole path to the window. Equal axes (1 m east = 1 m north), north up. The path
+    is the decimated one of ``ChartStream`` (``decimate.PathExtremes``), the strides all of them.
+    """
+    import html
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    info = stream.info
+    _, t_drawn, pos = stream.path.points()
+    xy = pos[:, :2]
+    ref = None if info["reference"] is None else info["reference"]["est"][:, :2]
+    every = np.vstack([xy, np.zeros((1, 2))] + ([ref] if ref is not None else []))
+    lo, hi = every.min(axis=0), every.max(axis=0)
+    pad = 0.05 * max(float((hi - lo).max()), 1.0)
+    lo, hi = lo - pad, hi + pad
+    r_dot = 0.006 * float((hi - lo).max())
+
+    def points(a):  # SVG y grows downwards: plot -y so that north is up
+        return " ".join(f"{x:.3f},{-y:.3f}" for x, y in a)
+
+    level = _html_floors(t_drawn, info["steps"])
+    floor_ids = sorted(set(level.tolist()))
+    cuts = np.flatnonzero(np.diff(level)) + 1
+    lines = []
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(xy)]):  # one polyline per run on one floor (joined)
+        k = int(level[a])
+        color = _floor_color(floor_ids, k)
+        lines.append(f'<polyline class="path" data-floor="{k}" style="stroke:{color}" '
+                     f'points="{points(xy[max(a - 1, 0):b])}"/>')
+    st = info["steps"]
+    n_st = len(st["t_s"])
+    dots, ellipses, has_unc = _html_strides(st, level[np.minimum(np.searchsorted(t_drawn, st["t_s"]), len(level) - 1)],
+                                            r_dot)
+    ref_svg = (f'<polyline id="reference" points="{points(ref)}"><title>reference</title></polyline>'
+               if ref is not None else "")
+    summary = info["summary"]
+    p = summary.get("path", {})
+    title = html.escape(f"{Path(str(summary['input']['source'])).name}: {p.get('distance_m', 0):.2f} m, "
+                        f"{endpoint_label(summary)} {p.get('closure_3d_m', float('nan')):.2f} m")
+    floor_ui = ""
+    if len(floor_ids) > 1:
+        opts = "".join(f'<option value="{k}">floor {k:+d}</option>' for k in floor_ids)
+        floor_ui = f'<label>floor <select id="floor"><option value="all">all floors</option>{opts}</select></label>'
+    # the key: each floor's colour, then the markers
+    key = "".join(f'<span class="key" data-floor="{k}"><span class="sw" style="background:{_floor_color(floor_ids, k)}">'
+                  f'</span>{"start floor" if k == 0 else f"floor {k:+d}"}</span>' for k in floor_ids)
+    key += (f'<span class="key"><span class="sw dot" style="background:{START_COLOR}"></span>start</span>'
+            f'<span class="key"><span class="sw dot" style="background:{END_COLOR}"></span>end</span>'
+            f'<span class="key"><span class="sw dot" style="background:#1f77b4;opacity:.8"></span>stride</span>')
+    legend = "line = path, coloured by floor" + (", dotted = reference" if ref is not None else "")
+    if has_unc:
+        legend += (", shaded ellipse = 1σ horizontal uncertainty of a stride (the filter's, plus the sensor's scale "
+                   "and cross-axis tolerance; 39 % inside if it is honest, 2σ = twice as large)")
+        floor_ui += '<label><input type="checkbox" id="unc" checked> uncertainty</label>'
+        key += ('<span class="key"><span class="sw" style="background:#ff7f0e;opacity:.35"></span>'
+                '1σ uncertainty</span>')
+    if "floor" in st and n_st:
+        legend += f"; floor now {int(st['floor'][-1]):+d}"
+    vb = [round(float(v), 3) for v in (lo[0], -hi[1], hi[0] - lo[0], hi[1] - lo[1])]  # mm, as the coordinates
+    page = _html_page(title, legend, floor_ui, key, vb, ref_svg, ellipses, "".join(lines), dots, r_dot, xy[-1])
     path = out / "path.html"
     atomic.write_text(path, page)
     return path

@@ -15,7 +15,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--duration", type=float, default=None,
                         help="length in s (mixed-30min, running, long, fast-corridor, shuffle only; default: the "
                              "scenario's own)")
-    parser.add_argument("--mount", default="right_boot", help="sensor mount on the boot (see --list)")
+    parser.add_argument("--mount", default=None, help="sensor mount on the boot (see --list; default right_boot)")
     parser.add_argument("--format", choices=("h5", "sd-txt"), default=None,
                         help="output format (default: from the file extension, .txt -> sd-txt, else h5)")
     parser.add_argument("--out", help="output file")
@@ -116,14 +116,20 @@ def run(args) -> int:
     if args.plot:
         output_file(args.plot, force=args.force, inputs=outs, flag="--plot")
     dev_kw = device_options(args)
+    if args.two_files and not args.two_boots:
+        raise UsageError("--two-files splits a --two-boots simulation into two files: add --two-boots, or drop it")
     if args.two_boots:
+        for flag, given in (("--mount", args.mount), ("--plot", args.plot)):
+            if given:  # two boots are mounted left and right, and --plot draws one boot: never silently ignored
+                raise UsageError(f"{flag} is not available with --two-boots (the feet are left_boot and right_boot, "
+                                 "one figure shows one boot); simulate one boot for it")
         from bootnav.simulator.twoboots import run_cli
 
         if dev_kw:
             raise UsageError("--device is not available with --two-boots (two boots are two units); simulate "
                              "each boot with its own --device instead")
         return run_cli(args)
-    if args.mount not in MOUNTS:
+    if args.mount is not None and args.mount not in MOUNTS:
         raise UsageError(f"--mount: unknown mount {args.mount!r}; choose one of {', '.join(MOUNTS)}")
     t0 = time.perf_counter()
     from bootnav.core import atomic
@@ -136,7 +142,8 @@ def run(args) -> int:
 
     try:
         res = simulate(args.scenario, seed=args.seed, profile=args.sensor_profile, rate_hz=args.rate,
-                       duration_s=args.duration, mount=args.mount, progress=progress, **dev_kw)
+                       duration_s=args.duration, progress=progress, **dev_kw,
+                       **({"mount": args.mount} if args.mount is not None else {}))  # else simulate's default
     except ValueError as exc:  # an option's value: unknown scenario or profile, rate, duration, device
         raise UsageError(str(exc)) from exc
     shown.done()

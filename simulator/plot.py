@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from bootnav.core import atomic
 from bootnav.simulator.simulate import SimResult
+
+
+def _format(path) -> str:
+    """The image format named by ``path``'s suffix (the temporary file beside it has none), PNG by default."""
+    from pathlib import Path
+
+    return Path(path).suffix.lstrip(".").lower() or "png"
 
 
 def plot_result(res: SimResult, path, zoom_s: tuple[float, float] | None = None) -> None:
@@ -54,7 +62,7 @@ def plot_result(res: SimResult, path, zoom_s: tuple[float, float] | None = None)
                 ax.legend(loc="upper right", fontsize=7, ncol=3)
     fig.suptitle(f"bootnav simulate: {res.scenario}, seed {res.seed}, profile {res.profile.name}, "
                  f"{res.rate_hz:g} Hz, mount {res.mount.name} (grey = stance)")
-    fig.savefig(path, dpi=90)
+    atomic.replace_with(path, lambda tmp: fig.savefig(tmp, dpi=90, format=_format(path)))  # never half written
     plt.close(fig)
 
 
@@ -82,5 +90,5 @@ def _plot_calibration(res: SimResult, path, plt) -> None:
     axes[-1].set(xlabel="t (s)")
     fig.suptitle(f"bootnav simulate: {res.scenario}, seed {res.seed}, profile {res.profile.name} "
                  f"(grey = pose held)")
-    fig.savefig(path, dpi=80)
+    atomic.replace_with(path, lambda tmp: fig.savefig(tmp, dpi=80, format=_format(path)))
     plt.close(fig)

@@ -117,6 +117,69 @@ def device_truth(unit: DeviceUnit, model: ErrorModel) -> dict[str, np.ndarray]:
     }
 
 
+def _sample(traj, mnt: Mount, model, tprof, n_out: int, m: int, f_int: float, progress):
+    """The trajectory's kinematics at the internal rate ``f_int``, through the error model (``model`` None: exact)
+    at the chip temperature of ``tprof`` (None: none), kept every ``m``-th sample, block by block.
+
+    Returns (truth arrays, specific force, angular rate, accelerometer bias, gyro bias), ``n_out`` rows each.
+    """
+    names = ("pos_n_m", "vel_n_mps", "q_nb", "f_b_mps2", "omega_b_radps", "foot_pos_n_m")
+    widths = (3, 3, 4, 3, 3, 3)
+    truth = {k: np.empty((n_out, w)) for k, w in zip(names, widths)}
+    truth["stance"] = np.empty(n_out, dtype=np.uint8)
+    acc_si = np.empty((n_out, 3))
+    gyro_si = np.empty((n_out, 3))
+    bias_a = np.zeros((n_out, 3))
+    bias_g = np.zeros((n_out, 3))
+    for j0 in range(0, n_out, BLOCK_OUT):
+        j1 = min(n_out, j0 + BLOCK_OUT)
+        i_end = (j1 - 1) * m + 1 if j1 == n_out else j1 * m
+        t_int = np.arange(j0 * m, i_end) / f_int
+        kin = _kinematics(traj, t_int, mnt)
+        sl = slice(None, None, m)
+        for key, arr in zip(names, (kin.pos_n, kin.vel_n, kin.q_nb, kin.f_b, kin.omega_b, kin.foot_pos_n)):
+            truth[key][j0:j1] = arr[sl]
+        truth["stance"][j0:j1] = kin.stance[sl]
+        if model is None:
+            acc_si[j0:j1], gyro_si[j0:j1] = kin.f_b, kin.omega_b
+        else:
+            a, g, ba, bg = model.process(kin.f_b, kin.omega_b, None if tprof is None else tprof.chip(t_int))
+            acc_si[j0:j1], gyro_si[j0:j1], bias_a[j0:j1], bias_g[j0:j1] = a[sl], g[sl], ba[sl], bg[sl]
+        if progress:
+            progress(j1 / n_out)
+    return truth, acc_si, gyro_si, bias_a, bias_g
+
+
+def _quantized(acc_si: np.ndarray, gyro_si: np.ndarray, prof: SensorProfile):
+    """(acc, gyro, saturation bitmask): int16 counts clipped at full scale, bit ``axis`` (acc) and ``axis + 3``
+    (gyro) set where clipped; the SI floats themselves for the ideal profile."""
+    saturated = np.zeros(len(acc_si), dtype=np.uint8)
+    if prof.ideal:
+        return acc_si, gyro_si, saturated
+    acc, sat_a = quantize(acc_si, prof.accel_lsb_mps2)
+    gyro, sat_g = quantize(gyro_si, prof.gyro_lsb_radps)
+    for ax in range(3):
+        saturated |= (sat_a[:, ax].astype(np.uint8) << ax) | (sat_g[:, ax].astype(np.uint8) << (ax + 3))
+    return acc, gyro, saturated
+
+
+def _delivered_events(idx: np.ndarray, kept_t: np.ndarray, saturated: np.ndarray) -> list[dict]:
+    """Events in terms of the delivered samples ``idx`` (their times ``kept_t``): a gap where samples were
+    dropped, a saturation run per axis; in sample order."""
+    events = []
+    gap_at = np.flatnonzero(np.diff(idx) > 1) + 1
+    for i in gap_at:
+        events.append(dict(t_s=kept_t[i], sample_index=int(i), kind="gap", count=int(idx[i] - idx[i - 1] - 1),
+                           detail="simulated dropped samples (SD write stall)"))
+    for axis in range(6):
+        starts, stops = runs((saturated >> axis) & 1)
+        for s, L in zip(starts, stops - starts):
+            events.append(dict(t_s=kept_t[s], sample_index=int(s), kind="saturation", count=int(L), axis=axis,
+                               detail="at full scale"))
+    events.sort(key=lambda e: e["sample_index"])
+    return events
+
+
 def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
              rate_hz: float = 200.0, duration_s: float | None = None, mount: str | Mount = "right_boot",
              progress=None, device: int | str | None = None, device_model: DeviceModel | None = None,
@@ -144,30 +207,8 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     n_out = int(math.floor(traj.t_knots[-1] * rate_hz + 1e-9)) + 1
     model = None if prof.ideal else ErrorModel(prof, f_int, rng, unit)
 
-    names = ("pos_n_m", "vel_n_mps", "q_nb", "f_b_mps2", "omega_b_radps", "foot_pos_n_m")
-    widths = (3, 3, 4, 3, 3, 3)
-    truth = {k: np.empty((n_out, w)) for k, w in zip(names, widths)}
-    truth["stance"] = np.empty(n_out, dtype=np.uint8)
-    acc_si = np.empty((n_out, 3))
-    gyro_si = np.empty((n_out, 3))
-    bias_a = np.zeros((n_out, 3))
-    bias_g = np.zeros((n_out, 3))
-    for j0 in range(0, n_out, BLOCK_OUT):
-        j1 = min(n_out, j0 + BLOCK_OUT)
-        i_end = (j1 - 1) * m + 1 if j1 == n_out else j1 * m
-        t_int = np.arange(j0 * m, i_end) / f_int
-        kin = _kinematics(traj, t_int, mnt)
-        sl = slice(None, None, m)
-        for key, arr in zip(names, (kin.pos_n, kin.vel_n, kin.q_nb, kin.f_b, kin.omega_b, kin.foot_pos_n)):
-            truth[key][j0:j1] = arr[sl]
-        truth["stance"][j0:j1] = kin.stance[sl]
-        if model is None:
-            acc_si[j0:j1], gyro_si[j0:j1] = kin.f_b, kin.omega_b
-        else:
-            a, g, ba, bg = model.process(kin.f_b, kin.omega_b, None if unit is None else tprof.chip(t_int))
-            acc_si[j0:j1], gyro_si[j0:j1], bias_a[j0:j1], bias_g[j0:j1] = a[sl], g[sl], ba[sl], bg[sl]
-        if progress:
-            progress(j1 / n_out)
+    truth, acc_si, gyro_si, bias_a, bias_g = _sample(traj, mnt, model, None if unit is None else tprof, n_out, m,
+                                                     f_int, progress)
     # truth position of the sensor starts at the origin (the foot origin already does)
     truth["pos_n_m"] -= truth["pos_n_m"][0].copy()
     truth["acc_bias_b_mps2"] = bias_a
@@ -176,29 +217,10 @@ def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfi
     t_true, t_us = timestamps(n_out, rate_hz, prof, rng, None if unit is None else unit.clock_error)
     keep = drop_mask(n_out, rate_hz, prof, rng)
     idx = np.flatnonzero(keep)
-    events = []
-    if prof.ideal:
-        acc, gyro = acc_si, gyro_si
-        saturated = np.zeros(n_out, dtype=np.uint8)
-    else:
-        acc, sat_a = quantize(acc_si, prof.accel_lsb_mps2)
-        gyro, sat_g = quantize(gyro_si, prof.gyro_lsb_radps)
-        saturated = np.zeros(n_out, dtype=np.uint8)
-        for ax in range(3):
-            saturated |= (sat_a[:, ax].astype(np.uint8) << ax) | (sat_g[:, ax].astype(np.uint8) << (ax + 3))
+    acc, gyro, saturated = _quantized(acc_si, gyro_si, prof)
     saturated = saturated[idx]
-    # events in terms of the delivered samples
     kept_t = (t_us[idx] - t_us[idx[0]]) / 1e6
-    gap_at = np.flatnonzero(np.diff(idx) > 1) + 1
-    for i in gap_at:
-        events.append(dict(t_s=kept_t[i], sample_index=int(i), kind="gap", count=int(idx[i] - idx[i - 1] - 1),
-                           detail="simulated dropped samples (SD write stall)"))
-    for axis in range(6):
-        starts, stops = runs((saturated >> axis) & 1)
-        for s, L in zip(starts, stops - starts):
-            events.append(dict(t_s=kept_t[s], sample_index=int(s), kind="saturation", count=int(L), axis=axis,
-                               detail="at full scale"))
-    events.sort(key=lambda e: e["sample_index"])
+    events = _delivered_events(idx, kept_t, saturated)
 
     if hasattr(builder, "per_sample_truth"):  # a motion with its own truth (calibration session)
         truth.update(builder.per_sample_truth(np.arange(n_out) * m / f_int))

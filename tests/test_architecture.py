@@ -199,3 +199,53 @@ def test_core_is_the_ground_floor(graph):
     bad = sorted((m, d) for m, deps in graph.items() if m.startswith("bootnav.core")
                  for d in deps if not d.startswith("bootnav.core"))
     assert bad == []
+
+
+def private_attribute_uses(mods: dict[str, Path]) -> list[str]:
+    """``module: used name`` for every ``m._name`` where ``m`` is another package module bound by an import
+    (``from pkg import m``, ``import pkg.m as m``, ``from . import m``): the attribute form of a private import."""
+    bad = []
+    for mod, path in mods.items():
+        package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        bound = {}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name in mods:
+                        bound[a.asname or a.name.split(".")[0]] = a.name if a.asname else a.name.split(".")[0]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                    src = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    src = node.module or ""
+                bound.update((a.asname or a.name, f"{src}.{a.name}") for a in node.names if f"{src}.{a.name}" in mods)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
+                chain, v = [], node.value
+                while isinstance(v, ast.Attribute):
+                    chain.append(v.attr)
+                    v = v.value
+                if isinstance(v, ast.Name) and v.id in bound:
+                    target = ".".join([bound[v.id], *reversed(chain)])
+                    if target != mod:
+                        bad.append(f"{mod}: {target}.{node.attr}")
+    return sorted(set(bad))
+
+
+def test_the_private_attribute_checker_sees_module_attributes(tmp_path):
+    (tmp_path / "a.py").write_text("from pkg import b\nimport pkg.b as bb\nx = b._y + bb._z + b.w\n")
+    (tmp_path / "b.py").write_text("_y = _z = w = 1\nimport pkg.b as me\nq = me._y\n")
+    mods = {"pkg.a": tmp_path / "a.py", "pkg.b": tmp_path / "b.py"}
+    assert private_attribute_uses(mods) == ["pkg.a: pkg.b._y", "pkg.a: pkg.b._z"]
+
+
+#: Known, owned elsewhere: ``pipeline._stream_noise_floor`` recomputes ``StreamStance.noise_floor_log10`` from the
+#: stream module's histogram constants (helper "onepipe" rewrites pipeline.py; it should call the property).
+KNOWN_PRIVATE_ATTRIBUTE_USES = {"bootnav.postproc.pipeline: bootnav.postproc.detectors.stream._HIST_LO",
+                                "bootnav.postproc.pipeline: bootnav.postproc.detectors.stream._HIST_STEP"}
+
+
+def test_no_module_reads_another_modules_private_attributes():
+    assert sorted(set(private_attribute_uses(_modules())) - KNOWN_PRIVATE_ATTRIBUTE_USES) == []

@@ -4,6 +4,9 @@ root can expose the Python API (``bootnav.api``) without an import cycle."""
 
 __version__ = "0.1.0"
 
+#: Standard gravity, m/s² (CGPM 1901): the unit "g" and the gravity assumed where none is given.
+STANDARD_GRAVITY_MPS2 = 9.80665
+
 #: ``summary.json["software"]`` of every kind of run (one shape: docs/summary.schema.json)
 SOFTWARE = {"name": "bootnav", "version": __version__}
 

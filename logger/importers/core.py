@@ -43,6 +43,7 @@ from bootnav.errors import DiskFullError, InputError
 from bootnav.logger import mpu6050
 from bootnav.logger.recording import (Channel, counts_channel, is_disk_full, make_events, si_channel, write_group,
                                       write_recording)
+from bootnav.logger.recording import load_aux  # noqa: F401  (importers.load_aux; the layout's reader is recording)
 
 from . import checks, columns as colmod, sdlog
 from .profiles import Profile, all_profiles, load_profile, matches
@@ -770,12 +771,3 @@ def write_result_into(result: ImportResult, path) -> None:
                     saturated=result.saturated, **result.optional)
     write_aux(path, "aux", result)
 
-
-def load_aux(path) -> dict[str, np.ndarray]:
-    """The ``/aux`` columns of an imported recording (magnetometer, heading, FSR, ...), {} if none."""
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        if "aux" not in f:
-            return {}
-        return {k: f["aux"][k][()] for k in f["aux"]}

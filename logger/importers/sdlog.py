@@ -136,32 +136,28 @@ def _lines_and_offsets(text: str, data: bytes) -> tuple[list[str], np.ndarray, d
     return lines, offsets, dict(zip(first_line.tolist(), pos[first].tolist()))
 
 
-def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **overrides) -> ImportResult:
-    """Parse and check our SD-card log (module docstring).
-
-    ``text`` is the decoded file, ``raw`` the file's bytes (for its hash) and ``data`` the decompressed
-    bytes (``raw`` undone from gzip when None): byte offsets are counted in ``data``.
-    """
-    data = decompress(raw)[0] if data is None else data
-    lines, offsets, non_ascii = _lines_and_offsets(text, data)
-    ends_without_newline = not text.endswith("\n")
-    if not ends_without_newline:
-        lines.pop()
-        offsets = offsets[:-1]
-    header: dict[str, str] | None = None
-    headers: list[tuple[int, dict]] = []
-    events: list[dict] = []
-    bodies: list[bytes] = []
-    crcs: list[int] = []
-    cand_lines: list[int] = []  # 0-based line index of candidate data lines
-    last = len(lines) - 1
-    messages = []
+def _line_skipper(events: list, offsets: np.ndarray, ends_without_newline: bool, last: int):
+    """``skip(i, why, kind)``: record line ``i`` (0-based) as skipped, a truncated last line (power loss) as such."""
 
     def skip(i: int, why: str, kind: str = "skipped_line"):
         trunc = ends_without_newline and i == last
         events.append(dict(kind="skipped_line" if trunc else kind, line=i + 1, byte_offset=int(offsets[i]), count=1,
                            detail=("truncated last line (power loss?): " if trunc else "") + why))
 
+    return skip
+
+
+def _scan_lines(path: Path, lines: list[str], non_ascii: dict[int, int], data: bytes, skip, truncated_last: int):
+    """Sort the lines into headers and candidate data lines (body, CRC, line index); the others are skipped.
+
+    Returns (first header or None, [(line index, header)], bodies, CRCs, candidate line indices);
+    ``truncated_last`` is the index of a last line without its newline (-1: none).
+    """
+    header: dict[str, str] | None = None
+    headers: list[tuple[int, dict]] = []
+    bodies: list[bytes] = []
+    crcs: list[int] = []
+    cand_lines: list[int] = []  # 0-based line index of candidate data lines
     gc_was = gc.isenabled()
     gc.disable()  # hundreds of thousands of small strings: the cyclic GC would rescan them repeatedly
     try:
@@ -197,7 +193,7 @@ def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **
                 crc_value = -1
             if not star or crc_value < 0:
                 skip(i, f"truncated line, no '*CRC' at the end: {s[:60]!r}",
-                     kind="crc_error" if not (ends_without_newline and i == last) else "skipped_line")
+                     kind="crc_error" if i != truncated_last else "skipped_line")
                 continue
             bodies.append(body.encode("ascii", "replace"))
             crcs.append(crc_value)
@@ -205,12 +201,12 @@ def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **
     finally:
         if gc_was:
             gc.enable()
-    if header is None:
-        if "acc_range_g" not in overrides or "gyro_range_dps" not in overrides:
-            raise InputError(f"{path}: SD-card log without a '# bootnav-sd v1 ...' header line; "
-                             f"give --acc-range and --gyro-range")
-        header = {"accel_fs": str(mpu6050.accel_code(overrides["acc_range_g"])),
-                  "gyro_fs": str(mpu6050.gyro_code(overrides["gyro_range_dps"])), "version": "1"}
+    return header, headers, bodies, crcs, cand_lines
+
+
+def _crc_checked(bodies: list[bytes], crcs: list[int], cand_lines: list[int], offsets: np.ndarray,
+                 events: list) -> tuple[list[str], list[int]]:
+    """The bodies whose CRC matches and their line indices; a mismatch is a ``crc_error`` event."""
     ok = _crc_ok(bodies, np.asarray(crcs, dtype=np.uint16)) if bodies else np.zeros(0, bool)
     good_bodies: list[str] = []
     good_idx: list[int] = []
@@ -221,24 +217,13 @@ def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **
             continue
         good_bodies.append(b.decode("ascii"))
         good_idx.append(i)
-    # fields: 9 integers within range
-    arr, row_lines = _parse_fields(good_bodies, good_idx, skip)
-    lim = np.array([LIMITS.get(k, (mpu6050.INT16_MIN, mpu6050.INT16_MAX)) for k in SAMPLE_FIELDS])
-    in_range = np.all((arr >= lim[:, 0]) & (arr <= lim[:, 1]), axis=1)
-    for j in np.flatnonzero(~in_range):
-        skip(row_lines[j], "value out of range for its type (u32 t_us, u16 seq, i16 counts)")
-    arr = arr[in_range]
-    line_numbers = np.asarray(row_lines, dtype=np.int64)[in_range] + 1
-    n = arr.shape[0]
-    if n == 0:
-        raise InputError(f"{path}: no valid data line (of {len(lines)} lines)")
+    return good_bodies, good_idx
 
-    t_dev = arr[:, 0].astype(np.uint32)
-    t_unwrapped, wraps = unwrap_counter(arr[:, 0])
-    for i in wraps:
-        events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
-                           detail="uint32 microsecond clock wrapped (71.6 min); 2**32 us added"))
-    t = (t_unwrapped - t_unwrapped[0]) * 1e-6
+
+def _register_codes(path: Path, header: dict, overrides: dict) -> tuple[int, int, int, int]:
+    """(accel_fs, gyro_fs, dlpf, smplrt_div) register codes from the header (the ranges overridable; -1 for a
+    dlpf or divider the header does not give), or an ``InputError`` naming the header field and the fix."""
+
     def code(key: str, valid, flag: str, unit: str, default=None) -> int:
         """A header field as an integer register code, or an InputError naming the header and the fix."""
         text = header.get(key, default)
@@ -261,13 +246,14 @@ def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **
         gyro_fs = mpu6050.gyro_code(overrides["gyro_range_dps"])
     else:
         gyro_fs = code("gyro_fs", mpu6050.GYRO_RANGE_DPS, "--gyro-range DPS", "deg/s")
-    dlpf = code("dlpf", None, "", "", -1)
-    div = code("smplrt_div", None, "", "", -1)
-    rate_nominal = (1000.0 if 1 <= dlpf <= 6 else 8000.0) / (1 + div) if div >= 0 and dlpf >= 0 else float("nan")
-    events += time_events(t, line_numbers, nominal_dt=1 / rate_nominal if np.isfinite(rate_nominal) else None,
-                          with_gaps=False)  # the frame counter reports the gaps (the one gap rule)
-    seq = arr[:, 1].astype(np.uint16)
-    dseq = np.diff(arr[:, 1]) % SEQ_MODULUS
+    return accel_fs, gyro_fs, code("dlpf", None, "", "", -1), code("smplrt_div", None, "", "", -1)
+
+
+def _sequence_events(seq_counts: np.ndarray, line_numbers: np.ndarray) -> list[dict]:
+    """A repeated sequence number is a note, a jump a ``gap`` event with the number of missing samples."""
+    events = []
+    seq = seq_counts.astype(np.uint16)
+    dseq = np.diff(seq_counts) % SEQ_MODULUS
     for j in np.flatnonzero(dseq != 1):
         i = j + 1
         if dseq[j] == 0:
@@ -276,6 +262,58 @@ def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **
         else:
             events.append(dict(kind="gap", sample_index=int(i), line=int(line_numbers[i]), count=int(dseq[j] - 1),
                                detail=f"seq {seq[i - 1]} -> {seq[i]}: {dseq[j] - 1} sample(s) missing"))
+    return events
+
+
+def read_sd_log(path: Path, text: str, raw: bytes, data: bytes | None = None, **overrides) -> ImportResult:
+    """Parse and check our SD-card log (module docstring).
+
+    ``text`` is the decoded file, ``raw`` the file's bytes (for its hash) and ``data`` the decompressed
+    bytes (``raw`` undone from gzip when None): byte offsets are counted in ``data``.
+    """
+    data = decompress(raw)[0] if data is None else data
+    lines, offsets, non_ascii = _lines_and_offsets(text, data)
+    ends_without_newline = not text.endswith("\n")
+    if not ends_without_newline:
+        lines.pop()
+        offsets = offsets[:-1]
+    events: list[dict] = []
+    last = len(lines) - 1
+    messages = []
+    skip = _line_skipper(events, offsets, ends_without_newline, last)
+    header, headers, bodies, crcs, cand_lines = _scan_lines(path, lines, non_ascii, data, skip,
+                                                            last if ends_without_newline else -1)
+    if header is None:
+        if "acc_range_g" not in overrides or "gyro_range_dps" not in overrides:
+            raise InputError(f"{path}: SD-card log without a '# bootnav-sd v1 ...' header line; "
+                             f"give --acc-range and --gyro-range")
+        header = {"accel_fs": str(mpu6050.accel_code(overrides["acc_range_g"])),
+                  "gyro_fs": str(mpu6050.gyro_code(overrides["gyro_range_dps"])), "version": "1"}
+    good_bodies, good_idx = _crc_checked(bodies, crcs, cand_lines, offsets, events)
+    # fields: 9 integers within range
+    arr, row_lines = _parse_fields(good_bodies, good_idx, skip)
+    lim = np.array([LIMITS.get(k, (mpu6050.INT16_MIN, mpu6050.INT16_MAX)) for k in SAMPLE_FIELDS])
+    in_range = np.all((arr >= lim[:, 0]) & (arr <= lim[:, 1]), axis=1)
+    for j in np.flatnonzero(~in_range):
+        skip(row_lines[j], "value out of range for its type (u32 t_us, u16 seq, i16 counts)")
+    arr = arr[in_range]
+    line_numbers = np.asarray(row_lines, dtype=np.int64)[in_range] + 1
+    n = arr.shape[0]
+    if n == 0:
+        raise InputError(f"{path}: no valid data line (of {len(lines)} lines)")
+
+    t_dev = arr[:, 0].astype(np.uint32)
+    t_unwrapped, wraps = unwrap_counter(arr[:, 0])
+    for i in wraps:
+        events.append(dict(kind="time_wrap", sample_index=int(i), line=int(line_numbers[i]), count=1,
+                           detail="uint32 microsecond clock wrapped (71.6 min); 2**32 us added"))
+    t = (t_unwrapped - t_unwrapped[0]) * 1e-6
+    accel_fs, gyro_fs, dlpf, div = _register_codes(path, header, overrides)
+    rate_nominal = (1000.0 if 1 <= dlpf <= 6 else 8000.0) / (1 + div) if div >= 0 and dlpf >= 0 else float("nan")
+    events += time_events(t, line_numbers, nominal_dt=1 / rate_nominal if np.isfinite(rate_nominal) else None,
+                          with_gaps=False)  # the frame counter reports the gaps (the one gap rule)
+    seq = arr[:, 1].astype(np.uint16)
+    events += _sequence_events(arr[:, 1], line_numbers)
     for h_line, h in headers:
         events.append(dict(kind="header", line=h_line + 1, byte_offset=int(offsets[h_line]),
                            detail=" ".join(f"{k}={v}" for k, v in h.items())))

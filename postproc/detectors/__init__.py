@@ -22,6 +22,7 @@ from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
 
 from bootnav.core.validate import check_value
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
 from bootnav.errors import InputError
 
 from . import postprocess
@@ -171,7 +172,7 @@ class DetectorSettings:
         base = self.params if method == self.method else {}
         return DetectorSettings(method, {**base, **params}, self.detect_clipping)
 
-    def build(self, gravity: float = 9.80665) -> StanceDetector:
+    def build(self, gravity: float = STANDARD_GRAVITY_MPS2) -> StanceDetector:
         """The configured detector of ``method`` (an instance of ``DETECTORS[method]``) at local gravity
         ``gravity`` (m/s²)."""
         return detector_class(self.method)(gravity_mps2=float(gravity), **self.params)
@@ -187,8 +188,8 @@ def _field_default(f):
     return f.default_factory() if f.default is MISSING else f.default
 
 
-def detect_stance(t_s, acc_b, gyro_b, settings: DetectorSettings | None = None, gravity: float = 9.80665, *,
-                  saturated=None) -> StanceResult:
+def detect_stance(t_s, acc_b, gyro_b, settings: DetectorSettings | None = None,
+                  gravity: float = STANDARD_GRAVITY_MPS2, *, saturated=None) -> StanceResult:
     """Stance mask of one recording with the detector the settings name.
 
     Parameters

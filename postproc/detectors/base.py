@@ -21,6 +21,7 @@ import numpy as np
 
 from bootnav.core.registry import Registry, description
 from bootnav.core.runs import runs
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
 
 from . import postprocess
 from bootnav.core.arrays import as_imu_arrays, dilate, median_dt, rows_finite, window_samples
@@ -88,7 +89,7 @@ class StanceDetector:
     #: must be > 0 and a duration ``*_s`` >= 0 (``check``).
     BOUNDS: ClassVar[dict] = {"gravity_mps2": POSITIVE}
 
-    gravity_mps2: float = 9.80665
+    gravity_mps2: float = STANDARD_GRAVITY_MPS2
     min_swing_s: float = 0.0
     min_stance_s: float = 0.0
     saturation_guard_s: float = 0.02

@@ -41,6 +41,7 @@ import numpy as np
 from bootnav.errors import InputError
 
 from bootnav.core.arrays import window_samples
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
 from .base import StanceDetector, WindowedDetector
 
 _HIST_LO, _HIST_STEP, _HIST_N = -20.0, 1e-3, 60_000  # log10 T histogram of the running noise floor
@@ -99,8 +100,8 @@ class StreamStance:
         A detector that needs the whole record, or a bad rate.
     """
 
-    def __init__(self, settings, rate_hz: float, gravity: float = 9.80665, *, noise_floor_log10: float | None = None,
-                 gyro_bias_b=None):
+    def __init__(self, settings, rate_hz: float, gravity: float = STANDARD_GRAVITY_MPS2, *,
+                 noise_floor_log10: float | None = None, gyro_bias_b=None):
         if not (np.isfinite(rate_hz) and rate_hz > 0):
             raise InputError(f"rate_hz must be the device's positive sample rate in Hz, got {rate_hz!r}")
         det = settings.build(gravity)

@@ -120,7 +120,7 @@ def _finish_plot(fig, ax, out_dir: Path, trial_id: str, stem: str) -> Path:
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     p = out_dir / (trial_id.replace("/", "__") + "__" + stem + ".png")
-    fig.savefig(p, dpi=90)
+    atomic.replace_with(p, lambda tmp: fig.savefig(tmp, dpi=90, format="png"))  # never half written
     plt.close(fig)
     return p
 

@@ -30,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", help="directory of the recordings DIR/<label>.h5 and DIR/live.json "
                                                      "(required with --port; --demo: a new temporary directory)")
     parser.add_argument("--force", action="store_true", help="overwrite existing recordings and live.json in --out")
-    parser.add_argument("--baud", type=int, default=500_000, help="serial baud rate (default 500000)")
+    parser.add_argument("--baud", type=int, default=None, help="serial baud rate (default 500000)")
     parser.add_argument("--speed", type=float, default=1.0, metavar="X",
                         help="--replay: recording seconds per second (default 1)")
     parser.add_argument("--no-motion-s", type=float, default=30.0, metavar="S",

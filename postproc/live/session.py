@@ -40,10 +40,12 @@ class Feed:
     ended: bool = False
 
 
-def start_recorder(port: str, out: Path, log: Path, flush_interval_s: float, baud: int, label: str,
+def start_recorder(port: str, out: Path, log: Path, flush_interval_s: float, baud: int | None, label: str,
                    force: bool) -> subprocess.Popen:
-    """``bootnav record`` as a child process (its status lines go to ``log``)."""
-    cmd = [sys.executable, "-m", "bootnav.cli", "record", "--port", port, "--out", str(out), "--baud", str(baud),
+    """``bootnav record`` as a child process (its status lines go to ``log``); ``baud`` None: the recorder's
+    default."""
+    cmd = [sys.executable, "-m", "bootnav.cli", "record", "--port", port, "--out", str(out),
+           *(["--baud", str(baud)] if baud is not None else []),
            "--flush-interval", str(flush_interval_s), "--subject", label, "--quiet"]
     if force:
         cmd.append("--force")

@@ -148,7 +148,10 @@ def build_settings(args):
         s.detector, s.detector_params = args.detector, {}
     if s.detector not in DETECTORS:
         raise InputError(f"unknown step detector {s.detector!r}; choose one of {sorted(DETECTORS)}")
-    if args.engineered and "literal" in DETECTORS[s.detector].__dataclass_fields__:
+    if args.engineered:
+        if "literal" not in DETECTORS[s.detector].__dataclass_fields__:
+            raise InputError(f"--engineered: step detector {s.detector!r} has no literal form to leave (it is "
+                             "engineered already); drop the option")
         s.detector_params["literal"] = False
     s.detector_params.update(_params(args.detector_param, DETECTORS[s.detector], "--detector-param"))
     from bootnav.core.limits import check_range
@@ -191,7 +194,33 @@ def build_settings(args):
         s.start_lat_lon = _parse_start(args.start)
     if args.no_gps:
         s.use_gps = False
+    refuse_unused_heading_flags(args, s.heading)
     return s.validate()
+
+
+#: Heading options and the heading methods that read them ("auto" is gyro, compass or none: never the
+#: magnetometer): a flag the chosen method does not read is refused, never silently ignored.
+HEADING_FLAG_USERS = (
+    ("--heading0", "heading0", {"auto", "none", "gyro"}),
+    ("--declination", "declination", {"auto", "compass", "mag", "complementary"}),
+    ("--complementary-tau", "complementary_tau", {"complementary"}),
+    ("--mag-tilt", "mag_tilt", {"mag", "complementary"}),
+    ("--mag-calibration", "mag_calibration", {"mag", "complementary"}),
+    ("--mag-calibration-window", "mag_calibration_window", {"mag", "complementary"}),
+    ("--mag-percentiles", "mag_percentiles", {"mag", "complementary"}),
+    ("--gyro-signed-magnitude", "gyro_signed_magnitude", {"auto", "gyro", "complementary"}),
+)
+
+
+def refuse_unused_heading_flags(args, heading: str) -> None:
+    """One line naming a heading flag that the heading method ``heading`` does not read, and who reads it."""
+    from bootnav.errors import InputError
+
+    for flag, attr, users in HEADING_FLAG_USERS:
+        value = getattr(args, attr, None)
+        if value is not None and value is not False and heading not in users:
+            raise InputError(f"{flag}: heading {heading!r} does not use it (it is read by --heading "
+                             f"{' / '.join(sorted(users - {'auto'}))}); drop the option or choose that heading")
 
 
 def _calibration_walks(items):

@@ -85,7 +85,7 @@ def load_input(path) -> PdrInput:
         rec = load(path, check_units=True)  # acc in g / gyro in deg/s refused as `import` does
         aux = {}
         try:
-            from bootnav.logger.importers import load_aux
+            from bootnav.logger.recording import load_aux
 
             aux = load_aux(path)
         except ImportError:

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bootnav.core.conventions import CONVENTIONS, SOFTWARE
+from bootnav.core.conventions import CONVENTIONS, SOFTWARE, STANDARD_GRAVITY_MPS2
 from bootnav.errors import InputError
 
 
@@ -274,7 +274,7 @@ def _check_inputs(t_s, acc_b):
     return t, a, None
 
 
-def restore_gravity(acc_b: np.ndarray, g: float = 9.80665) -> list[np.ndarray]:
+def restore_gravity(acc_b: np.ndarray, g: float = STANDARD_GRAVITY_MPS2) -> list[np.ndarray]:
     """Phones may export LINEAR acceleration (gravity removed by the OS, e.g. phyphox "Linear
     Acceleration"): |a| at rest ~ 0 instead of g. Every detector here expects specific force with gravity,
     so when median |a| < g/2 we add g along the dominant oscillation axis (walking: mostly vertical).

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-G0 = 9.80665  # standard gravity, m/s^2 (bootnav.CONVENTIONS)
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
+
+G0 = STANDARD_GRAVITY_MPS2  # standard gravity, m/s^2 (bootnav.core.conventions)
 
 
 def clean_time(t_s: np.ndarray, *arrays: np.ndarray):

@@ -41,14 +41,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     live.add_argument("--record", metavar="FILE.h5",
                       help="live mode: the session file to record (default calibration-<UTC time>.h5 in the "
                            "current directory; never overwritten)")
-    live.add_argument("--baud", type=int, default=500_000, help="live mode: baud rate (default 500000)")
+    live.add_argument("--baud", type=int, default=None, help="live mode: baud rate (default 500000)")
     live.add_argument("--hold", type=float, default=3.0, metavar="S",
                       help="live mode: how long to hold each pose, s (default 3)")
     live.add_argument("--duration", type=float, default=None, metavar="S",
                       help="live mode: give up after S seconds (default: until the goals or Ctrl-C)")
-    live.add_argument("--goal-scale", type=float, default=0.05, metavar="PERCENT",
+    live.add_argument("--goal-scale", type=float, default=None, metavar="PERCENT",
                       help="live mode: stop when every scale factor is known to this 1σ, %% (default 0.05)")
-    live.add_argument("--goal-misalignment", type=float, default=0.05, metavar="DEG",
+    live.add_argument("--goal-misalignment", type=float, default=None, metavar="DEG",
                       help="live mode: stop when every misalignment is known to this 1σ, degrees (default 0.05)")
 
 

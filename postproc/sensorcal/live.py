@@ -243,7 +243,8 @@ def run_live(args, settings: SensorCalSettings) -> int:
     if not record.resolve().parent.is_dir():
         raise InputError(f"--record {record}: the directory {record.resolve().parent} does not exist")
 
-    rec = _recorder_class()(RecorderSettings(port=args.port, out=str(record), baud=args.baud), status_stream=None)
+    baud = {"baud": args.baud} if args.baud is not None else {}  # else RecorderSettings' default
+    rec = _recorder_class()(RecorderSettings(port=args.port, out=str(record), **baud), status_stream=None)
     rec.tap = _Tap()
     failure: list[BaseException] = []
 

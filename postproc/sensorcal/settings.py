@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
+
 
 @dataclass
 class SensorCalSettings:
@@ -75,7 +77,7 @@ class SensorCalSettings:
     turn_min_rad: float = 1.5 * math.pi
     turn_max_tilt_rad: float = math.radians(5.0)
     temp_span_min_degc: float = 5.0
-    acc_bias_repeatability_mps2: float = 0.25 * 50e-3 / 3 * 9.80665
+    acc_bias_repeatability_mps2: float = 0.25 * 50e-3 / 3 * STANDARD_GRAVITY_MPS2
     gyro_bias_repeatability_radps: float = 0.25 * math.radians(20.0) / 3
     gravity_mps2: float | None = None
     latitude_deg: float = 45.0

@@ -18,9 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
+
 from .fit import Session
 
-G_STD = 9.80665
+G_STD = STANDARD_GRAVITY_MPS2
 D = math.pi / 2
 # (body-frame rotation vector of the motion into the next pose); starts sole down (z up)
 STANDARD_MOTIONS = [

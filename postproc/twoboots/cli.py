@@ -25,6 +25,21 @@ def add_arguments(p) -> None:
     g.add_argument("--right-offset-s", type=float, metavar="S", help="add S seconds to the right foot's t_s (default 0: a common clock)")
 
 
+#: The options of a two-boot run only (``add_arguments``): (flag, attribute).
+TWO_BOOT_FLAGS = (("--boots", "boots"), ("--two-boot-settings", "two_boot_settings"),
+                  ("--max-separation", "max_separation"), ("--clock", "clock"), ("--right-offset-s", "right_offset_s"))
+
+
+def refuse_two_boot_flags(args) -> None:
+    """A two-boot option on a run of single feet is an error (it would be ignored)."""
+    from bootnav.errors import InputError
+
+    for flag, attr in TWO_BOOT_FLAGS:
+        if getattr(args, attr, None) is not None:
+            raise InputError(f"{flag} applies to two boots of one walker only: add --two-boots (LEFT RIGHT) or give "
+                             "one multi-boot recording, or drop the option")
+
+
 def is_multi_boot(path: str) -> bool:
     """True for an existing multi-boot HDF5 recording."""
     from bootnav.logger.recording import boot_labels
@@ -66,6 +81,9 @@ def sources(args) -> tuple[object, object, list[str]]:
     if len(args.input) == 2:
         if any(is_multi_boot(i) for i in args.input):
             raise InputError("give either one multi-boot recording or two single-boot recordings (LEFT RIGHT)")
+        if getattr(args, "boots", None):
+            raise InputError(f"--boots {args.boots}: chooses two boots of one multi-boot recording; with two files "
+                             "LEFT RIGHT the order of the files says which foot is which: drop the option")
         return args.input[0], args.input[1], list(args.input)
     if len(args.input) != 1 or not is_multi_boot(args.input[0]):
         raise InputError(f"--two-boots needs LEFT RIGHT (two recordings) or one multi-boot recording; got "
@@ -147,4 +165,5 @@ def format_summary(summary: dict, files: dict) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["add_arguments", "wanted", "run", "format_summary", "two_boot_settings", "sources"]
+__all__ = ["add_arguments", "wanted", "run", "format_summary", "two_boot_settings", "sources", "refuse_two_boot_flags",
+           "TWO_BOOT_FLAGS"]

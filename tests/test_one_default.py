@@ -1,0 +1,56 @@
+"""One place for each default: a command-line flag whose value has a home in a settings class has no argparse
+default of its own (``None``: the class's default applies) and the number its help text shows is the class's.
+A changed default then changes every command at once, and a stale help text fails here."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+from bootnav.cli import build_parser
+from bootnav.logger.serial_recorder import MultiRecorderSettings, RecorderSettings
+from bootnav.postproc.calibration import CalibrationSettings
+from bootnav.postproc.sensorcal.settings import SensorCalSettings
+from bootnav.postproc.settings import ProcessSettings
+
+
+def _action(command: str, flag: str):
+    sub = next(a for a in build_parser()._actions if a.dest == "command" or getattr(a, "choices", None)
+               and command in (a.choices or {}))
+    parser = sub.choices[command]
+    return next(a for a in parser._actions if flag in a.option_strings)
+
+
+R, S, P, C = RecorderSettings("p", "o"), SensorCalSettings(), ProcessSettings(), CalibrationSettings()
+
+
+@pytest.mark.parametrize("command, flag, default", [
+    ("record", "--baud", R.baud),
+    ("record", "--flush-interval", R.flush_interval_s),
+    ("record", "--header-wait", R.header_wait_s),
+    ("record", "--connect-timeout", R.connect_timeout_s),
+    ("live", "--baud", R.baud),
+    ("calibrate", "--baud", R.baud),
+    ("calibrate", "--goal-scale", S.goal_scale_sigma * 100.0),  # the flag is in percent
+    ("calibrate", "--goal-misalignment", math.degrees(S.goal_misalignment_sigma_rad)),  # the flag is in degrees
+    ("calibrate", "--latitude", S.latitude_deg),
+    ("process", "--latitude", C.latitude_deg),
+    ("process", "--height", C.height_m),
+    ("process", "--floor-height", P.floor_height_m),
+    ("process", "--stair-min-dz", P.floor_stair_min_dz_m),
+    ("process", "--block-s", P.block_s),
+])
+def test_a_flag_takes_its_default_from_the_settings_and_says_it(command, flag, default):
+    action = _action(command, flag)
+    assert action.default is None, f"{command} {flag}: argparse default {action.default!r} beside the settings' one"
+    shown = re.search(r"default:? (-?[0-9][0-9_.e+-]*)", action.help or "")
+    if shown is not None:  # a help text that shows a number shows the settings' number
+        assert float(shown.group(1).rstrip(".")) == pytest.approx(default, rel=1e-12), (command, flag, action.help)
+
+
+def test_the_multi_boot_recorder_shares_the_single_recorders_defaults():
+    m = MultiRecorderSettings(["a", "b"], ["l", "r"], "o")
+    for name in ("baud", "flush_interval_s", "header_wait_s", "connect_timeout_s", "status_interval_s"):
+        assert getattr(m, name) == getattr(R, name)
