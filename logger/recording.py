@@ -24,6 +24,7 @@ from typing import Any, Iterable, Mapping
 import h5py
 import numpy as np
 
+from bootnav.core.atomic import fsync_path
 from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.timebase import timing_summary
 from bootnav.errors import DiskFullError, InputError
@@ -234,9 +235,12 @@ def _creating_name(path: Path) -> Path:
 def _publish(file: h5py.File, tmp: Path, path: Path) -> None:
     """Show a newly created recording under its name only once its whole structure is on disk: a crash while
     creating leaves no header-only file at ``path``. HDF5 keeps writing through the open handle after the
-    rename."""
+    rename. Crash-safe as ``bootnav.core.atomic.commit``: the file is synced before the rename and the folder
+    after it, so after a power cut the name shows the whole structure or nothing."""
     file.flush()
+    fsync_path(tmp)
     os.replace(tmp, path)
+    fsync_path(path.parent)
 
 
 class RecordingWriter:

@@ -53,6 +53,7 @@ from bootnav.core.runs import runs
 from bootnav.core.timebase import sample_period
 
 from bootnav.core.arrays import moving_mean, row_norm, rows_finite
+from bootnav.core.conventions import STANDARD_GRAVITY_MPS2
 
 # WGS-84 constants [NIMA2000, tables 3.1-3.4]
 WGS84_A_M = 6378137.0
@@ -152,8 +153,8 @@ class AccelCalibration:
     source: str = ""
 
 
-def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None, gravity: float = 9.80665, *,
-               dt_s: float | None = None) -> np.ndarray:
+def still_mask(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
+               gravity: float = STANDARD_GRAVITY_MPS2, *, dt_s: float | None = None) -> np.ndarray:
     """Samples whose centred window (``still_window_s``) passes every still test (bool (N,)); ``dt_s``: the
     sample period the window is counted in (default: ``sample_period(t_s)``)."""
     from scipy.ndimage import maximum_filter1d
@@ -185,7 +186,7 @@ def still_window_samples(settings: CalibrationSettings, dt_s: float) -> int:
 
 
 def find_still_period(t_s, acc_b, gyro_b, *, min_duration_s: float = 0.5, settings: CalibrationSettings | None = None,
-                      gravity: float = 9.80665, dt_s: float | None = None) -> slice | None:
+                      gravity: float = STANDARD_GRAVITY_MPS2, dt_s: float | None = None) -> slice | None:
     """The initial still period: the first run of still samples that starts within ``still_search_s`` of
     the start and lasts at least ``min_duration_s`` (truncated to ``max_still_s``). None if there is none.
 
@@ -304,7 +305,7 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
 
 
 def first_rest(t_s, acc_b, gyro_b, settings: CalibrationSettings | None = None,
-               gravity: float = 9.80665, *, dt_s: float | None = None) -> tuple[int, int] | None:
+               gravity: float = STANDARD_GRAVITY_MPS2, *, dt_s: float | None = None) -> tuple[int, int] | None:
     """The first foot-flat within ``still_search_s`` of the start: (start, stop) sample indices, or None.
 
     A recording that starts in motion has no still period, and levelling on its first samples (a swing)

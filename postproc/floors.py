@@ -44,7 +44,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bootnav.postproc.strides import footprints
+from bootnav.postproc.ins.settings import FilterSettings
+from bootnav.postproc.strides import FloorSettings, footprints
 
 MIN_FLIGHT_STRIDES = 2  # a flight has at least two stair strides (three risers or more)
 MIN_FLOOR_STRIDES = 6  # level strides in a row that make a storey: ≈ 6 m, longer than any stair landing (≤ 2.5 m)
@@ -75,7 +76,9 @@ class StoreyResult:
 
 
 def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, riser_max_m: float,
-                   min_stride_m: float = 0.0, storey_merge_m: float = 0.5, storey_m: float = 3.0) -> StoreyResult:
+                   min_stride_m: float = FilterSettings.level_min_stride_m,
+                   storey_merge_m: float = FloorSettings.hysteresis_m,
+                   storey_m: float = FloorSettings.floor_height_m) -> StoreyResult:
     """Height corrections of the footprints (module docstring).
 
     Parameters
@@ -171,7 +174,8 @@ def storey_offsets(fp: np.ndarray, level_max_dz_m: float, riser_min_m: float, ri
     return out
 
 
-def storey_numbers(z_m: np.ndarray, level_max_dz_m: float, merge_m: float, storey_m: float = 3.0,
+def storey_numbers(z_m: np.ndarray, level_max_dz_m: float, merge_m: float,
+                   storey_m: float = FloorSettings.floor_height_m,
                    min_floor_strides: int = MIN_FLOOR_STRIDES) -> tuple[np.ndarray, np.ndarray]:
     """The storey number of every footprint (0 = the first footprint's storey) and the storeys' heights.
 
@@ -214,8 +218,9 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def snap_storeys(t_s: np.ndarray, pos_n: np.ndarray, stance: np.ndarray, level_max_dz_m: float, riser_min_m: float,
-                 riser_max_m: float, min_stride_m: float = 0.0, storey_merge_m: float = 0.5,
-                 storey_m: float = 3.0) -> tuple[np.ndarray, StoreyResult]:
+                 riser_max_m: float, min_stride_m: float = FilterSettings.level_min_stride_m,
+                 storey_merge_m: float = FloorSettings.hysteresis_m,
+                 storey_m: float = FloorSettings.floor_height_m) -> tuple[np.ndarray, StoreyResult]:
     """The path with its heights corrected (a new array; ``pos_n`` is not modified) and the flights' report.
 
     Each sample gets the correction interpolated in time between the footprints' mid times (constant on a

@@ -29,6 +29,7 @@ from .calibration import CalibrationSettings
 from .detectors import DetectorSettings
 from .ins import FilterSettings
 from .selftune import SelfTuneSettings
+from .strides import FloorSettings
 
 
 @dataclass
@@ -169,12 +170,12 @@ class ProcessSettings:
     selftune: SelfTuneSettings = field(default_factory=SelfTuneSettings)
     output: OutputSettings = field(default_factory=OutputSettings)
     crop_s: tuple[float, float] | None = None
-    floor_height_m: float = 3.0
-    floor_hysteresis_m: float = 0.5
-    floor_stair_min_dz_m: float | None = 0.1
-    floor_storeys: bool = True
-    floor_riser_min_m: float = 0.15
-    floor_riser_max_m: float = 0.20
+    floor_height_m: float = FloorSettings.floor_height_m  # the defaults' one home: strides.FloorSettings
+    floor_hysteresis_m: float = FloorSettings.hysteresis_m
+    floor_stair_min_dz_m: float | None = FloorSettings.stair_min_dz_m
+    floor_storeys: bool = FloorSettings.storeys
+    floor_riser_min_m: float = FloorSettings.riser_min_m
+    floor_riser_max_m: float = FloorSettings.riser_max_m
     ellipse_scale_sigma: float = 0.03 / math.sqrt(3.0)
     ellipse_cross_axis_rad: float = 0.02 / math.sqrt(3.0)
     ellipse_calibrated_sigma: float = 0.001
@@ -201,8 +202,6 @@ class ProcessSettings:
 
     def floor_settings(self):
         """The floor-counting settings as ``strides.FloorSettings`` (validates them)."""
-        from .strides import FloorSettings
-
         return FloorSettings(self.floor_height_m, self.floor_hysteresis_m, self.floor_stair_min_dz_m, self.floor_storeys,
                              self.floor_riser_min_m, self.floor_riser_max_m)
 

@@ -275,6 +275,9 @@ def footprint_strides(t_mid: np.ndarray, fp: np.ndarray, min_stride_m: float = 0
 class FloorSettings:
     """Floor counting from cumulative height.
 
+    The one home of these defaults: ``ProcessSettings.floor_*`` (what ``process`` and every other run
+    uses) take theirs from here (the reasons are in its docstring).
+
     floor_height_m: storey height h (m); the paper's building is unknown, 3 m is a typical storey.
     stair_min_dz_m: None = count floors from the footprint height; a value (m) = from stair strides only
         (|Δz| >= this), see the module docstring; used only with ``storeys`` off (``floor_signal``).
@@ -285,8 +288,8 @@ class FloorSettings:
 
     floor_height_m: float = 3.0
     hysteresis_m: float = 0.5
-    stair_min_dz_m: float | None = None
-    storeys: bool = False
+    stair_min_dz_m: float | None = 0.1
+    storeys: bool = True
     riser_min_m: float = 0.15
     riser_max_m: float = 0.20
 

@@ -213,8 +213,8 @@ def test_stair_gated_floors_ignore_slow_vertical_drift():
     flights = np.full(9, 3.06 / 9)  # 18 risers of 0.17 m, two per stride
     z = np.cumsum(np.concatenate((dz[:300], flights, dz[300:700], flights, dz[700:])))
     z = np.concatenate(([0.0], z))
-    plain = count_floors(z, FloorSettings(3.0, 0.5))
-    gated = count_floors(z, FloorSettings(3.0, 0.5, stair_min_dz_m=0.1))
+    plain = count_floors(z, FloorSettings(3.0, 0.5, stair_min_dz_m=None, storeys=False))
+    gated = count_floors(z, FloorSettings(3.0, 0.5, stair_min_dz_m=0.1, storeys=False))  # the gate: storeys off
     assert (gated["floors_climbed"], gated["floors_descended"], gated["final_floor"]) == (2, 0, 2)
     assert plain["final_floor"] != 2  # the drift (-5 m) shows in the plain count
     with pytest.raises(ValueError):

@@ -85,7 +85,7 @@ class PaperRule:
     ``log_otsu_threshold`` of the recording, and stance runs shorter than ``min_stance_s`` are dropped
     before the swing gaps are filled (module docstring). Defines no fields."""
 
-    def _classify(self, acc_b, gyro_b, dt, bad):
+    def classify(self, acc_b, gyro_b, dt, bad):
         stat = self.statistic(acc_b, gyro_b, dt)
         rule = "fixed" if self.threshold is not None else "log_otsu"
         thr = float(self.threshold) if self.threshold is not None else log_otsu_threshold(stat[~bad])

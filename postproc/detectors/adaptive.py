@@ -134,7 +134,7 @@ class AdaptiveDetector(StanceDetector):
         T = shoe_statistic(acc_b, gyro_b, n, self.sigma_acc_mps2, self.sigma_gyro_radps, self.gravity_mps2)
         return np.log10(np.maximum(T, self.rest_floor())), T, n
 
-    def _classify(self, acc_b, gyro_b, dt, bad):
+    def classify(self, acc_b, gyro_b, dt, bad):
         from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
         L, T, n = self.log_statistic(acc_b, gyro_b, dt)
@@ -163,7 +163,7 @@ class AdaptiveDetector(StanceDetector):
         }
         return L < gamma, T, float(10.0 ** np.median(gamma)), n, info
 
-    def _drop_short_runs(self, stance, t_s, dt):
+    def drop_short_runs(self, stance, t_s, dt):
         return postprocess.remove_short_fragments(stance, t_s, self.min_stance_s, dt,
                                                   isolated_min_s=self.isolated_min_stance_s,
                                                   isolation_s=self.isolation_s,

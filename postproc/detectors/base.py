@@ -3,7 +3,7 @@
 A detector is a small dataclass configured by physical parameters (windows in seconds, thresholds in the
 units of its statistic, noise σ's, gravity) with one entry method, ``detect(acc_b, gyro_b, t_s)``, after
 the pattern of gaitmap's ``NormZuptDetector`` / ``ShoeZuptDetector`` [Kuderle2024]. Subclasses supply the
-statistic and the rule that turns it into a raw stance mask (``_classify``); the base class does what every
+statistic and the rule that turns it into a raw stance mask (``classify``); the base class does what every
 detector shares, once: NaN and excluded-sample handling and the post-processing of the mask (minimum swing,
 saturation guard, minimum stance).
 
@@ -147,19 +147,19 @@ class StanceDetector:
         if bad.any():  # NaNs must not poison the moving sums; their samples are excluded below
             acc_b = np.where(np.isfinite(acc_b), acc_b, 0.0)
             gyro_b = np.where(np.isfinite(gyro_b), gyro_b, 0.0)
-        raw, stat, thr, n_window, info = self._classify(acc_b, gyro_b, dt, bad)
+        raw, stat, thr, n_window, info = self.classify(acc_b, gyro_b, dt, bad)
         stance = postprocess.clean_stance(raw, t_s, dt, min_swing_s=self.min_swing_s)
         # after the gap filling, so that it can never re-admit an excluded sample
         stance &= ~dilate(bad, max(n_window, window_samples(self.saturation_guard_s, dt, 0)))
-        stance = self._drop_short_runs(stance, t_s, dt)
+        stance = self.drop_short_runs(stance, t_s, dt)
         info = {"dt_s": dt, **info, "n_stance_phases": int(runs(stance)[0].size)}
         return StanceResult(stance=stance, statistic=stat, threshold=float(thr), method=self.name, info=info)
 
-    def _classify(self, acc_b: np.ndarray, gyro_b: np.ndarray, dt: float, bad: np.ndarray):
+    def classify(self, acc_b: np.ndarray, gyro_b: np.ndarray, dt: float, bad: np.ndarray):
         """Return (raw stance mask, statistic, threshold, window in samples, info) on finite data."""
         raise NotImplementedError
 
-    def _drop_short_runs(self, stance: np.ndarray, t_s: np.ndarray, dt: float) -> np.ndarray:
+    def drop_short_runs(self, stance: np.ndarray, t_s: np.ndarray, dt: float) -> np.ndarray:
         return postprocess.remove_short_runs(stance, t_s, self.min_stance_s, dt)
 
 
@@ -196,7 +196,7 @@ class ThresholdDetector(StanceDetector):
     def _info(self) -> dict:
         return {}
 
-    def _classify(self, acc_b, gyro_b, dt, bad):
+    def classify(self, acc_b, gyro_b, dt, bad):
         stat = self.statistic(acc_b, gyro_b, dt)
         thr = float(self.threshold)
         if self.hysteresis_ratio > 1.0:

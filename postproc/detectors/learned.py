@@ -197,7 +197,7 @@ class LearnedDetector(StanceDetector):
         super().check()
         load_model(self.model)  # a missing or malformed file is refused with the settings, before any work
 
-    def _classify(self, acc_b, gyro_b, dt, bad):
+    def classify(self, acc_b, gyro_b, dt, bad):
         model = load_model(self.model)
         p = model.probability(stance_features(acc_b, gyro_b, dt, self.gravity_mps2, bad))
         n = window_samples(BASE_WINDOW_S, dt, 3)

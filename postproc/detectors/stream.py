@@ -229,17 +229,17 @@ class StreamStance:
         if self._adaptive:
             raw, n_window, stat, gamma = self._adaptive_raw(acc0, gyro0, bad, a, b)
         else:
-            raw, stat, _, n_window, _ = det._classify(acc0, gyro0, dt, bad)
+            raw, stat, _, n_window, _ = det.classify(acc0, gyro0, dt, bad)
         stance = postprocess.clean_stance(raw, t, dt, min_swing_s=det.min_swing_s)
         stance &= ~dilate(bad, max(n_window, window_samples(det.saturation_guard_s, dt, 0)))
-        return det._drop_short_runs(stance, t, dt), stat, gamma
+        return det.drop_short_runs(stance, t, dt), stat, gamma
 
     def _adaptive_raw(self, acc, gyro, bad, a, b):
         """``adaptive.AdaptiveDetector``'s rule with the noise floor F from the look-back (module docstring)."""
         from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
         det, dt = self.detector, self.dt_s
-        L, T, n = det.log_statistic(acc, gyro, dt)  # as ``AdaptiveDetector._classify``
+        L, T, n = det.log_statistic(acc, gyro, dt)  # as ``AdaptiveDetector.classify``
         span = window_samples(det.span_s, dt, 3)
         valley = minimum_filter1d(L, span, mode="nearest")
         peak = maximum_filter1d(L, span, mode="nearest")
