@@ -9,9 +9,11 @@ import time
 def add_arguments(parser) -> None:
     parser.add_argument("--list", action="store_true", help="list scenarios and sensor profiles, then exit")
     parser.add_argument("--scenario", help="scenario name (see --list)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the one random generator (default 0)")
-    parser.add_argument("--sensor-profile", default="mpu6050-16g-2000dps", help="sensor model (see --list)")
-    parser.add_argument("--rate", type=float, default=200.0, help="output sample rate, Hz (default 200)")
+    # --seed, --sensor-profile, --rate: None = simulate()'s own defaults (``simulate_defaults``)
+    parser.add_argument("--seed", type=int, default=None, help="seed of the one random generator (default 0)")
+    parser.add_argument("--sensor-profile", default=None,
+                        help="sensor model (see --list; default mpu6050-16g-2000dps)")
+    parser.add_argument("--rate", type=float, default=None, help="output sample rate, Hz (default 200)")
     parser.add_argument("--duration", type=float, default=None,
                         help="length in s (mixed-30min, running, long, fast-corridor, shuffle only; default: the "
                              "scenario's own)")
@@ -88,6 +90,16 @@ def _list() -> int:
     return 0
 
 
+def simulate_defaults(args) -> None:
+    """Fill ``--seed``, ``--sensor-profile`` and ``--rate`` not given with ``simulate()``'s defaults, their one
+    home (``simulate.DEFAULT_*``; ``simulate_two_boots`` takes the same)."""
+    from bootnav.simulator.simulate import DEFAULT_PROFILE, DEFAULT_RATE_HZ, DEFAULT_SEED
+
+    for flag, default in (("seed", DEFAULT_SEED), ("sensor_profile", DEFAULT_PROFILE), ("rate", DEFAULT_RATE_HZ)):
+        if getattr(args, flag, None) is None:
+            setattr(args, flag, default)
+
+
 def run(args) -> int:
     from bootnav.errors import InputError, UsageError
 
@@ -97,6 +109,8 @@ def run(args) -> int:
         raise UsageError("give --scenario NAME and --out FILE (or --list)")
     from bootnav.simulator.imu_synth import MOUNTS
     from bootnav.simulator.simulate import simulate
+
+    simulate_defaults(args)
     from bootnav.simulator.writers import write_h5, write_sd_txt
 
     from pathlib import Path

@@ -180,8 +180,14 @@ def _delivered_events(idx: np.ndarray, kept_t: np.ndarray, saturated: np.ndarray
     return events
 
 
-def simulate(scenario: str | Scenario, seed: int = 0, profile: str | SensorProfile = "mpu6050-16g-2000dps",
-             rate_hz: float = 200.0, duration_s: float | None = None, mount: str | Mount = "right_boot",
+#: ``simulate``'s defaults, their one home (``simulate_two_boots`` and ``bootnav simulate``'s flags read them)
+DEFAULT_SEED = 0
+DEFAULT_PROFILE = "mpu6050-16g-2000dps"
+DEFAULT_RATE_HZ = 200.0
+
+
+def simulate(scenario: str | Scenario, seed: int = DEFAULT_SEED, profile: str | SensorProfile = DEFAULT_PROFILE,
+             rate_hz: float = DEFAULT_RATE_HZ, duration_s: float | None = None, mount: str | Mount = "right_boot",
              progress=None, device: int | str | None = None, device_model: DeviceModel | None = None,
              temperature: TemperatureProfile | None = None) -> SimResult:
     """Simulate ``scenario`` and return the recording with its exact truth.

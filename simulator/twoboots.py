@@ -37,7 +37,7 @@ import numpy as np
 from bootnav.core import atomic
 from bootnav.simulator.gait import WALK, YAW
 from bootnav.simulator.scenarios import Scenario, get_scenario
-from bootnav.simulator.simulate import SimResult, simulate
+from bootnav.simulator.simulate import DEFAULT_PROFILE, DEFAULT_RATE_HZ, DEFAULT_SEED, SimResult, simulate
 from bootnav.simulator.trajectory import Trajectory
 
 LABELS = ("left", "right")
@@ -106,8 +106,8 @@ def foot_seed(seed: int, label: str) -> int:
     return int(np.random.SeedSequence([int(seed), LABELS.index(label)]).generate_state(1)[0])
 
 
-def simulate_two_boots(scenario: str | Scenario, seed: int = 0, profile="mpu6050-16g-2000dps",
-                       rate_hz: float = 200.0, duration_s: float | None = None,
+def simulate_two_boots(scenario: str | Scenario, seed: int = DEFAULT_SEED, profile=DEFAULT_PROFILE,
+                       rate_hz: float = DEFAULT_RATE_HZ, duration_s: float | None = None,
                        geometry: WalkerGeometry | None = None, progress=None) -> dict[str, SimResult]:
     """Both feet of one walker (module docstring): ``{"left": SimResult, "right": SimResult}``.
 

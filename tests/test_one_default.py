@@ -14,6 +14,9 @@ from bootnav.logger.serial_recorder import MultiRecorderSettings, RecorderSettin
 from bootnav.postproc.calibration import CalibrationSettings
 from bootnav.postproc.sensorcal.settings import SensorCalSettings
 from bootnav.postproc.settings import ProcessSettings
+from bootnav.postproc.strides import FloorSettings
+from bootnav.simulator.simulate import DEFAULT_PROFILE, DEFAULT_RATE_HZ, DEFAULT_SEED, simulate
+from bootnav.simulator.twoboots import simulate_two_boots
 
 
 def _action(command: str, flag: str):
@@ -41,12 +44,17 @@ R, S, P, C = RecorderSettings("p", "o"), SensorCalSettings(), ProcessSettings(),
     ("process", "--floor-height", P.floor_height_m),
     ("process", "--stair-min-dz", P.floor_stair_min_dz_m),
     ("process", "--block-s", P.block_s),
+    ("simulate", "--seed", DEFAULT_SEED),
+    ("simulate", "--rate", DEFAULT_RATE_HZ),
+    ("simulate", "--sensor-profile", DEFAULT_PROFILE),
 ])
 def test_a_flag_takes_its_default_from_the_settings_and_says_it(command, flag, default):
     action = _action(command, flag)
     assert action.default is None, f"{command} {flag}: argparse default {action.default!r} beside the settings' one"
     shown = re.search(r"default:? (-?[0-9][0-9_.e+-]*)", action.help or "")
-    if shown is not None:  # a help text that shows a number shows the settings' number
+    if isinstance(default, str):  # a name: the help shows it as it is
+        assert f"default {default}" in (action.help or ""), (command, flag, action.help)
+    elif shown is not None:  # a help text that shows a number shows the settings' number
         assert float(shown.group(1).rstrip(".")) == pytest.approx(default, rel=1e-12), (command, flag, action.help)
 
 
@@ -54,3 +62,34 @@ def test_the_multi_boot_recorder_shares_the_single_recorders_defaults():
     m = MultiRecorderSettings(["a", "b"], ["l", "r"], "o")
     for name in ("baud", "flush_interval_s", "header_wait_s", "connect_timeout_s", "status_interval_s"):
         assert getattr(m, name) == getattr(R, name)
+
+
+def test_simulate_and_its_flags_share_one_set_of_defaults():
+    """``bootnav simulate`` without --seed/--sensor-profile/--rate runs ``simulate()`` with its own defaults,
+    and the two-boot simulation takes the same ones."""
+    import argparse
+    import inspect
+
+    from bootnav.simulator.cli import simulate_defaults
+
+    args = argparse.Namespace(seed=None, sensor_profile=None, rate=None)
+    simulate_defaults(args)
+    for fn in (simulate, simulate_two_boots):
+        p = inspect.signature(fn).parameters
+        assert (p["seed"].default, p["profile"].default, p["rate_hz"].default) == \
+            (args.seed, args.sensor_profile, args.rate), fn.__name__
+
+
+def test_floor_defaults_have_one_home():
+    """``ProcessSettings.floor_*`` are ``strides.FloorSettings``'s defaults (before, ``FloorSettings()`` had
+    no stair gate and no storeys while every run used both), and the storeys' functions default to them."""
+    import inspect
+
+    from bootnav.postproc.floors import snap_storeys, storey_numbers, storey_offsets
+
+    assert P.floor_settings() == FloorSettings()
+    for fn in (storey_offsets, snap_storeys):
+        p = inspect.signature(fn).parameters
+        assert (p["min_stride_m"].default, p["storey_merge_m"].default, p["storey_m"].default) == \
+            (P.filter.level_min_stride_m, P.floor_hysteresis_m, P.floor_height_m), fn.__name__
+    assert inspect.signature(storey_numbers).parameters["storey_m"].default == P.floor_height_m
