@@ -79,29 +79,26 @@ def _summarize_recording(path, shown, boot, block_rows: int) -> dict:
     """``summarize`` of a recording file ``path``, reported under the name ``shown``."""
     import numpy as np
 
-    from bootnav.logger.recording import EVENT_DTYPE, IMU_DATASETS, decode_attr, recording_group, si_factors
+    from bootnav.logger.recording import RecordingReader, read_errors, si_factors
     from bootnav.logger.mpu6050 import STANDARD_GRAVITY
-    from bootnav.logger.samplestats import read_summary
 
-    with recording_group(path, boot) as (_, g):
-        imu = g["imu"]
-        names = [k for k in IMU_DATASETS if k in imu]
-        n = min(imu[k].shape[0] for k in names)  # a killed writer may leave unequal lengths: the common prefix
-        lengths = {k: int(imu[k].shape[0]) for k in names}
+    with RecordingReader(path, boot) as r, read_errors(path):
+        lengths = r.lengths
+        n = min(lengths.values())  # a killed writer may leave unequal lengths: the common prefix
         file_warnings = []
         if len(set(lengths.values())) > 1:
             file_warnings.append("the datasets of /imu have different lengths (" + ", ".join(
                 f"{k} {v}" for k, v in lengths.items()) + f"): only the first {n} rows, common to all, are used; "
                 "a writer was killed or the file was edited")
-        unit_warnings = _unit_warnings(imu, n)
-        events = g["events"][()] if "events" in g else np.zeros(0, EVENT_DTYPE)
-        meta = {k: decode_attr(v) for k, v in g["meta"].attrs.items()} if "meta" in g else {}
-        acc_attrs, gyro_attrs = dict(imu["acc"].attrs), dict(imu["gyro"].attrs)
-        has_seq = "seq" in imu
+        unit_warnings = _unit_warnings(r, n)
+        events = r.events()
+        meta = r.meta
+        acc_attrs, gyro_attrs = r.stored_attrs("acc"), r.stored_attrs("gyro")
+        has_seq = "seq" in lengths
         gyro_present = str(meta.get("gyro_present", 1)) not in ("0", "False")
-        si = {k: si_factors(imu[k].attrs) for k in ("acc", "gyro")}
-        stored = read_summary(imu, n) if all(o == 0.0 for _, o in si.values()) else None
-        fig = _Figures.of_summary(stored, si, gyro_present) if stored else _scan(imu, n, si, gyro_present, block_rows)
+        si = {"acc": si_factors(acc_attrs), "gyro": si_factors(gyro_attrs)}
+        stored = r.stored_summary(n) if all(o == 0.0 for _, o in si.values()) else None
+        fig = _Figures.of_summary(stored, si, gyro_present) if stored else _scan(r, n, si, gyro_present, block_rows)
     med = fig.median
     time_gaps = [{"t_s": float(t), "sample_index": int(i), "missing": int(m)} for i, t, m in fig.time_gaps]
     channels, sat_hist = fig.channels, fig.sat_hist
@@ -197,8 +194,9 @@ class _Figures:
                    channels)
 
 
-def _scan(imu, n: int, si: dict, gyro_present: bool, block_rows: int) -> _Figures:
-    """``_Figures`` of the first ``n`` rows of the group ``imu``, read in blocks of ``block_rows``.
+def _scan(r, n: int, si: dict, gyro_present: bool, block_rows: int) -> _Figures:
+    """``_Figures`` of the first ``n`` rows of the recording read by ``r`` (a ``RecordingReader``), in blocks
+    of ``block_rows``.
 
     A channel's block is read only while it can still change a warning: integer counts cannot be non-finite,
     so a walking recording stored as counts is settled by its first block."""
@@ -209,42 +207,48 @@ def _scan(imu, n: int, si: dict, gyro_present: bool, block_rows: int) -> _Figure
     steps = StepStats()
     channels = {"acc": ChannelStats()} | ({"gyro": ChannelStats()} if gyro_present else {})
     sat_hist = np.zeros(256, np.int64)
+    has_sat = "saturated" in r.lengths
     for a in range(0, n, block_rows):
         b = min(a + block_rows, n)
-        steps.add(imu["t_s"][a:b].astype(np.float64))
+        steps.add(r.times(a, b))
         moving = _moving(channels)
         for name, ch in channels.items():
-            ds = imu[name]
-            if ds.dtype.kind == "f" or not ch.any_nonzero or not moving:
-                ch.add(ds[a:b], a, *si[name])
-        if "saturated" in imu:
-            sat_hist += np.bincount(imu["saturated"][a:b].astype(np.uint8), minlength=256)
+            if r.stored_kind(name) == "f" or not ch.any_nonzero or not moving:
+                ch.add(r.stored(name, a, b), a, *si[name])
+        if has_sat:
+            sat_hist += np.bincount(r.stored("saturated", a, b).astype(np.uint8), minlength=256)
     med = steps.median()
-    gaps = list(zip(*steps.gaps(imu["t_s"], med, n)))
+    gaps = list(zip(*steps.gaps(_TimeRows(r), med, n)))
     return _Figures(steps.t_first, steps.t_last, steps.count, med, steps.jitter(med), steps.min(), steps.max(),
                     gaps, sat_hist, channels)
 
 
-def _unit_warnings(imu, n: int) -> list[str]:
+class _TimeRows:
+    """``t_s`` of a ``RecordingReader`` indexed by a slice, as ``StepStats.gaps`` reads it."""
+
+    def __init__(self, reader):
+        self.reader = reader
+
+    def __getitem__(self, sl: slice):
+        return self.reader.times(sl.start, sl.stop)
+
+
+def _unit_warnings(r, n: int) -> list[str]:
     """The recording loader's unit check (``recording.unit_problems``) on the first rows, as warnings: info
     shows such a file, ``process`` refuses it."""
     import numpy as np
 
-    from bootnav.logger.recording import UNIT_CHECK_ROWS, si_values, unit_problems
+    from bootnav.logger.recording import UNIT_CHECK_ROWS, unit_problems
 
     k = min(n, UNIT_CHECK_ROWS)
     if k < 2:
         return []
-
-    def si(name):
-        return si_values(imu[name], slice(0, k))
-
-    t = imu["t_s"][:k].astype(np.float64)
+    t, acc, gyro, _ = r.block(0, k)
     dt = np.diff(t)
     dt = dt[np.isfinite(dt) & (dt > 0)]
     rate = 1.0 / float(np.median(dt)) if dt.size else float("nan")
     return [f"units: {p}; `bootnav process` refuses this file until scale_to_si is fixed"
-            for p in unit_problems(si("acc"), si("gyro"), rate)]
+            for p in unit_problems(acc, gyro, rate)]
 
 
 def _cut_warnings(events) -> list[str]:

@@ -28,7 +28,7 @@ from bootnav.core.atomic import fsync_path
 from bootnav.core.conventions import CONVENTIONS, __version__
 from bootnav.core.timebase import timing_summary
 from bootnav.errors import DiskFullError, InputError
-from bootnav.logger.samplestats import SampleStats
+from bootnav.logger.samplestats import SampleStats, read_summary
 
 FORMAT_VERSION = 1
 CHUNK_ROWS = 4096
@@ -699,6 +699,56 @@ class MultiBootWriter:
             raise
 
 
+def set_scale_factors(path: str | os.PathLike, acc_scale_to_si: float, gyro_scale_to_si: float,
+                      boot: str | None = None) -> None:
+    """Replace the factors to SI of the stored ``acc`` and ``gyro`` counts of a closed recording (or of one boot
+    of a multi-boot one): the recorder's correction when the header frame arrived after it assumed the
+    default ranges. The counts are stored raw, so the correction is lossless (``cf_scale``)."""
+    group = "" if boot is None else f"boots/{boot}/"
+    with h5py.File(path, "r+", libver=LIBVER) as f:
+        f[f"{group}imu/acc"].attrs.update(cf_scale(acc_scale_to_si))
+        f[f"{group}imu/gyro"].attrs.update(cf_scale(gyro_scale_to_si))
+
+
+def retime_boots(path: str | os.PathLike, retime: Mapping[str, Any], *,
+                 attrs: Mapping[str, Any] | None = None, meta_of=None) -> dict[str, np.ndarray]:
+    """Put the boots of a closed multi-boot recording on a new (session) clock, in one opening of the file.
+
+    Parameters
+    ----------
+    retime
+        ``{label: f}``: ``f(t_s, index)`` returns the new times of the stored times ``t_s`` of the rows
+        ``index`` (float64 arrays, s). Applied to every sample (``index`` = its row) and to every event (its
+        ``sample_index``, clipped at 0).
+    attrs
+        Root attributes written first (e.g. ``session_start_unix_s``).
+    meta_of
+        ``meta_of(label, t_new)`` -> the attributes written into that boot's ``/meta`` (values as they are).
+
+    Returns
+    -------
+    dict
+        ``{label: new t_s}``.
+    """
+    out = {}
+    with h5py.File(path, "r+", libver=LIBVER) as f:
+        for key, value in (attrs or {}).items():
+            f.attrs[key] = value
+        for label, fn in retime.items():
+            g = f[f"boots/{label}"]
+            t = g["imu/t_s"][()]
+            t_new = fn(t, np.arange(t.size))
+            g["imu/t_s"][...] = t_new
+            ev = g["events"][()]
+            if ev.size:
+                ev["t_s"] = fn(ev["t_s"], np.clip(ev["sample_index"], 0, None))
+                g["events"][...] = ev
+            for key, value in (meta_of(label, t_new) if meta_of is not None else {}).items():
+                g["meta"].attrs[key] = value
+            out[label] = t_new
+    return out
+
+
 def write_multi_boot(path, boots: Mapping[str, Mapping[str, Any]], *, attrs: Mapping[str, Any] | None = None) -> Path:
     """Write a whole multi-boot recording at once (``bootnav import`` of two files).
 
@@ -1026,13 +1076,21 @@ def recording_group(path: str | os.PathLike, boot: str | None = None):
         if boot is not None and f"boots/{boot}" not in f:
             raise InputError(f"{path}: group /boots/{boot} is missing although the root attribute boots lists it")
         g = f[f"boots/{boot}"] if boot is not None else f
-        try:
+        with read_errors(path):
             _check_layout(f, path, g)
             yield f, g
-        except (OSError, RuntimeError) as exc:  # a damaged chunk ("filter returned failure") or header
-            text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
-                from exc
+
+
+@contextmanager
+def read_errors(path: str | os.PathLike):
+    """A read error inside the block (a damaged chunk, "filter returned failure", or header) becomes the
+    one-line ``InputError`` of ``load`` (``recording_group``; ``bootnav info`` around its reads)."""
+    try:
+        yield
+    except (OSError, RuntimeError) as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{path}: part of the file cannot be read ({text}); the file is damaged or cut short") \
+            from exc
 
 
 def file_sha256(path: str | os.PathLike, block: int = 1 << 22) -> str:
@@ -1205,6 +1263,30 @@ class RecordingReader:
     def times(self, i0: int = 0, i1: int | None = None) -> np.ndarray:
         """``t_s`` of rows i0..i1-1 (float64), without reading the samples."""
         return self._imu["t_s"][i0:self.n if i1 is None else i1].astype(np.float64)
+
+    @property
+    def lengths(self) -> dict[str, int]:
+        """Rows of every ``/imu`` dataset present (``IMU_DATASETS`` order): a killed writer may leave them
+        unequal (``bootnav info`` reports it)."""
+        return {k: int(self._imu[k].shape[0]) for k in IMU_DATASETS if k in self._imu}
+
+    def stored_attrs(self, name: str) -> dict:
+        """The attributes of the ``/imu`` dataset ``name`` (units, ``scale_to_si``, ``full_scale``, ...)."""
+        return dict(self._imu[name].attrs)
+
+    def stored_kind(self, name: str) -> str:
+        """The numpy kind of the stored values of ``name``: "f" floats (SI), "i"/"u" counts."""
+        return self._imu[name].dtype.kind
+
+    def stored(self, name: str, i0: int, i1: int) -> np.ndarray:
+        """Rows i0..i1-1 of the ``/imu`` dataset ``name`` as stored (counts or floats: ``si_factors`` of
+        ``stored_attrs`` give SI)."""
+        return self._imu[name][i0:i1]
+
+    def stored_summary(self, n: int) -> dict | None:
+        """The figures of the samples the writer stored at close (``samplestats.read_summary``) when they
+        describe exactly the first ``n`` rows, else None."""
+        return read_summary(self._imu, n)
 
     def events(self, start: int = 0) -> np.ndarray:
         """``/events`` rows from ``start`` (refreshed first when the file is growing)."""

@@ -34,7 +34,8 @@ from bootnav.core.timebase import StreamClock, timing_summary
 from bootnav.errors import BootnavError, DiskFullError
 from bootnav.logger import mpu6050
 from bootnav.logger.protocol import CMD_RESEND_HEADER, FrameParser, HeaderFrame, ParseResult
-from bootnav.logger.recording import LIBVER, RecordingWriter, cf_scale, counts_channel, make_events
+from bootnav.logger.recording import (RecordingWriter, counts_channel, make_events, retime_boots,
+                                      set_scale_factors)
 
 AXES = ("ax", "ay", "az", "gx", "gy", "gz")
 DEFAULT_ACCEL_FS, DEFAULT_GYRO_FS = 3, 3  # ±16 g, ±2000 °/s: what a boot needs (see PROTOCOL.md)
@@ -475,13 +476,10 @@ class SerialRecorder:
             final["config_source"] = "header frame (arrived after defaults were assumed; scale factors corrected)"
         return final
 
-    def _correct_scale_factors(self, h: HeaderFrame, group: str = "") -> None:
+    def _correct_scale_factors(self, h: HeaderFrame, boot: str | None = None) -> None:
         """Counts are stored raw, so a late header only changes the factor to SI (lossless)."""
-        import h5py
-
-        with h5py.File(self.s.out, "r+", libver=LIBVER) as f:
-            f[f"{group}imu/acc"].attrs.update(cf_scale(mpu6050.accel_scale_mps2(h.accel_fs)))
-            f[f"{group}imu/gyro"].attrs.update(cf_scale(mpu6050.gyro_scale_radps(h.gyro_fs)))
+        set_scale_factors(self.s.out, mpu6050.accel_scale_mps2(h.accel_fs), mpu6050.gyro_scale_radps(h.gyro_fs),
+                          boot)
 
     @staticmethod
     def _header_meta(h: HeaderFrame) -> dict:
@@ -790,12 +788,11 @@ class MultiBootRecorder:
         self._realign()
         for label, p in zip(self.s.labels, self.ports):
             if p._late_header is not None:
-                p._correct_scale_factors(p._late_header, group=f"boots/{label}/")
+                p._correct_scale_factors(p._late_header, boot=label)
 
     def _realign(self) -> None:
-        """Fit every boot's device clock to the host receive times and rewrite ``t_s`` on the session clock."""
-        import h5py
-
+        """Fit every boot's device clock to the host receive times and rewrite ``t_s`` on the session clock
+        (``recording.retime_boots``)."""
         fits = {}
         for i, (label, p) in enumerate(zip(self.s.labels, self.ports)):
             if self._offset0[i] is None:
@@ -810,27 +807,24 @@ class MultiBootRecorder:
         if not fits:
             return
         s0 = min(f[1][0] for f in fits.values())  # session time 0: the first sample of any boot
-        with h5py.File(self.s.out, "r+", libver=LIBVER) as f:
-            f.attrs["session_start_unix_s"] = self._host0 + s0
-            for label, (i, offsets, scale, resid, n_used, breaks) in fits.items():
-                g = f[f"boots/{label}"]
-                off0 = self._offset0[i]
-                t = g["imu/t_s"][()]
-                t_new = (offsets[np.searchsorted(breaks, np.arange(t.size), "right")] - s0) + scale * (t - off0)
-                g["imu/t_s"][...] = t_new
-                ev = g["events"][()]
-                if ev.size:
-                    at = np.clip(ev["sample_index"], 0, None)
-                    ev["t_s"] = (offsets[np.searchsorted(breaks, at, "right")] - s0) + scale * (ev["t_s"] - off0)
-                    g["events"][...] = ev
-                meta = dict(clock_alignment="host-receive", clock_offset_s=float(offsets[0] - s0), clock_scale=scale,
-                            clock_residual_s=resid, clock_blocks=n_used, clock_segments=int(breaks.size + 1))
-                meta.update(timing_summary(t_new) if t_new.size > 1 else {})
-                if t_new.size:
-                    meta["duration_s"] = float(t_new[-1] - t_new[0])
-                for k, v in meta.items():
-                    g["meta"].attrs[k] = v
-                self.clock[label] = meta
+
+        def on_session_clock(i, offsets, scale, breaks):
+            off0 = self._offset0[i]
+            return lambda t, index: (offsets[np.searchsorted(breaks, index, "right")] - s0) + scale * (t - off0)
+
+        def meta_of(label, t_new):
+            i, offsets, scale, resid, n_used, breaks = fits[label]
+            meta = dict(clock_alignment="host-receive", clock_offset_s=float(offsets[0] - s0), clock_scale=scale,
+                        clock_residual_s=resid, clock_blocks=n_used, clock_segments=int(breaks.size + 1))
+            meta.update(timing_summary(t_new) if t_new.size > 1 else {})
+            if t_new.size:
+                meta["duration_s"] = float(t_new[-1] - t_new[0])
+            self.clock[label] = meta
+            return meta
+
+        retime_boots(self.s.out, {label: on_session_clock(i, offsets, scale, breaks)
+                                  for label, (i, offsets, scale, _, _, breaks) in fits.items()},
+                     attrs={"session_start_unix_s": self._host0 + s0}, meta_of=meta_of)
 
     def _status(self, now: float) -> None:
         """One line for all boots, printed through the first port's status printer (tty-aware)."""

@@ -249,3 +249,75 @@ KNOWN_PRIVATE_ATTRIBUTE_USES = {"bootnav.postproc.pipeline: bootnav.postproc.det
 
 def test_no_module_reads_another_modules_private_attributes():
     assert sorted(set(private_attribute_uses(_modules())) - KNOWN_PRIVATE_ATTRIBUTE_USES) == []
+
+
+def private_member_uses(mods: dict[str, Path]) -> list[str]:
+    """``module: .name (defined in ...)`` for every ``x._name`` (``x`` not ``self``/``cls``) whose ``_name`` this
+    module neither defines nor assigns but another module does (a ``def _name`` or an ``obj._name = ...``): an
+    object's private method or attribute used from outside its class's module, e.g. ``det._classify``."""
+    trees = {m: ast.parse(p.read_text(encoding="utf-8"), filename=str(p)) for m, p in mods.items()}
+    own = {}
+    for m, tree in trees.items():
+        own[m] = {n.name for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))
+                  and n.name.startswith("_") and not n.name.startswith("__")}
+        own[m] |= {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute) and isinstance(n.ctx, ast.Store)
+                   and n.attr.startswith("_")}
+    where: dict[str, set[str]] = {}
+    for m, names in own.items():
+        for name in names:
+            where.setdefault(name, set()).add(m)
+    bad = []
+    for m, tree in trees.items():
+        for n in ast.walk(tree):
+            if (isinstance(n, ast.Attribute) and n.attr.startswith("_") and not n.attr.startswith("__")
+                    and not (isinstance(n.value, ast.Name) and n.value.id in ("self", "cls"))
+                    and n.attr not in own[m] and n.attr in where):
+                bad.append(f"{m}: .{n.attr} (defined in {', '.join(sorted(where[n.attr]))})")
+    return sorted(set(bad))
+
+
+def test_the_private_member_checker_sees_a_private_method_used_from_outside(tmp_path):
+    (tmp_path / "a.py").write_text("class D:\n    def _f(self):\n        return self._g\n    def h(self):\n"
+                                   "        self._g = 1\n")
+    (tmp_path / "b.py").write_text("def use(d, e):\n    e._own = 2\n    return d._f() + e._own\n")
+    mods = {"pkg.a": tmp_path / "a.py", "pkg.b": tmp_path / "b.py"}
+    assert private_member_uses(mods) == ["pkg.b: ._f (defined in pkg.a)"]
+
+
+#: Known, owned elsewhere: ``ins.fast``'s warm-up reads a ``StreamNavigator``'s private state (helper owning
+#: ``ins/fast.py``); ``bootnav.cli`` closes h5py object ids through h5py's own ``_close`` (the name is h5py's,
+#: not ``pipeline``'s).
+KNOWN_PRIVATE_MEMBER_USES = {
+    *(f"bootnav.postproc.ins.fast: .{a} (defined in bootnav.postproc.ins.stream)"
+      for a in ("_P", "_active", "_bufs", "_ric", "_st")),
+    "bootnav.cli: ._close (defined in bootnav.postproc.pipeline, bootnav.postproc.selftune, bootnav.postproc.strides)",
+}
+
+
+def test_no_module_uses_another_classes_private_members():
+    assert sorted(set(private_member_uses(_modules())) - KNOWN_PRIVATE_MEMBER_USES) == []
+
+
+def test_in_the_logger_only_the_recording_module_opens_recordings():
+    """``bootnav.logger.recording`` is the one reader and writer of the HDF5 layout: no other logger module opens
+    an HDF5 file (``h5py.File``) or indexes the layout's groups (``["imu"]``, ``"imu/acc"``, ``["meta"]``,
+    ``"boots/..."``; ``["events"]`` is also a key of info's own summary, not checked); ``bootnav info`` reads through ``RecordingReader``, the recorder rewrites
+    times and scale factors through ``recording.retime_boots`` / ``set_scale_factors``."""
+    bad = []
+    for mod, path in _modules().items():
+        if not mod.startswith("bootnav.logger") or mod == "bootnav.logger.recording":
+            continue
+        for n in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(n, ast.Attribute) and n.attr == "File" and isinstance(n.value, ast.Name) \
+                    and n.value.id == "h5py":
+                bad.append(f"{mod}: h5py.File (line {n.lineno})")
+            if isinstance(n, ast.Subscript):
+                key = n.slice
+                parts = [key] if isinstance(key, ast.Constant) else \
+                    [v for v in key.values if isinstance(v, ast.Constant)] if isinstance(key, ast.JoinedStr) else []
+                for c in parts:
+                    text = c.value if isinstance(c.value, str) else ""
+                    if text in ("imu", "meta") or text.startswith(("imu/", "boots/")) \
+                            or text.endswith(("imu/acc", "imu/gyro", "imu/t_s")):
+                        bad.append(f"{mod}: [{text!r}] (line {n.lineno})")
+    assert bad == []

@@ -93,3 +93,26 @@ def test_floor_defaults_have_one_home():
         assert (p["min_stride_m"].default, p["storey_merge_m"].default, p["storey_m"].default) == \
             (P.filter.level_min_stride_m, P.floor_hysteresis_m, P.floor_height_m), fn.__name__
     assert inspect.signature(storey_numbers).parameters["storey_m"].default == P.floor_height_m
+
+
+#: Known, owned elsewhere: ``ProcessResult.gravity_mps2`` in ``postproc/pipeline.py`` (helper "onepipe2"
+#: rewrites that file; it should read ``STANDARD_GRAVITY_MPS2``).
+KNOWN_GRAVITY_LITERALS = {"postproc/pipeline.py"}
+
+
+def test_standard_gravity_is_written_once():
+    """The number 9.80665 appears in code only as ``core.conventions.STANDARD_GRAVITY_MPS2`` (docstrings and
+    comments may say it)."""
+    import io
+    import tokenize
+
+    from tests.conftest import REPO
+
+    found = []
+    for folder in ("bootnav", "logger", "postproc", "simulator"):
+        for f in (REPO / folder).rglob("*.py"):
+            rel = f.relative_to(REPO).as_posix()
+            tokens = tokenize.generate_tokens(io.StringIO(f.read_text(encoding="utf-8")).readline)
+            if any(t.type == tokenize.NUMBER and t.string.replace("_", "").startswith("9.80665") for t in tokens):
+                found.append(rel)
+    assert sorted(set(found) - KNOWN_GRAVITY_LITERALS) == ["bootnav/core/conventions.py"]

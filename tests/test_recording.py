@@ -1,5 +1,7 @@
 """The HDF5 recording format: round trip, SI conversion, events, partial files."""
 
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -108,3 +110,46 @@ def test_make_events_rejects_unknown_kinds():
     with pytest.raises(ValueError):
         make_events([{"kind": "nonsense"}])
     assert make_events([]).dtype == EVENT_DTYPE
+
+
+def test_a_new_recording_is_synced_before_and_its_folder_after_the_rename(tmp_path, monkeypatch):
+    """``_publish`` is crash-safe as ``core.atomic.commit``: fsync of the hidden file, rename, fsync of the
+    folder (after a power cut the name shows the whole structure or nothing)."""
+    from bootnav.logger import recording
+
+    calls = []
+    real_replace = recording.os.replace
+    monkeypatch.setattr(recording, "fsync_path", lambda p: calls.append(("fsync", Path(p))))
+    monkeypatch.setattr(recording.os, "replace", lambda a, b: (calls.append(("rename", Path(b))), real_replace(a, b)))
+    path = tmp_path / "r.h5"
+    w = RecordingWriter(path, counts_channel("acc", 1.0), counts_channel("gyro", 1.0), swmr=False)
+    w.close()
+    kinds = [k for k, _ in calls]
+    assert kinds == ["fsync", "rename", "fsync"], calls
+    assert calls[0][1].name.startswith(".r.h5.") and calls[1][1] == path and calls[2][1] == tmp_path
+
+
+def test_the_recorder_s_rewrites_go_through_the_recording_module(tmp_path):
+    """``retime_boots`` maps every sample's and event's time (events by their clipped ``sample_index``),
+    writes the root attributes and each boot's ``/meta``; ``set_scale_factors`` changes only the factors."""
+    from bootnav.logger.recording import retime_boots, set_scale_factors, write_multi_boot
+
+    n = 50
+    t = np.arange(n) / 100.0
+    ev = [dict(t_s=0.105, sample_index=10, kind="gap", count=1), dict(t_s=-0.5, sample_index=-1, kind="resync")]
+    boots = {b: dict(t_s=t, acc=_counts(n, i).astype(float), gyro=_counts(n, i + 5).astype(float), events=ev)
+             for i, b in enumerate(("left", "right"))}
+    path = write_multi_boot(tmp_path / "two.h5", boots)
+    got = retime_boots(path, {"left": lambda t, i: 2.0 * t + i, "right": lambda t, i: t - 1.0},
+                       attrs={"session_start_unix_s": 123.5}, meta_of=lambda label, t_new: {"first_s": t_new[0]})
+    assert np.array_equal(got["left"], 2.0 * t + np.arange(n))
+    left, right = load(path, boot="left"), load(path, boot="right")
+    assert np.array_equal(left.t_s, 2.0 * t + np.arange(n)) and np.array_equal(right.t_s, t - 1.0)
+    assert np.allclose(left.events["t_s"], [0.21 + 10, -1.0 + 0]) and np.allclose(right.events["t_s"], [-0.895, -1.5])
+    assert left.meta["first_s"] == 0.0 and right.meta["first_s"] == -1.0
+    with h5py.File(path, "r") as f:
+        assert f.attrs["session_start_unix_s"] == 123.5
+    set_scale_factors(path, 2.0, 0.5, boot="right")
+    assert np.array_equal(load(path, boot="right").acc_mps2, 2.0 * boots["right"]["acc"])
+    assert np.array_equal(load(path, boot="right").gyro_radps, 0.5 * boots["right"]["gyro"])
+    assert np.array_equal(load(path, boot="left").acc_mps2, boots["left"]["acc"])
