@@ -34,6 +34,14 @@ def test_start_up_imports_no_scipy_for_the_parser_nor_scipy_signal_for_process()
     assert out.split() == ["False", "False", "False"]
 
 
+def test_the_block_passes_gait_period_imports_no_scipy_signal():
+    # the gait period of the block passes (``selftune.GaitPeriodAccumulator``) convolves by scipy.fft
+    out = _fresh("import sys\nimport numpy as np\nfrom bootnav.postproc.selftune import GaitPeriodAccumulator\n"
+                 "acc = GaitPeriodAccumulator(0.005)\nfor _ in range(3):\n    acc.push(np.random.rand(3000, 3))\n"
+                 "acc.finish()\nprint('scipy.signal' in sys.modules)")
+    assert out.split() == ["False"]
+
+
 @pytest.mark.parametrize("first", ["import bootnav.simulator.simulate", "from bootnav.simulator import writers",
                                    "import bootnav.simulator"])
 def test_simulator_simulate_is_the_function_whatever_is_imported_first(first):
