@@ -68,7 +68,7 @@ def test_the_gait_period_convolution_is_scipys_bit_for_bit(m, c):
     """``selftune._convolve_full`` (no ``scipy.signal`` import) equals ``scipy.signal.fftconvolve``, every bit."""
     from scipy.signal import fftconvolve
 
-    from bootnav.postproc.selftune import _convolve_full
+    from bootnav.postproc.selftune.gait import _convolve_full
 
     z = np.random.default_rng(m + c).random(c + m)
     x = z[c:]

@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from bootnav.core.runs import runs
 from bootnav.errors import InputError
 from bootnav.postproc import selftune as S
 from bootnav.postproc.calibration import CalibrationSettings, initial_alignment
@@ -81,7 +82,7 @@ def test_timing_probes_of_a_long_record_use_its_first_level_strides(loop):
     t, a, w, stance, init = loop
     fs = FilterSettings()
     whole = S.level_timing_offset(t, a, w, stance, init, G, fs)
-    n_phases = len(S.runs(stance)[0])
+    n_phases = len(runs(stance)[0])
     # a bound above the recording's phases: the whole recording, bit for bit as without a bound
     assert S.level_timing_offset(t, a, w, stance, init, G, fs, max_level_strides=n_phases) == whole
     # a bound of K level strides: the forward filter is causal, so the probes over the first 2K + 1 stance
