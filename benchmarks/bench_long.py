@@ -4,8 +4,8 @@ Simulated 200 Hz MPU6050 recordings of a shift (laps of a loop with a stair flig
 ``bootnav.simulator.simulate.LongSimulation``), generated block by block (bounded memory) and cached in
 ``--cache``. Every command runs as a child process of its own; wall time, CPU time (user + system) and peak
 RSS come from ``os.wait4`` of that child. numba's cache is warmed first on a one-minute crop, so compile
-time is not counted. Goals of the issue: <= 2 s per hour end to end, peak RSS < 1 GB at 24 h, `info` on
-24 h < 1 s. Prints a table; asserts nothing.
+time is not counted. Goals: 1 h at 200 Hz in <= 2.5 s end to end (charts included) and a peak RSS flat in the
+length, < 500 MB at 24 h (issue 25); `info` on 24 h < 1 s (issue 18). Prints a table; asserts nothing.
 
     .venv/bin/python benchmarks/bench_long.py [--hours 1 3] [--long] [--cache DIR] [--block-s S ...]
 

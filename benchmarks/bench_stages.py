@@ -6,7 +6,9 @@ smoother's thread). The kernels are loaded first (a one-minute run), so compile 
 import row is a child ``python -c "import ..."``. The charts (``plots.ChartStream`` and the drawing of the
 chart processes, here in this process) are timed without the profiler, whose cost per Python call would
 triple matplotlib's. Wall times on a shared machine are noise: compare CPU.
-Prints a table; asserts nothing.
+A second table gives the process CPU of each pass of the default run (``pipeline.process_to``: the block
+passes of a recording longer than ``block_s``), by the stages its ``timings_s`` names.
+Prints tables; asserts nothing.
 
     .venv/bin/python benchmarks/bench_stages.py [--hours 1] [--cache DIR] [--repeat 2]
 """
@@ -33,12 +35,12 @@ STAGES = [
     ("load", "source.py", "load_source"),
     ("initial alignment", "calibration.py", "initial_alignment"),
     ("stance detection", "detectors/__init__.py", "detect_stance"),
-    ("gait period", "selftune.py", "gait_period"),
-    ("timing probes (2 filters, 2 threads)", "selftune.py", "level_timing_offset"),
+    ("gait period", "selftune/gait.py", "gait_period"),
+    ("timing probes (2 filters, 2 threads)", "selftune/timing.py", "level_timing_offset"),
     ("final filter + smoother", "navigate.py", "_run"),
     ("  of which filter kernel", "fast.py", "filter_chunk"),
     ("  of which smoother kernel (this thread)", "fast.py", "smooth_segments"),
-    ("stride quality", "selftune.py", "stride_quality"),
+    ("stride quality", "selftune/quality.py", "stride_quality"),
     ("storeys", "floors.py", "snap_storeys"),
     ("strides", "strides.py", "segment_strides"),
     ("process (all stages)", "pipeline.py", "process"),
@@ -113,7 +115,49 @@ def main() -> None:
         print(f"{label:<44} {best[label]:7.2f}")
     print(f"(wall of process + write_outputs: {', '.join(f'{w:.2f}' for w in walls)} s; {os.cpu_count()} CPUs; "
           f"bench CPU {time.process_time() - c0:.1f} s)")
+    passes, walls = _default_passes(rec, work, args.repeat)
+    print(f"\n{rec.name}: CPU s per pass of the default run (`bootnav process` without flags: "
+          f"pipeline.process_to, charts in the chart processes, not counted here; smallest of {args.repeat} runs)")
+    for label, v in passes.items():
+        print(f"{label:<44} {v:7.2f}")
+    print(f"(wall of process_to: {', '.join(f'{w:.2f}' for w in walls)} s)")
     shutil.rmtree(work, ignore_errors=True)
+
+
+def _default_passes(rec: Path, work: Path, repeat: int) -> tuple[dict[str, float], list[float]]:
+    """Process CPU (all threads) of each stage ``process_to`` times (its ``timings_s`` keys), smallest of
+    ``repeat`` runs, and the wall of each run."""
+    from bootnav.postproc import pipeline
+    from bootnav.postproc.settings import ProcessSettings
+
+    best: dict[str, float] = {}
+    clock = pipeline._StageClock
+    lap = clock.__call__
+
+    def timed(self, stage):
+        now = time.process_time()
+        v = now - getattr(self, "_bench_cpu", self._bench_cpu0)
+        self._bench_cpu = now
+        best[stage] = min(best.get(stage, v), v)
+        lap(self, stage)
+
+    init = clock.__init__
+
+    def start(self, progress):
+        init(self, progress)
+        self._bench_cpu0 = time.process_time()
+
+    clock.__init__, clock.__call__ = start, timed
+    walls = []
+    try:
+        for i in range(repeat):
+            w0 = time.perf_counter()
+            pipeline.process_to(rec, ProcessSettings(), work / f"default{i}", force=True)
+            walls.append(time.perf_counter() - w0)
+    finally:
+        clock.__init__, clock.__call__ = init, lap
+    best["all passes"] = sum(best.values())
+    return best, walls
 
 
 if __name__ == "__main__":

@@ -20,6 +20,9 @@ data say, for any set with footprint truth:
 The trial line adds the filter's final gyro-bias estimate next to the mean gyro of the last still stance
 (≥ 0.5 s; the true bias there, to its std). Reads the truth; changes nothing.
 
+``--initial-gyro-bias gx gy gz`` (mrad/s) replaces the initial gyro bias the alignment took from the start
+(an experiment: is a walk's heading drift its start's bias estimate?). Prints the footprint error too.
+
     nice -n 10 .venv/bin/python benchmarks/footprint_turns.py --trials koroglu_footprints/run34 [--set k=v ...]
 """
 
@@ -106,7 +109,10 @@ def trial_table(folder: Path, settings, rail_tol: float) -> tuple[str, list[str]
         last = (f"; gyro bias mrad/s: filter at end {np.round(1e3 * np.asarray(bias)[-1], 1).tolist()}, last still "
                 f"stance ({t[a]:.1f}-{t[b - 1]:.1f} s) mean {np.round(1e3 * g.mean(0), 1).tolist()} "
                 f"std {np.round(1e3 * g.std(0), 1).tolist()}")
-    head = (f"stance samples turning > 1 rad/s about the vertical: {int(np.count_nonzero(st & (np.abs(wz) > 1.0)))}; "
+    from bootnav.postproc.evaluate.runner import score_foot
+
+    scored, _ = score_foot(est, folder, ["footprints"], "imu.csv.gz")
+    head = (f"final_fp_err_pct {scored.get('final_fp_err_pct', float('nan')):.2f}; stance samples turning > 1 rad/s about the vertical: {int(np.count_nonzero(st & (np.abs(wz) > 1.0)))}; "
             f"near-rail gyro samples {int(rail.sum())} (in stance {int((rail & st).sum())}){last}")
     return head, rows
 
@@ -117,7 +123,20 @@ def main(argv=None) -> int:
     ap.add_argument("--trials", nargs="*", default=None, help="trial ids (default: every footprints trial)")
     ap.add_argument("--rail-tol", type=float, default=0.01, help="relative distance to the gyro extreme (0.01)")
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="setting override")
+    ap.add_argument("--initial-gyro-bias", nargs=3, type=float, default=None, metavar=("GX", "GY", "GZ"),
+                    help="replace the alignment's initial gyro bias, mrad/s (experiment)")
     args = ap.parse_args(argv)
+    if args.initial_gyro_bias is not None:
+        import bootnav.postproc.calibration as cal
+
+        forced, align = 1e-3 * np.asarray(args.initial_gyro_bias, dtype=float), cal.initial_alignment
+
+        def forced_alignment(*a, **k):
+            init = align(*a, **k)
+            init.gyro_bias_b = forced.copy()
+            return init
+
+        cal.initial_alignment = forced_alignment  # the pipeline imports it from the module at call time
     overrides = {}
     for kv in args.set:
         k, v = kv.split("=", 1)

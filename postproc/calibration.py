@@ -102,6 +102,10 @@ class CalibrationSettings:
         (``first_rest``): a window this long (s; a walking foot-flat lasts 0.1-0.4 s [Perry2010]) in which
         ‖ω‖ stays below this rate (rad/s; a resting foot turns at < 0.5 rad/s, ``InputChecks``' stance bound).
     use_gyro_bias: subtract the still-period gyro mean as the initial gyro bias.
+    tilt_bias: the horizontal part (at right angles to gravity) of the initial gyro bias from the whole still
+        period with its rotation taken out: the accelerometer sees the foot tilt (``still_tilt_bias``). A start
+        that passes the still test can still turn slowly and steadily (tens of mrad/s with little variance,
+        which ``quiet_core`` cannot tell from rest); the vertical part is not seen and stays the quiet core's.
     sensor_calibration: which sensor calibration is applied (``resolve_calibration``): "auto" = the stored
         calibration of the recording's device id, if there is one; "none" = no calibration; anything else is
         a calibration file (``bootnav calibrate``'s JSON, or the accelerometer file). "given" marks a
@@ -124,6 +128,7 @@ class CalibrationSettings:
     rest_window_s: float = 0.1
     rest_gyro_max_radps: float = 0.5
     use_gyro_bias: bool = True
+    tilt_bias: bool = False
     sensor_calibration: str = "auto"
     accel_calibration_file: str | None = None
     latitude_deg: float = 45.0
@@ -229,6 +234,37 @@ def quiet_core(t_s, gyro_b, still: slice, settings: CalibrationSettings | None =
     return var <= s.still_quiet_ratio * var.min()
 
 
+def still_tilt_bias(t_s, acc_b, gyro_b, still: slice, bias_b, settings: CalibrationSettings | None = None) -> np.ndarray:
+    """``bias_b`` (3,) rad/s with its part at right angles to gravity replaced by the still period's mean rate
+    less the rotation the accelerometer saw.
+
+    Gravity is fixed in the navigation frame, so its body-frame reading turns as ḟ = f × ω and a small net
+    rotation changes it by f × θ. With Θ(t) = ∫ω_meas dt, f(t) − f̄ × Θ(t) = f₀ − (f̄ × b) t: a straight line
+    whose slope (least squares over every sample of the period: a constant accelerometer bias goes into f₀)
+    gives f̄ × b, i.e. the bias at right angles to gravity b⊥ = f̄ × slope / |f̄|², whatever slow motion the
+    foot made (the part about gravity is not seen). A period shorter than three ``still_window_s`` returns
+    ``bias_b`` unchanged."""
+    s = settings or CalibrationSettings()
+    t = np.asarray(t_s, dtype=np.float64)[still]
+    f = np.asarray(acc_b, dtype=np.float64)[still]
+    w = np.asarray(gyro_b, dtype=np.float64)[still]
+    bias_b = np.asarray(bias_b, dtype=np.float64)
+    n = still_window_samples(s, sample_period(t_s))
+    if t.shape[0] < 3 * n:
+        return bias_b
+    f_mean = f.mean(axis=0)
+    f2 = float(f_mean @ f_mean)
+    up = f_mean / math.sqrt(f2)
+    dt = np.diff(t)
+    theta = np.vstack([np.zeros(3), np.cumsum((w[1:] + w[:-1]) * 0.5 * dt[:, None], axis=0)])  # ∫ω dt
+    z = f - np.cross(f_mean, theta)  # = f0 − (f × b) t
+    tc = t - t.mean()
+    slope = (tc[:, None] * (z - z.mean(axis=0))).sum(axis=0) / float(tc @ tc)
+    horiz = np.cross(f_mean, slope) / f2
+    horiz -= (horiz @ up) * up
+    return horiz + (bias_b @ up) * up
+
+
 def roll_pitch_from_specific_force(f_b) -> tuple[float, float]:
     """Roll and pitch (rad) that make C_nb f_b point up (module docstring)."""
     fx, fy, fz = (float(v) for v in f_b)
@@ -285,6 +321,8 @@ def initial_alignment(t_s, acc_b, gyro_b, settings: CalibrationSettings | None =
         quiet = quiet_core(t_s, gyro_b, still, s, dt_s=dt_s)  # motion inside the still period is not bias
         f_mean = acc_b[still][quiet].mean(axis=0)
         bias = gyro_b[still][quiet].mean(axis=0) if s.use_gyro_bias else np.zeros(3)
+        if s.use_gyro_bias and s.tilt_bias:
+            bias = still_tilt_bias(t_s, acc_b, gyro_b, still, bias, s)
         dur = t_s[still.stop - 1] - t_s[still.start]
         if abs(np.linalg.norm(f_mean) - g) > 0.3:
             warnings.append(

@@ -594,9 +594,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             signs = (-1, 1) if st.timing_calibration else (0,)
             probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
             forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
-            navs = {s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs}
-            fps = {s: FootprintAccumulator() for s in signs}
-            onsets = {s: _OnsetInnovations() for s in signs}
+            probes = _ForwardProbes({s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs},
+                                    st.timing_probe_s, st.timing_max_level_strides if st.timing_calibration else None)
             gait = selftune.GaitPeriodAccumulator(dt0)
             phase_starts = _Runs()  # the stance phases
             stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
@@ -608,22 +607,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 phase_starts.push(ch.start, ch.stance)
                 stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
                 n_stance_all += int(np.count_nonzero(ch.stance))
-                for s in signs:
-                    f_rot = selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, s * st.timing_probe_s) if s else ch.acc_b
-                    r = navs[s].push(ch.t_s, f_rot, ch.gyro_b, ch.stance, ch.saturated)
-                    fps[s].push(r.t_s, r.pos_n, r.stance)
-                    onsets[s].push(r)
-            for s in signs:
-                r = navs[s].finish()
-                fps[s].push(r.t_s, r.pos_n, r.stance)
-                onsets[s].push(r)
+                probes.push(ch, phase_starts.starts)
             period = gait.finish()
-            fp_probe = {s: fps[s].finish() for s in signs}
+            fp_probe, cut, onsets = probes.finish(phase_starts.starts, n)
             if st.timing_calibration:
                 cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
                 timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
                 timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
-                cut = _probe_cut(phase_starts.starts, n, fp_probe, st.timing_max_level_strides)
                 timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
                 timing["probe_s"] = float(rec.times(cut - 1, cut)[0] - t_first)
                 timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
@@ -632,7 +622,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 innovation = timing["innovation_rms_mps"]
             else:
                 innovation = float(np.sqrt(onsets[0].mean_square(n)))
-            del navs, fps, fp_probe, onsets
+            del probes, fp_probe, onsets
             method = settings.detector.method
             if attempt == 0:  # the configured detector's mask (``navigate``)
                 findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
@@ -1234,6 +1224,93 @@ def _probe_cut(starts: list[int], n: int, fp_probe: dict, max_level_strides: int
             return int(starts[phases])
         phases *= 2
     return n
+
+
+class _ForwardProbes:
+    """The forward filter runs of pass 2 (the timing calibration's two probes at ±δ, keyed -1 and 1, or the one
+    run at 0 that scores the path), pushed chunk by chunk side by side in two threads (the kernel releases the
+    GIL), and no further than the samples ``selftune.level_timing_offset`` reads: once both probes have emitted
+    the rows before ``starts[2K + 1]`` (doubled as ``_probe_cut`` doubles it) with K level strides each there,
+    the rest of the record changes none of their figures (the first K level strides, the onsets before the
+    cut), so they stop: a long recording costs the probes of its first part, as in ``process``."""
+
+    def __init__(self, navs: dict, probe_s: float, max_level_strides: int | None):
+        import os
+
+        from .strides import FootprintAccumulator
+
+        self.navs = navs
+        self.probe_s = probe_s
+        self.k = max_level_strides
+        self.fps = {s: FootprintAccumulator() for s in navs}
+        self.onsets = {s: _OnsetInnovations() for s in navs}
+        self.done = {s: 0 for s in navs}  # samples emitted by each run
+        self.cut: int | None = None  # found: the runs stopped
+        self._phases = None if max_level_strides is None else 2 * max_level_strides + 1
+        self._pool = None
+        if len(navs) > 1 and (os.cpu_count() or 1) > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(max_workers=2)
+
+    PIECE = 1 << 13  # samples pushed between two looks for the cut (41 s at 200 Hz)
+
+    def _push(self, s: int, ch, a: int, b: int):
+        from . import selftune
+
+        acc, gyro = ch.acc_b[a:b], ch.gyro_b[a:b]
+        f_rot = selftune.rotate_specific_force(acc, gyro, s * self.probe_s) if s else acc
+        return self.navs[s].push(ch.t_s[a:b], f_rot, gyro, ch.stance[a:b], ch.saturated[a:b])
+
+    def _keep(self, s: int, r) -> None:
+        self.fps[s].push(r.t_s, r.pos_n, r.stance)
+        self.onsets[s].push(r)
+        self.done[s] = r.start + len(r)
+
+    def push(self, ch, starts: list[int]) -> None:
+        """Push a stance chunk (``starts``: the stance phases' first samples so far, this chunk's included)."""
+        step = self.PIECE if self._phases is not None else max(len(ch.t_s), 1)
+        for a in range(0, len(ch.t_s), step):
+            if self.cut is not None:
+                return
+            b = min(a + step, len(ch.t_s))
+            signs = list(self.navs)
+            rows = (self._pool.map(lambda s: self._push(s, ch, a, b), signs) if self._pool is not None
+                    else [self._push(s, ch, a, b) for s in signs])
+            for s, r in zip(signs, rows):
+                self._keep(s, r)
+            self._look(starts)
+
+    def _look(self, starts: list[int]) -> None:
+        """``_probe_cut`` on the rows so far: stop the runs once it is decided."""
+        from . import selftune
+
+        while self._phases is not None and self._phases < len(starts):
+            c = int(starts[self._phases])
+            if min(self.done.values()) < c:
+                return
+            n_level = min(selftune.footprint_level_dz(fp.t_mid[:self._phases], fp.fp[:self._phases],
+                                                      max_level_strides=self.k)[1] for fp in self.fps.values())
+            if n_level >= self.k:
+                self.cut = c
+                self.navs = {}
+                self._close()
+                return
+            self._phases *= 2
+
+    def finish(self, starts: list[int], n: int) -> tuple[dict, int, dict]:
+        """({sign: (mid times, footprints)}, the probes' cut, {sign: _OnsetInnovations}) after the last chunk."""
+        self._close()
+        for s, nav in self.navs.items():
+            self._keep(s, nav.finish())
+        fp = {s: acc.finish() for s, acc in self.fps.items()}
+        cut = self.cut if self.cut is not None else _probe_cut(starts, n, fp, self.k)
+        return fp, cut, self.onsets
+
+    def _close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
 
 
 class _RowQueue:

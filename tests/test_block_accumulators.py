@@ -60,3 +60,16 @@ def test_stride_flags_over_chunks(chunk):
     np.testing.assert_array_equal(mine.stance_rate_radps, whole.stance_rate_radps)
     np.testing.assert_allclose(mine.duration_s, whole.duration_s, rtol=0, atol=1e-12)
     assert mine.bad_fraction == whole.bad_fraction
+
+
+@pytest.mark.parametrize("m", [1, 2, 7, 601, 8191])
+@pytest.mark.parametrize("c", [0, 1, 601])
+def test_the_gait_period_convolution_is_scipys_bit_for_bit(m, c):
+    """``selftune._convolve_full`` (no ``scipy.signal`` import) equals ``scipy.signal.fftconvolve``, every bit."""
+    from scipy.signal import fftconvolve
+
+    from bootnav.postproc.selftune.gait import _convolve_full
+
+    z = np.random.default_rng(m + c).random(c + m)
+    x = z[c:]
+    np.testing.assert_array_equal(_convolve_full(z, x[::-1]), fftconvolve(z, x[::-1]))

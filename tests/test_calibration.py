@@ -187,3 +187,41 @@ def test_still_period_from_the_first_seconds_is_the_whole_records(rest_s, lead_s
     for min_s in (0.5, 0.1, 1.2):
         expected = _still_period_over_whole_record(t, acc, gyro, s, min_s)
         assert find_still_period(t, acc, gyro, min_duration_s=min_s, settings=s) == expected
+
+
+def test_tilt_bias_takes_a_slow_steady_turn_out_of_the_horizontal_gyro_bias():
+    """A start that passes the still test while the foot turns steadily at 0.03 rad/s about a horizontal axis
+    (koroglu run 34's kind of start): its rate has no more variance than rest, so the quiet-core mean takes the
+    turn for bias (off by 0.03 rad/s). The accelerometer sees the tilt: ``tilt_bias`` recovers the bias at right
+    angles to gravity to the accelerometer's noise (σ_a = 0.01 m/s² over 400 samples spanning 2 s: the
+    slope's σ is 0.01 / (√400 · 0.58 s) / g ≈ 9e-5 rad/s; tolerance 1e-3 rad/s covers the gyro noise's
+    integral as well), and keeps the quiet core's part about gravity (not seen by a tilt)."""
+    from scipy.spatial.transform import Rotation as R
+
+    from bootnav.postproc.calibration import still_tilt_bias
+
+    rng = np.random.default_rng(7)
+    fs, dur, g = 200.0, 2.0, 9.80665
+    t = np.arange(int(dur * fs)) / fs
+    r0 = R.from_euler("xyz", [0.2, -0.6, 0.1])  # a tilted mount, as koroglu's
+    up_b = r0.inv().apply([0.0, 0.0, 1.0])
+    axis = np.cross(up_b, [0.0, 1.0, 0.0])
+    axis /= np.linalg.norm(axis)  # horizontal, in the body frame
+    rate = 0.03
+    att = r0 * R.from_rotvec(np.outer(rate * t, axis))  # body -> nav; the body turns about `axis`
+    f_b = att.inv().apply([0.0, 0.0, g]) + rng.normal(0.0, 0.01, (t.size, 3))
+    bias = np.array([0.004, -0.002, 0.006])
+    w_b = rate * axis + bias + rng.normal(0.0, 1e-3, (t.size, 3))
+    still = find_still_period(t, f_b, w_b)
+    assert still is not None and still.stop - still.start > 0.9 * t.size  # the turn passes as rest
+    plain = initial_alignment(t, f_b, w_b).gyro_bias_b
+    fixed = initial_alignment(t, f_b, w_b, CalibrationSettings(tilt_bias=True)).gyro_bias_b
+
+    def horizontal(v):
+        return v - (v @ up_b) * up_b
+
+    assert np.linalg.norm(horizontal(plain - bias)) > 0.02  # the turn, taken for bias
+    np.testing.assert_allclose(horizontal(fixed), horizontal(bias), atol=1e-3)
+    assert abs((fixed - plain) @ up_b) < 1e-3  # the part about gravity stays the quiet core's
+    # the function alone, on the whole period, gives the same
+    np.testing.assert_allclose(still_tilt_bias(t, f_b, w_b, still, plain), fixed, atol=1e-12)

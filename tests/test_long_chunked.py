@@ -104,6 +104,37 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
                                                            rel=10.0 ** dL - 1.0 + 1e-15)
 
 
+@pytest.mark.parametrize("block_s", [13.0, 50.0])
+def test_the_timing_probes_stop_early_and_change_nothing(walk, tmp_path, block_s, monkeypatch):
+    """With few level strides to count, the block passes' probes stop early (``pipeline._ForwardProbes``): the
+    same figures, to the last bit, as probes run to the end of the record, and the one-block run's."""
+    from bootnav.postproc import pipeline
+
+    d, rec, _ = walk
+    whole = process(rec, _settings(timing_max_level_strides=8))
+    settings = _settings(timing_max_level_strides=8)
+    settings.block_s = block_s
+    stopped, finish = [], pipeline._ForwardProbes.finish
+
+    def spy(self, starts, n):
+        stopped.append(self.cut is not None)
+        return finish(self, starts, n)
+
+    monkeypatch.setattr(pipeline._ForwardProbes, "finish", spy)
+    early, _ = process_to(rec, settings, tmp_path / "early")
+    assert stopped == [True]
+    monkeypatch.setattr(pipeline._ForwardProbes, "_look", lambda self, starts: None)  # never stop
+    late, _ = process_to(rec, settings, tmp_path / "late")
+    mine, theirs = early["navigation"]["timing_offset"], whole.navigation.timing
+    assert mine["probe_s"] < 0.5 * whole.summary["input"]["duration_s"]  # the probes saw the first part only
+    assert mine == late["navigation"]["timing_offset"]
+    assert (tmp_path / "early" / "trajectory.csv").read_bytes() == (tmp_path / "late" / "trajectory.csv").read_bytes()
+    assert {k: mine[k] for k in ("n_level", "probe_s", "tau_s", "applied")} == \
+        {k: theirs[k] for k in ("n_level", "probe_s", "tau_s", "applied")}
+    for k in ("m_minus", "m_plus", "innovation_rms_mps"):  # footprints summed in another order: rounding
+        assert mine[k] == pytest.approx(theirs[k], rel=1e-9), k
+
+
 def test_many_blocks_flag_the_strides_one_block_flags(walk, tmp_path):
     """Limits tight enough that strides are flagged (FAST: longer than 1 m; ROLLING: a stance phase's median
     turning rate above the median of them all, so half the phases: it compares medians over phases cut by the

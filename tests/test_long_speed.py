@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from bootnav.core.runs import runs
 from bootnav.errors import InputError
 from bootnav.postproc import selftune as S
 from bootnav.postproc.calibration import CalibrationSettings, initial_alignment
@@ -32,6 +33,14 @@ def test_start_up_imports_no_scipy_for_the_parser_nor_scipy_signal_for_process()
                  "sys.modules))\nimport bootnav.postproc.pipeline, bootnav.postproc.outputs\n"
                  "print('scipy.signal' in sys.modules, 'matplotlib' in sys.modules)")
     assert out.split() == ["False", "False", "False"]
+
+
+def test_the_block_passes_gait_period_imports_no_scipy_signal():
+    # the gait period of the block passes (``selftune.GaitPeriodAccumulator``) convolves by scipy.fft
+    out = _fresh("import sys\nimport numpy as np\nfrom bootnav.postproc.selftune import GaitPeriodAccumulator\n"
+                 "acc = GaitPeriodAccumulator(0.005)\nfor _ in range(3):\n    acc.push(np.random.rand(3000, 3))\n"
+                 "acc.finish()\nprint('scipy.signal' in sys.modules)")
+    assert out.split() == ["False"]
 
 
 @pytest.mark.parametrize("first", ["import bootnav.simulator.simulate", "from bootnav.simulator import writers",
@@ -73,7 +82,7 @@ def test_timing_probes_of_a_long_record_use_its_first_level_strides(loop):
     t, a, w, stance, init = loop
     fs = FilterSettings()
     whole = S.level_timing_offset(t, a, w, stance, init, G, fs)
-    n_phases = len(S.runs(stance)[0])
+    n_phases = len(runs(stance)[0])
     # a bound above the recording's phases: the whole recording, bit for bit as without a bound
     assert S.level_timing_offset(t, a, w, stance, init, G, fs, max_level_strides=n_phases) == whole
     # a bound of K level strides: the forward filter is causal, so the probes over the first 2K + 1 stance

@@ -33,14 +33,15 @@ def _distance_err_pct(r) -> float:
 
 
 def test_running_without_a_usable_foot_flat_gets_a_path(tmp_path):
-    """The clean running recording that the configured (adaptive) detector misses stances on: it used to be
-    refused ('strides longer than 6 m'); the fallback puts a ZUPT in every stride."""
+    """The clean running recording that the adaptive detector without its share rule
+    (``isolated_min_flat_fraction`` 0) misses stances on: it used to be refused ('strides longer than 6 m'); the
+    fallback puts a ZUPT in every stride. With the share rule (the default) the configured detector finds them."""
     path, res = _sim(tmp_path, "running", duration_s=30.0, with_truth=True)
-    strict = ProcessSettings(reference="truth")
-    strict.selftune = replace(strict.selftune, fallback=False)
+    old_rule = {"method": "adaptive", "params": {"isolated_min_flat_fraction": 0.0}}
+    strict = ProcessSettings.from_dict({"reference": "truth", "detector": old_rule, "selftune": {"fallback": False}})
     with pytest.raises(InputError, match="longer than 6 m|misses stance phases"):
         process(path, strict)  # the old policy refuses: this test can fail
-    r = process(path, ProcessSettings(reference="truth"))
+    r = process(path, ProcessSettings.from_dict({"reference": "truth", "detector": old_rule}))
     nav = r.summary["navigation"]
     assert nav["fallback_used"] and nav["configured_failed"]
     assert nav["stance_choice"] != "configured (adaptive)"
@@ -50,6 +51,9 @@ def test_running_without_a_usable_foot_flat_gets_a_path(tmp_path):
     # every truth stride found: one counted stride per pair of consecutive truth stance phases
     truth_stance = np.asarray(res.truth["stance"], bool)
     n_true = int(np.count_nonzero(np.diff(truth_stance.astype(np.int8)) == 1)) + int(truth_stance[0]) - 1
+    assert abs(r.summary["strides"] - n_true) <= 1
+    d = process(path, ProcessSettings(reference="truth"))  # the default: no fallback needed
+    assert not d.summary["navigation"]["fallback_used"] and abs(_distance_err_pct(d)) < 2.0
     assert abs(r.summary["strides"] - n_true) <= 1
 
 

@@ -80,13 +80,14 @@ class AdaptiveDetector(StanceDetector):
     isolation_s, isolated_min_stance_s: a shorter stance run with no other stance within 0.4 s on both
         sides is a running foot-flat when it lasts ≥ 0.035 s (≈ an 80 ms foot-flat with the 50 ms window)
         or when it passes the share rule below.
-    isolated_min_flat_fraction: 0 = off (the default, see below), 0.075 the value tested; an isolated run
-        is also kept when the foot-flat it stands for (run + ``window_s``) lasts at least this share of the local stride period (from the
-        previous stance start when within ``span_s``, else ``span_s``). It lies between a quiet blip of a
-        slow stride (a foot translating at 1 m/s on stairs: 6 % of a 1.04 s stride, pyshoe_vicon) and the
-        shortest running foot-flats (8-11 %: pyshoe_vicon's missed ones, the simulator's 70 ms of 0.7 s;
-        detected real ones 13-17 %); real data is flat over 7.5-15 %. Off by default: in running without a
-        foot-flat (simulator `run_no_flat`) it takes quiet blips for stance (docs/tuning-log.md 2026-12-02).
+    isolated_min_flat_fraction: 0.075 (0 = off); an isolated run is also kept when the foot-flat it stands
+        for (run + ``window_s``) lasts at least this share of the local stride period (from the previous stance
+        start when within ``span_s``, else ``span_s``). It lies between a quiet blip of a slow stride (a foot
+        translating at 1 m/s on stairs: 6 % of a 1.04 s stride, pyshoe_vicon) and the shortest running
+        foot-flats (8-11 %: pyshoe_vicon's missed ones, the simulator's 70 ms of 0.7 s; detected real ones
+        13-17 %); real data is flat over 7.5-15 % (leave-one-dataset-out), and without it running strides get
+        no ZUPT and an uncalibrated boot loses its height on a mission (docs/tuning-log.md 2026-12-02). In
+        running without a foot-flat it takes the rolling foot's slowest moment as stance, as the fallback does.
     """
 
     BOUNDS: ClassVar[dict] = {"window_s": POSITIVE, "span_s": POSITIVE, "alpha": FRACTION, "noise_quantile": FRACTION,
@@ -106,7 +107,7 @@ class AdaptiveDetector(StanceDetector):
     min_stance_s: float = 0.05
     isolated_min_stance_s: float = 0.035
     isolation_s: float = 0.4
-    isolated_min_flat_fraction: float = 0.0
+    isolated_min_flat_fraction: float = 0.075
 
     def rest_floor(self) -> float:
         """The smallest T that still tells one rest from another: T = (δg/σ_a)², δg = ``REST_DG_MPS2``.

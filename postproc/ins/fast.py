@@ -64,35 +64,53 @@ N_SEG = 5
 CL_RING, CL_LEN, CL_ROW = 0, 1, 2
 
 
+@njit(cache=True, inline="always")
+def _rows_times_f(P, n, dt, fx, fy, fz, c):
+    """P ← F P in place, row by row (F = I + A Δt, block form; see module docstring).
+
+    Each row operation runs along contiguous rows (vectorised); every entry gets the same operations in the
+    same order as the entry-by-entry form, and each reads the rows it needs before they change."""
+    for i in range(3):
+        for m in range(n):
+            P[DP + i, m] += dt * P[DV + i, m]
+    for m in range(n):
+        t0, t1, t2 = P[DTH, m], P[DTH + 1, m], P[DTH + 2, m]
+        P[DV, m] += dt * (fz * t1 - fy * t2)
+        P[DV + 1, m] += dt * (fx * t2 - fz * t0)
+        P[DV + 2, m] += dt * (fy * t0 - fx * t1)
+    if n == 15:
+        c00, c01, c02 = c[0, 0], c[0, 1], c[0, 2]
+        c10, c11, c12 = c[1, 0], c[1, 1], c[1, 2]
+        c20, c21, c22 = c[2, 0], c[2, 1], c[2, 2]
+        for m in range(n):
+            b0, b1, b2 = P[DBA, m], P[DBA + 1, m], P[DBA + 2, m]
+            P[DV, m] -= dt * (c00 * b0 + c01 * b1 + c02 * b2)
+            P[DV + 1, m] -= dt * (c10 * b0 + c11 * b1 + c12 * b2)
+            P[DV + 2, m] -= dt * (c20 * b0 + c21 * b1 + c22 * b2)
+        for m in range(n):
+            b0, b1, b2 = P[DBG, m], P[DBG + 1, m], P[DBG + 2, m]
+            P[DTH, m] -= dt * (c00 * b0 + c01 * b1 + c02 * b2)
+            P[DTH + 1, m] -= dt * (c10 * b0 + c11 * b1 + c12 * b2)
+            P[DTH + 2, m] -= dt * (c20 * b0 + c21 * b1 + c22 * b2)
+
+
 @njit(cache=True)
 def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
-    """P ← F P Fᵀ + Q_d in place (F = I + A Δt, block form; see module docstring)."""
-    for side in range(2):  # 0: rows (F P), 1: columns ((F P) Fᵀ)
-        for m in range(n):
-            if side == 0:
-                for i in range(3):
-                    P[DP + i, m] += dt * P[DV + i, m]
-                t0, t1, t2 = P[DTH, m], P[DTH + 1, m], P[DTH + 2, m]
-                P[DV, m] += dt * (fz * t1 - fy * t2)
-                P[DV + 1, m] += dt * (fx * t2 - fz * t0)
-                P[DV + 2, m] += dt * (fy * t0 - fx * t1)
-                if n == 15:
-                    for i in range(3):
-                        P[DV + i, m] -= dt * (c[i, 0] * P[DBA, m] + c[i, 1] * P[DBA + 1, m] + c[i, 2] * P[DBA + 2, m])
-                    for i in range(3):
-                        P[DTH + i, m] -= dt * (c[i, 0] * P[DBG, m] + c[i, 1] * P[DBG + 1, m] + c[i, 2] * P[DBG + 2, m])
-            else:
-                for i in range(3):
-                    P[m, DP + i] += dt * P[m, DV + i]
-                t0, t1, t2 = P[m, DTH], P[m, DTH + 1], P[m, DTH + 2]
-                P[m, DV] += dt * (fz * t1 - fy * t2)
-                P[m, DV + 1] += dt * (fx * t2 - fz * t0)
-                P[m, DV + 2] += dt * (fy * t0 - fx * t1)
-                if n == 15:
-                    for i in range(3):
-                        P[m, DV + i] -= dt * (c[i, 0] * P[m, DBA] + c[i, 1] * P[m, DBA + 1] + c[i, 2] * P[m, DBA + 2])
-                    for i in range(3):
-                        P[m, DTH + i] -= dt * (c[i, 0] * P[m, DBG] + c[i, 1] * P[m, DBG + 1] + c[i, 2] * P[m, DBG + 2])
+    """P ← F P Fᵀ + Q_d in place (F = I + A Δt, block form; see module docstring): F P by rows
+    (``_rows_times_f``, contiguous inner loops), then (F P) Fᵀ row by row."""
+    _rows_times_f(P, n, dt, fx, fy, fz, c)
+    for m in range(n):  # columns: (F P) Fᵀ
+        for i in range(3):
+            P[m, DP + i] += dt * P[m, DV + i]
+        t0, t1, t2 = P[m, DTH], P[m, DTH + 1], P[m, DTH + 2]
+        P[m, DV] += dt * (fz * t1 - fy * t2)
+        P[m, DV + 1] += dt * (fx * t2 - fz * t0)
+        P[m, DV + 2] += dt * (fy * t0 - fx * t1)
+        if n == 15:
+            for i in range(3):
+                P[m, DV + i] -= dt * (c[i, 0] * P[m, DBA] + c[i, 1] * P[m, DBA + 1] + c[i, 2] * P[m, DBA + 2])
+            for i in range(3):
+                P[m, DTH + i] -= dt * (c[i, 0] * P[m, DBG] + c[i, 1] * P[m, DBG + 1] + c[i, 2] * P[m, DBG + 2])
     for i in range(3):
         P[DV + i, DV + i] += qa * dt
         P[DTH + i, DTH + i] += qg * dt

@@ -13,16 +13,24 @@ from numba import njit
 
 @njit(cache=True, inline="always")
 def joseph3(P, K, off, r, n, A):
-    """P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ for H selecting states off..off+2 (block form)."""
+    """P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ for H selecting states off..off+2 (block form).
+
+    The rows' factors are loaded into locals and the lower triangle is mirrored after the upper one is
+    complete, so that the inner loops run over contiguous rows (vectorised); every entry is the same
+    expression in the same order as the textbook loop, so the result is bit for bit the same."""
     for i in range(n):
+        k0, k1, k2 = K[i, 0], K[i, 1], K[i, 2]
         for c in range(n):
-            A[i, c] = P[i, c] - (K[i, 0] * P[off, c] + K[i, 1] * P[off + 1, c] + K[i, 2] * P[off + 2, c])
+            A[i, c] = P[i, c] - (k0 * P[off, c] + k1 * P[off + 1, c] + k2 * P[off + 2, c])
     for i in range(n):  # the result is symmetric: compute the upper triangle, mirror it
+        a0, a1, a2 = A[i, off], A[i, off + 1], A[i, off + 2]
+        k0, k1, k2 = K[i, 0], K[i, 1], K[i, 2]
         for c in range(i, n):
-            v = (A[i, c] - (A[i, off] * K[c, 0] + A[i, off + 1] * K[c, 1] + A[i, off + 2] * K[c, 2])
-                 + r * (K[i, 0] * K[c, 0] + K[i, 1] * K[c, 1] + K[i, 2] * K[c, 2]))
-            P[i, c] = v
-            P[c, i] = v
+            P[i, c] = ((A[i, c] - (a0 * K[c, 0] + a1 * K[c, 1] + a2 * K[c, 2]))
+                       + r * (k0 * K[c, 0] + k1 * K[c, 1] + k2 * K[c, 2]))
+    for i in range(n):
+        for c in range(i):
+            P[i, c] = P[c, i]
 
 
 @njit(cache=True, inline="always")
@@ -46,18 +54,22 @@ def kalman_gain3(P, off, r, n, K):
 
 @njit(cache=True, inline="always")
 def scalar_update(P, idx, r, n, K, A):
-    """Gain (into K[:, 0]) and Joseph update for a scalar measurement of state idx with variance r."""
+    """Gain (into K[:, 0]) and Joseph update for a scalar measurement of state idx with variance r (loops
+    arranged as ``joseph3``'s, same result bit for bit)."""
     s = P[idx, idx] + r
     for i in range(n):
         K[i, 0] = P[i, idx] / s
     for i in range(n):
+        k0 = K[i, 0]
         for c in range(n):
-            A[i, c] = P[i, c] - K[i, 0] * P[idx, c]
+            A[i, c] = P[i, c] - k0 * P[idx, c]
     for i in range(n):
+        ai, k0 = A[i, idx], K[i, 0]
         for c in range(i, n):
-            v = A[i, c] - A[i, idx] * K[c, 0] + r * K[i, 0] * K[c, 0]
-            P[i, c] = v
-            P[c, i] = v
+            P[i, c] = A[i, c] - ai * K[c, 0] + r * k0 * K[c, 0]
+    for i in range(n):
+        for c in range(i):
+            P[i, c] = P[c, i]
 
 
 @njit(cache=True, inline="always")
