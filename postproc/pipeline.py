@@ -510,7 +510,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             for ch in probe.finish():
                 lowest.add_chunk(ch, det.rest_floor())
             low = lowest.quantile()
-            return _stream_noise_floor(probe) if low is None else low  # all excluded (saturated): the stream's
+            return probe.noise_floor_log10 if low is None else low  # all excluded (saturated): the stream's
 
         def select_fallback(failed: str, period: float) -> dict:
             """``navigate``'s fallback in passes: ``selftune.select_stance``'s candidates scored by forward runs
@@ -1344,15 +1344,3 @@ def _utc_now() -> str:
 
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
-
-def _stream_noise_floor(stance) -> float | None:
-    """The running noise floor F of an adaptive ``StreamStance`` after every sample was pushed: the
-    ``noise_quantile`` of its histogram of log10 T (``detectors.stream``), None before any decision."""
-    from .detectors import stream as ds
-
-    hist = stance._hist
-    cum = np.cumsum(hist)
-    if cum[-1] == 0:
-        return None
-    k = int(np.searchsorted(cum, stance.detector.noise_quantile * cum[-1], side="left"))
-    return ds._HIST_LO + (k + 0.5) * ds._HIST_STEP

@@ -241,10 +241,8 @@ def test_the_private_attribute_checker_sees_module_attributes(tmp_path):
     assert private_attribute_uses(mods) == ["pkg.a: pkg.b._y", "pkg.a: pkg.b._z"]
 
 
-#: Known, owned elsewhere: ``pipeline._stream_noise_floor`` recomputes ``StreamStance.noise_floor_log10`` from the
-#: stream module's histogram constants (helper "onepipe" rewrites pipeline.py; it should call the property).
-KNOWN_PRIVATE_ATTRIBUTE_USES = {"bootnav.postproc.pipeline: bootnav.postproc.detectors.stream._HIST_LO",
-                                "bootnav.postproc.pipeline: bootnav.postproc.detectors.stream._HIST_STEP"}
+#: Known exceptions (none left: ``pipeline`` reads ``StreamStance.noise_floor_log10``).
+KNOWN_PRIVATE_ATTRIBUTE_USES: set[str] = set()
 
 
 def test_no_module_reads_another_modules_private_attributes():
