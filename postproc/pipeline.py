@@ -34,7 +34,9 @@ window runs the same stages as passes over its blocks (``_block_passes``), each 
 a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
 ``outputs.ResultsWriter``, ``plots.ChartStream``). The rows last read are kept, calibrated and read-only, so
 passes over a single block decode it once (a quarter of their time on a one-minute recording, for when one block
-takes the passes too):
+takes the passes too); over a single block the final pass also replays the rows of the filter pass before it
+when that ran the same filter (the storeys', or the unaided one the heading decision left off), as ``navigate``
+runs that filter once:
 
 0. the nominal period Δt₀: the median step of the whole record (``_nominal_period``: exact order statistics
    from passes over the times, ``_order_statistics``), as ``timebase.sample_period`` gives ``process``;
@@ -665,19 +667,31 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         r.pos_n[:, ax] += np.interp(r.t_s, revisit[0], revisit[1][:, ax])
                 return r
 
+            # one block, no revisit correction: the navigator of the last filter pass and the rows of each of its
+            # pushes, which the final pass replays when it runs the same filter with the same gate (the heading
+            # decision off: the unaided path is the final one, as ``navigate`` runs it once)
+            replay: dict = {}
+
             def path_footprints(filter_settings, with_var=False):
                 """A pass of the filter + smoother (its rows corrected by the revisits found): its footprints (mid
                 times, (K,); (K, 3)) and, ``with_var``, the horizontal variance at their times (K,)."""
                 path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
                 path_fp = FootprintAccumulator()
                 var = _PhaseInterpolation() if with_var else None
+                pieces = [] if len(blocks) == 1 and revisit is None else None
+                replay.clear()
                 for ch in stance_stream():
-                    r = corrected(path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated,
-                                                heading_gate=gate(ch)))
+                    r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
+                    if pieces is not None:
+                        pieces.append(r)
+                    r = corrected(r)
                     path_fp.push(r.t_s, r.pos_n, r.stance)
                     if var is not None:
                         var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
-                r = corrected(path_nav.finish())
+                r = path_nav.finish()
+                if pieces is not None:
+                    replay.update(filter=filter_settings, gate=gate_iv, nav=path_nav, rows=pieces + [r])
+                r = corrected(r)
                 path_fp.push(r.t_s, r.pos_n, r.stance)
                 if var is not None:
                     var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
@@ -721,7 +735,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             group = f"/results/{opts.results_name}"
             target = run.path if run.into_recording else out / "results.h5"
             tmp = atomic.temporary_beside(target)
-            nav = StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
+            reuse = bool(replay) and replay["filter"] is final_filter and replay["gate"] is gate_iv and revisit is None
+            nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
+            replayed = iter(replay.pop("rows")) if reuse else None
             fp_acc = FootprintAccumulator()
             yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
             yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
@@ -792,9 +808,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             n_gamma += len(ch)
                         if writer is not None:
                             stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
-                        emit(nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
+                        emit(next(replayed) if replayed is not None else
+                             nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
                         _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
-                    emit(nav.finish())
+                    emit(next(replayed) if replayed is not None else nav.finish())
                 lap("navigation")
 
                 t_mid, fp = fp_acc.finish()

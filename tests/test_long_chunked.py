@@ -465,3 +465,42 @@ def test_revisits_in_blocks_are_the_one_block_revisits(walk, tmp_path, storeys):
     assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
     assert summary["navigation"]["stride_flags"] == whole.summary["navigation"]["stride_flags"]
     assert (tmp_path / "blocks" / "trajectory.csv").read_bytes() == (tmp_path / "whole" / "trajectory.csv").read_bytes()
+
+
+@pytest.mark.parametrize("heading_aid", ["auto", "none"])
+def test_passes_over_one_block_replay_the_heading_pass_and_give_the_whole_path(walk, monkeypatch, heading_aid):
+    """Passes over a single block (what a one-block run takes once ``process`` is the passes): the rows are decoded
+    once, and the final pass replays the rows of the pass before it that ran the same filter (the storeys', or the
+    unaided one when the heading decision is off: ``navigate`` runs it once) instead of running the filter +
+    smoother again; the path is the whole-array run's."""
+    from bootnav.logger.recording import RecordingReader
+    from bootnav.postproc import pipeline
+    from bootnav.postproc.ins.stream import StreamNavigator
+    from bootnav.postproc.source import crop_window
+
+    d, rec, _ = walk
+    settings = _settings()
+    settings.filter.heading_aid = heading_aid
+    whole = process(rec, settings)
+    made = []
+    real = StreamNavigator.from_initial_state.__func__
+    monkeypatch.setattr(StreamNavigator, "from_initial_state",
+                        classmethod(lambda cls, *a, **k: made.append(a[-1].smoother) or real(cls, *a, **k)))
+    out = d / f"one-{heading_aid}"
+    reader = RecordingReader(rec)
+    try:
+        run = pipeline._Input(crop_window(reader, None, str(rec)), str(rec), rec, True, None, False, None)
+        summary, _ = pipeline._block_passes(run, settings, out, [], pipeline._StageClock(None), None, None)
+    finally:
+        reader.close()
+    assert summary["navigation"]["blocks"] == 1
+    aided = heading_aid == "auto" and summary["filter"]["heading_decision"]["on"]
+    # the smoothed filters made: the one the storeys are found on (the unaided one when no aid), and the aided one
+    # when the decision is on; the final pass makes none, it replays the last one's rows
+    assert made.count("rts") == 1 + aided
+    r = results(out)
+    np.testing.assert_array_equal(r["t_s"], whole.t_s)
+    np.testing.assert_array_equal(r["stance"].astype(bool), whole.stance)
+    assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
+    assert np.abs(r["q_nb"] - whole.q_nb).max() <= 1e-9
+    assert summary["path"]["distance_m"] == pytest.approx(whole.summary["path"]["distance_m"], abs=1e-9)
