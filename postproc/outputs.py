@@ -347,9 +347,16 @@ def geojson_path(result, anchor) -> dict:
         The GeoJSON object.
     """
     _, fp = footprints(result.t_s, result.pos_n, result.stance)
+    return geojson_of(fp, result.pos_n[0], result.pos_n[-1], result.summary.get("distance_m"), anchor)
+
+
+def geojson_of(fp: np.ndarray, first_n: np.ndarray, last_n: np.ndarray, distance_m, anchor) -> dict:
+    """``geojson_path`` from the footprints (K, 3), the path's first and last positions (3,) (m, nav frame) and
+    its distance: what a run in blocks has of the path when it is written."""
+    fp = np.asarray(fp, float)
     if len(fp) == 0:
-        fp = result.pos_n[[0, -1]]
-    pts = np.vstack((result.pos_n[:1], fp))  # the path starts at the origin of the nav frame
+        fp = np.vstack((first_n, last_n))
+    pts = np.vstack((np.asarray(first_n, float)[None, :3], fp))  # the path starts at the origin of the nav frame
     c = np.round(enu_to_wgs84(pts, anchor), 8).tolist()
     frame = {"crs": "WGS-84 (EPSG:4979) [lon_deg, lat_deg, h_m]", "anchor_lat_lon_h": list(map(float, anchor)),
              "projection": "local tangent plane around the anchor (see postproc/outputs.py)"}
@@ -359,7 +366,7 @@ def geojson_path(result, anchor) -> dict:
         "properties": {**frame, "software": f"bootnav {__version__}", "footprints": int(len(fp))},
         "features": [
             feat({"type": "LineString", "coordinates": c},
-                 {"name": "path", "distance_m": result.summary.get("distance_m")}),
+                 {"name": "path", "distance_m": distance_m}),
             feat({"type": "Point", "coordinates": c[0]}, {"name": "start"}),
             feat({"type": "Point", "coordinates": c[-1]}, {"name": "end"}),
         ],

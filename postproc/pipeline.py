@@ -398,8 +398,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .detectors.stream import StreamStance
     from .ins.filter import propagated_gaps_warning
     from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, start_results,
-                          append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
+    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
+                          start_results, append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .reference_path import compute_metrics
     from .summary import is_closed_loop
     from .floors import storey_offsets
@@ -753,6 +753,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                      "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
             stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
             n_rows = n_stance = 0
+            ends = [None, None]  # the path's first and last positions (the GeoJSON's start and end)
             writer = None
             # a reference is compared with the whole path: its rows (t, x, y, z, stance) go to a temporary file,
             # read back memory-mapped by ``compute_metrics`` after the pass
@@ -796,6 +797,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
                         if charts is not None:
                             charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
+                        if not n_rows:
+                            ends[0] = r.pos_n[0].copy()
+                        ends[1] = r.pos_n[-1].copy()
                         n_rows += len(r)
                         n_stance += int(np.count_nonzero(r.stance))
 
@@ -920,6 +924,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         worker.submit(charts, out)
                 files = {"trajectory": str(out / "trajectory.csv")}
                 files["steps"] = str(write_steps_csv(out / "steps.csv", steps))
+                if opts.geojson and opts.geo_anchor:  # as ``outputs.write_outputs``
+                    atomic.write_text(out / "path.geojson", json.dumps(geojson_of(
+                        fp, ends[0], ends[1], summary.get("distance_m"), opts.geo_anchor)))
+                    files["geojson"] = str(out / "path.geojson")
                 if writer is not None:
                     writer.close()
                     attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),

@@ -504,3 +504,25 @@ def test_passes_over_one_block_replay_the_heading_pass_and_give_the_whole_path(w
     assert np.abs(r["pos_n_m"] - whole.pos_n).max() <= 1e-9
     assert np.abs(r["q_nb"] - whole.q_nb).max() <= 1e-9
     assert summary["path"]["distance_m"] == pytest.approx(whole.summary["path"]["distance_m"], abs=1e-9)
+
+
+def test_a_run_in_blocks_writes_the_geojson_of_the_one_block_run(walk):
+    """``--geo-anchor``: path.geojson (footprints, start, end in WGS-84) is written by a run in blocks too (it was
+    silently left out), the same footprints as the one-block run's."""
+    d, rec, _ = walk
+    gj = {}
+    for block_s in (13.0, 1000.0):
+        settings = _settings()
+        settings.output.geo_anchor = (57.7, 11.9, 10.0)
+        settings.block_s = block_s
+        _, files = process_to(rec, settings, d / f"geo{block_s:g}")
+        gj[block_s] = json.loads((d / f"geo{block_s:g}" / "path.geojson").read_text())
+        assert files["geojson"] == str(d / f"geo{block_s:g}" / "path.geojson")
+    many, one = gj[13.0], gj[1000.0]
+    assert many["properties"] == one["properties"] and many["properties"]["footprints"] > 10
+    for a, b in zip(many["features"], one["features"], strict=True):
+        assert a["geometry"]["type"] == b["geometry"]["type"]
+        # coordinates rounded to 1e-8 deg (≈ 1 mm): footprints equal to rounding
+        np.testing.assert_allclose(a["geometry"]["coordinates"], b["geometry"]["coordinates"], rtol=0, atol=2e-8)
+    assert many["features"][0]["properties"]["distance_m"] == pytest.approx(
+        one["features"][0]["properties"]["distance_m"], rel=1e-9)
