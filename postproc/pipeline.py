@@ -32,8 +32,8 @@ rows (``source.crop_window``). A window of one block — every recording of the 
 stages above on its arrays, exactly as they always ran, and is written by ``outputs.write_outputs``. A longer
 window runs the same stages as passes over its blocks (``_block_passes``), each whole-record decision taken in
 a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
-``outputs.ResultsWriter``, ``plots.ChartStream``). The rows last read are kept, calibrated and read-only, so
-passes over a single block decode it once (a quarter of their time on a one-minute recording, for when one block
+``outputs.ResultsWriter``, ``plots.ChartStream``). Passes over a single block keep its rows, calibrated and
+read-only, and decode it once (a quarter of their time on a one-minute recording, for when one block
 takes the passes too); over a single block the final pass also replays the rows of the filter pass before it
 when that ran the same filter (the storeys', or the unaided one the heading decision left off), as ``navigate``
 runs that filter once:
@@ -438,18 +438,20 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                 + 1)))
         blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
 
-        last_read: dict = {}  # the rows last read, calibrated: a one-block window's passes decode them once
+        last_read: dict = {}  # one block: its rows, calibrated, decoded once for all the passes
 
         def read(i0: int, i1: int):
-            if last_read.get("rows") != (i0, i1):
+            if last_read.get("rows") == (i0, i1):
+                t, acc, gyro, sat = last_read["block"]
+            else:
                 t, acc, gyro, sat = rec.block(i0, i1)
                 if sensor_cal.calibration is not None:
                     acc, gyro = apply_calibration(sensor_cal, acc, gyro, rec.temp_degc(i0, i1))
                     warnings.extend(w for w in sensor_cal.warnings if w not in warnings)
-                for a in (t, acc, gyro, sat):  # shared by the passes: a stage that wrote into them would fail here
-                    a.flags.writeable = False
-                last_read.update(rows=(i0, i1), block=(t, acc, gyro, sat))
-            t, acc, gyro, sat = last_read["block"]
+                if len(blocks) == 1:  # more blocks: none is read twice in a row, and keeping one adds to the peak
+                    for a in (t, acc, gyro, sat):  # shared by the passes: a stage that wrote into them fails here
+                        a.flags.writeable = False
+                    last_read.update(rows=(i0, i1), block=(t, acc, gyro, sat))
             if rails is not None and rails.rail_pos is not None:
                 sat = sat | rails.bits(acc, gyro)
             return t, acc, gyro, sat
