@@ -912,7 +912,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                                     for bit, nm in selftune.FLAG_NAMES.items()},
                                    "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                    "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable({**nav.info, **({} if heading_decision is None else
+                    "filter": to_jsonable({**nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
+                                           # the last sample, as ``ins.run_filter`` gives it
+                                           "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
+                                           **({} if heading_decision is None else
                                                           {"heading_decision": heading_decision}),
                                            **({} if revisit_report is None else {"revisits": revisit_report})}),
                     "path": path_stats,
