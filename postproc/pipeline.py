@@ -28,10 +28,10 @@ The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``o
 reader of blocks of ``settings.block_s`` seconds, the memory budget (900 s: about 400-440 MB at 200 Hz):
 ``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) for an HDF5 recording,
 ``source.MemoryReader`` for any other file (read whole by ``bootnav import``'s reader), the crop a window of its
-rows (``source.crop_window``). A window of one block — every recording of the development datasets — runs the
-stages above on its arrays, exactly as they always ran, and is written by ``outputs.write_outputs``. A longer
-window runs the same stages as passes over its blocks (``_block_passes``), each whole-record decision taken in
-a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
+rows (``source.crop_window``). Every window, one block (every recording of the development datasets) or
+many, runs the stages above as passes over its blocks (``_block_passes``; outputs as the stages on whole
+arrays: ``trajectory.csv``/``steps.csv`` byte for byte, ``results.h5`` to 1e-9), each whole-record decision
+taken in a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
 ``outputs.ResultsWriter``, ``plots.ChartStream``). Passes over a single block keep its rows, calibrated and
 read-only, and decode it once (a quarter of their time on a one-minute recording, for when one block
 takes the passes too); over a single block the final pass also replays the rows of the filter pass before it
@@ -72,8 +72,8 @@ the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as
 (``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
 ``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
 "cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
-configured one's (its statistic kept) and passes 3-5 run again. ``process`` (the API, ``eval``, two boots) is
-still the whole-array path.
+configured one's (its statistic kept) and passes 3-5 run again. ``process`` (the API, ``eval``, two boots, and
+``process_to`` for a detector that cannot stream) is still the whole-array path.
 """
 
 from __future__ import annotations
@@ -280,11 +280,10 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
 
     The input is read in blocks of ``settings.block_s`` seconds: an HDF5 recording through ``RecordingReader``,
     any other file through ``source.MemoryReader`` (read whole by ``bootnav import``'s reader), the crop as a
-    window of rows (``source.crop_window``). A window of one block (every recording up to 15 min at the
-    default) runs the stages of ``process`` on it and writes it with ``outputs.write_outputs``; a longer one runs
-    the same stages as passes over its blocks (``_block_passes``), memory bounded by the block. A stage that
-    cannot run in passes (a detector that cannot stream) runs as one block whatever the length, with a
-    warning when that is longer than ``block_s``.
+    window of rows (``source.crop_window``). Every window, one block or many, runs the stages of ``process`` as
+    passes over its blocks (``_block_passes``), memory bounded by the block. A stage that cannot run in passes
+    (a detector that cannot stream) runs ``process`` on the whole window, written by ``outputs.write_outputs``,
+    with a warning when that is longer than ``block_s``.
 
     Returns
     -------
@@ -320,7 +319,7 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         rows = block_rows(window.times(0, min(window.n, 1 << 16)), settings.block_s)
         blocks = -(-window.n // rows) if window.n else 1
         whole_why = _needs_whole_record(settings)
-        if blocks <= 1 or whole_why is not None:
+        if whole_why is not None:
             reader.close()  # ``process`` reads the input itself
         elif settings.reference == "truth":
             ref = truth_reference(SimpleNamespace(n=reader.n, t_s=reader.times()) if hdf5 else src.recording,
@@ -328,7 +327,7 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         check_outputs(settings, out, [path], into_recording, force)
         worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
-            if blocks <= 1 or whole_why is not None:
+            if whole_why is not None:
                 result = process(path if src is None else src.recording, settings, progress=progress)
                 if blocks > 1:
                     result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
@@ -382,8 +381,8 @@ def _needs_whole_record(settings: ProcessSettings) -> str | None:
 
 def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: list[str], lap,
                   worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
-    """``process_to``'s passes over the blocks of a recording longer than one block (module docstring) and its
-    outputs but summary.json; (summary, files)."""
+    """``process_to``'s passes over the blocks of a recording (module docstring) and its outputs but
+    summary.json; (summary, files)."""
     import json
 
     from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
@@ -763,6 +762,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             # the adaptive detector's per-sample log10 γ, for its representative threshold 10^median (``adaptive``)
             gamma_spill = tempfile.TemporaryFile(prefix="bootnav-gamma-") if method == "adaptive" else None
             n_gamma = 0
+            gamma_range = [np.inf, -np.inf]  # the adaptive detector's log10 γ range (its ``threshold_log10_range``)
+            n_saturated = 0  # samples the detector excluded as saturated (``detect_stance``'s ``n_saturated``)
             try:
                 if opts.write_hdf5:
                     start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
@@ -809,9 +810,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         if charts is not None:
                             charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
                         gyro_rows.put(ch.start, ch.gyro_b)
+                        n_saturated += int(np.count_nonzero(np.any(np.reshape(ch.saturated, (len(ch), -1)), axis=1)))
                         if gamma_spill is not None and ch.threshold_log10 is not None:
                             np.asarray(ch.threshold_log10, np.float64).tofile(gamma_spill)
                             n_gamma += len(ch)
+                            if len(ch):
+                                gamma_range[:] = [min(gamma_range[0], float(np.min(ch.threshold_log10))),
+                                                  max(gamma_range[1], float(np.max(ch.threshold_log10)))]
                         if writer is not None:
                             stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
                         emit(next(replayed) if replayed is not None else
@@ -893,8 +898,11 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
                                "phases": int(len(fp)), "noise_floor_log10": floor,
                                # a fixed-threshold detector's γ; the adaptive one's 10^median of its γ per sample
-                               "threshold": to_jsonable(threshold)},
-                    "navigation": {"stance_choice": choice, "chunked": True, "blocks": len(blocks),
+                               "threshold": to_jsonable(threshold),
+                               # what the detector used (``detect_stance``'s info: the parts a run in passes knows)
+                               "info": {"dt_s": float(dt0), "noise_floor_log10": floor, "n_saturated": n_saturated,
+                                        **({"threshold_log10_range": gamma_range} if n_gamma else {})}},
+                    "navigation": {"stance_choice": choice, "blocks": len(blocks),
                                    "fallback_used": failed is not None and not choice.startswith("configured"),
                                    "configured_failed": failed,
                                    "candidates": to_jsonable(fallback["candidates"] if fallback else []),
@@ -904,7 +912,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                                     for bit, nm in selftune.FLAG_NAMES.items()},
                                    "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                    "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable({**nav.info, **({} if heading_decision is None else
+                    "filter": to_jsonable({**nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
+                                           # the last sample, as ``ins.run_filter`` gives it
+                                           "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
+                                           **({} if heading_decision is None else
                                                           {"heading_decision": heading_decision}),
                                            **({} if revisit_report is None else {"revisits": revisit_report})}),
                     "path": path_stats,

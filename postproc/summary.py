@@ -82,7 +82,8 @@ def build_summary(result: Any, path_stats: dict, timings: dict[str, float]) -> d
             "info": to_jsonable(stance_res.info),
         },
         "navigation": _navigation(result.navigation),
-        "filter": to_jsonable(getattr(result.nav, "info", {})),
+        # the engine's info but its settings (the top-level ``settings`` holds them)
+        "filter": to_jsonable({k: v for k, v in (getattr(result.nav, "info", None) or {}).items() if k != "settings"}),
         "path": path_stats,
         "metrics": to_jsonable(result.metrics),
         "saturation_intervals": result.saturation_intervals,

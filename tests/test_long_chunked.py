@@ -84,6 +84,9 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
     assert summary["uncertainty"]["final_ellipse_major_m"] == pytest.approx(
         whole.summary["uncertainty"]["final_ellipse_major_m"], rel=1e-9)
     assert summary["navigation"].get("blocks", 1) == n_blocks(whole.t_s, block_s)
+    # the filter's 1-σ of each error state at the last sample: the same filter, sample for sample
+    np.testing.assert_allclose(summary["filter"]["final_state_sigma"], whole.summary["filter"]["final_state_sigma"],
+                               rtol=1e-9)
     # the whole-record decisions: gait period, confidence, the timing probes' innovation (the same arithmetic)
     for key in ("gait_period_s", "confidence"):
         assert summary["navigation"][key] == pytest.approx(whole.summary["navigation"][key], rel=1e-9), key

@@ -1,5 +1,5 @@
-"""``docs/summary.schema.json`` describes the summary.json of every kind of run: a whole ``process`` run, a
-chunked one (``--chunk-s``), both files of a two-boot run (each foot's summary.json and two_boots.json) and
+"""``docs/summary.schema.json`` describes the summary.json of every kind of run: ``bootnav process`` over one
+block and over many (``--block-s``; one kind, ``process``), both files of a two-boot run (each foot's summary.json and two_boots.json) and
 ``bootnav pdr``. Each is produced by the CLI and validated; the validator (``tests/schema_subset.py``) is
 shown to refuse what the schema forbids, so a passing test means something."""
 
@@ -48,7 +48,7 @@ def test_every_kind_of_summary_follows_the_schema(summaries, kind):
     summary = summaries[kind]
     assert errors(summary, SCHEMA) == []
     # and it is the kind it should be (exactly one alternative of the top-level oneOf matches)
-    alternative = {"two_boots_foot": "process"}.get(kind, kind)
+    alternative = {"two_boots_foot": "process", "process_blocks": "process"}.get(kind, kind)
     assert errors(summary, {"$ref": f"#/$defs/{alternative}"}, SCHEMA) == []
 
 
