@@ -593,9 +593,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
         def rate_p99() -> float:
             """‖ω‖'s 99th percentile over the record (``summary.mount_check``'s), exact from the spilled rows."""
-            rate_rows.flush()
-            norms = np.memmap(rate_rows, np.float64, "r", shape=(n,))
-            return _percentile(lambda: (norms[i:i + (1 << 20)] for i in range(0, n, 1 << 20)), 99)
+            return _percentile(lambda: _spilled(rate_rows, n), 99)
 
         st = settings.selftune
         fallback = None  # the fallback chosen when the configured detector failed (``select_fallback``)
@@ -866,12 +864,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     warnings.append(mount["message"])
                 threshold = getattr(probe_detector, "threshold", None)
                 if gamma_spill is not None and n_gamma:  # np.median, exact from the spilled rows
-                    gamma_spill.flush()
-                    gam = np.memmap(gamma_spill, np.float64, "r", shape=(n_gamma,))
                     threshold = float(10.0 ** np.mean(_order_statistics(
-                        lambda: (gam[i:i + (1 << 20)] for i in range(0, n_gamma, 1 << 20)),
-                        ((n_gamma - 1) // 2, n_gamma // 2))))
-                    del gam
+                        lambda: _spilled(gamma_spill, n_gamma), ((n_gamma - 1) // 2, n_gamma // 2))))
                 metrics = None
                 if spill is not None:  # as ``process``: the path with its storeys, every row
                     spill.flush()
@@ -1068,6 +1062,17 @@ def _nominal_period(rec, rows: int = 1 << 20, cap: int = 1 << 20) -> float:
     if m == 0:
         raise ValueError("the time axis has no positive step")
     return float(np.mean(_order_statistics(steps, ((m - 1) // 2, m // 2), cap)))  # as np.median
+
+
+def _spilled(f, n: int, rows: int = 1 << 20):
+    """The n float64 values written to the temporary file ``f``, read back ``rows`` at a time (8 MB): a
+    memory map of the whole file would keep every page read resident until it is closed (8 B per sample,
+    138 MB at 24 h at 200 Hz)."""
+    f.flush()
+    for i in range(0, n, rows):
+        f.seek(8 * i)
+        yield np.fromfile(f, np.float64, count=min(rows, n - i))
+    f.seek(0, 2)  # the end again, where the next values are written
 
 
 def _percentile(pieces, q: float, cap: int = 1 << 20) -> float:
