@@ -592,9 +592,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
         def rate_p99() -> float:
             """‖ω‖'s 99th percentile over the record (``summary.mount_check``'s), exact from the spilled rows."""
-            rate_rows.flush()
-            norms = np.memmap(rate_rows, np.float64, "r", shape=(n,))
-            return _percentile(lambda: (norms[i:i + (1 << 20)] for i in range(0, n, 1 << 20)), 99)
+            return _percentile(lambda: _spilled(rate_rows, n), 99)
 
         st = settings.selftune
         fallback = None  # the fallback chosen when the configured detector failed (``select_fallback``)
@@ -871,12 +869,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     warnings.append(mount["message"])
                 threshold = getattr(probe_detector, "threshold", None)
                 if gamma_spill is not None and n_gamma:  # np.median, exact from the spilled rows
-                    gamma_spill.flush()
-                    gam = np.memmap(gamma_spill, np.float64, "r", shape=(n_gamma,))
                     threshold = float(10.0 ** np.mean(_order_statistics(
-                        lambda: (gam[i:i + (1 << 20)] for i in range(0, n_gamma, 1 << 20)),
-                        ((n_gamma - 1) // 2, n_gamma // 2))))
-                    del gam
+                        lambda: _spilled(gamma_spill, n_gamma), ((n_gamma - 1) // 2, n_gamma // 2))))
                 metrics = None
                 if spill is not None:  # as ``process``: the path with its storeys, every row
                     spill.flush()
@@ -1081,6 +1075,17 @@ def _nominal_period(rec, rows: int = 1 << 20, cap: int = 1 << 20) -> float:
     return float(np.mean(_order_statistics(steps, ((m - 1) // 2, m // 2), cap)))  # as np.median
 
 
+def _spilled(f, n: int, rows: int = 1 << 20):
+    """The n float64 values written to the temporary file ``f``, read back ``rows`` at a time (8 MB): a
+    memory map of the whole file would keep every page read resident until it is closed (8 B per sample,
+    138 MB at 24 h at 200 Hz)."""
+    f.flush()
+    for i in range(0, n, rows):
+        f.seek(8 * i)
+        yield np.fromfile(f, np.float64, count=min(rows, n - i))
+    f.seek(0, 2)  # the end again, where the next values are written
+
+
 def _percentile(pieces, q: float, cap: int = 1 << 20) -> float:
     """``np.percentile(x, q)`` (linear) of the values ``pieces()`` yields, exact (``_order_statistics``)."""
     m = sum(len(v) for v in pieces())
@@ -1105,14 +1110,22 @@ def _order_statistics(pieces, ks: tuple[int, int], cap: int = 1 << 20) -> np.nda
     while True:
         if float(np.nextafter(lo, np.inf)) >= hi:  # one float wide: every value in it is lo
             return np.array([lo, lo])
-        inside = [v[(v >= lo) & (v < hi)] for v in pieces()]
-        if sum(len(v) for v in inside) <= cap:
-            v = np.sort(np.concatenate(inside))
-            return v[[ks[0] - below, ks[1] - below]]
         edges = np.linspace(lo, hi, 4097)
         edges[-1] = hi
-        hist = sum(np.bincount(np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 4095), minlength=4096)
-                   for v in inside)
+        hist = np.zeros(4096, np.int64)
+        inside: list | None = []  # the values in [lo, hi), kept while they are at most ``cap``
+        count = 0
+        for v in pieces():
+            v = v[(v >= lo) & (v < hi)]
+            count += len(v)
+            hist += np.bincount(np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 4095), minlength=4096)
+            if inside is not None:
+                inside.append(v)
+                if count > cap:  # more: the histogram narrows the interval (bounded memory)
+                    inside = None
+        if inside is not None:
+            v = np.sort(np.concatenate(inside)) if inside else np.zeros(0)
+            return v[[ks[0] - below, ks[1] - below]]
         cum = below + np.cumsum(hist)
         b0, b1 = (int(np.searchsorted(cum, k, side="right")) for k in ks)  # the bins holding the two
         below = int(cum[b0 - 1]) if b0 else below
@@ -1211,20 +1224,26 @@ class _Runs:
     open at the end of the n samples stops at n)."""
 
     def __init__(self):
-        self.starts: list[int] = []
-        self._stops: list[int] = []
+        from bootnav.core.arrays import GrowingRows
+
+        self._starts, self._stops = GrowingRows(1, np.int64), GrowingRows(1, np.int64)  # 16 B per run
         self._prev = False
 
     def push(self, start: int, mask: np.ndarray) -> None:
         if len(mask):
             mask = np.asarray(mask, bool)
             before = np.concatenate(([self._prev], mask[:-1]))
-            self.starts.extend((start + np.flatnonzero(mask & ~before)).tolist())
-            self._stops.extend((start + np.flatnonzero(~mask & before)).tolist())
+            self._starts.extend(start + np.flatnonzero(mask & ~before))
+            self._stops.extend(start + np.flatnonzero(~mask & before))
             self._prev = bool(mask[-1])
 
+    @property
+    def starts(self) -> np.ndarray:
+        """The first sample of every run so far (a view)."""
+        return self._starts.rows[:, 0]
+
     def stops(self, n: int) -> np.ndarray:
-        return np.array(self._stops + ([n] if self._prev else []), np.int64)
+        return np.concatenate((self._stops.rows[:, 0], [n] if self._prev else [])).astype(np.int64)
 
 
 class _OnsetInnovations:
@@ -1256,7 +1275,7 @@ class _OnsetInnovations:
         return float(np.mean(e2)) if len(e2) else float("inf")
 
 
-def _probe_cut(starts: list[int], n: int, fp_probe: dict, max_level_strides: int | None) -> int:
+def _probe_cut(starts: np.ndarray, n: int, fp_probe: dict, max_level_strides: int | None) -> int:
     """The samples ``selftune.level_timing_offset`` probes: whole stance phases, the first 2K + 1, doubled while
     either probe has fewer than K level strides in them, up to the whole record (its docstring); n = all."""
     from . import selftune
@@ -1314,7 +1333,7 @@ class _ForwardProbes:
         self.onsets[s].push(r)
         self.done[s] = r.start + len(r)
 
-    def push(self, ch, starts: list[int]) -> None:
+    def push(self, ch, starts: np.ndarray) -> None:
         """Push a stance chunk (``starts``: the stance phases' first samples so far, this chunk's included)."""
         step = self.PIECE if self._phases is not None else max(len(ch.t_s), 1)
         for a in range(0, len(ch.t_s), step):
@@ -1328,7 +1347,7 @@ class _ForwardProbes:
                 self._keep(s, r)
             self._look(starts)
 
-    def _look(self, starts: list[int]) -> None:
+    def _look(self, starts: np.ndarray) -> None:
         """``_probe_cut`` on the rows so far: stop the runs once it is decided."""
         from . import selftune
 
@@ -1345,7 +1364,7 @@ class _ForwardProbes:
                 return
             self._phases *= 2
 
-    def finish(self, starts: list[int], n: int) -> tuple[dict, int, dict]:
+    def finish(self, starts: np.ndarray, n: int) -> tuple[dict, int, dict]:
         """({sign: (mid times, footprints)}, the probes' cut, {sign: _OnsetInnovations}) after the last chunk."""
         self._close()
         for s, nav in self.navs.items():

@@ -46,6 +46,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from bootnav.core.arrays import GrowingRows
 from bootnav.core.runs import runs
 
 STEP_COLUMNS = ("t_s", "x_m", "y_m", "z_m", "stride_length_m", "dz_m", "yaw_enu_rad")
@@ -88,7 +89,7 @@ class FootprintAccumulator:
     """
 
     def __init__(self):
-        self._t_mid, self._fp, self._cov = _GrowingRows(1), _GrowingRows(3), _GrowingRows(3)  # 56 B per phase
+        self._t_mid, self._fp, self._cov = GrowingRows(1), GrowingRows(3), GrowingRows(3)  # 56 B per phase
         self._open_cov: np.ndarray | None = None
         self._open: tuple | None = None  # (first time, position sum, samples, last time) of the open phase
         self.first_stop_t: float | None = None  # time of the last sample of the first stance phase
@@ -152,24 +153,6 @@ class FootprintAccumulator:
     def walked_s(self) -> float:
         """From the end of the first stance phase to the start of the last one, s (``path_summary``)."""
         return 0.0 if self.first_stop_t is None else float(self.last_start_t - self.first_stop_t)
-
-
-class _GrowingRows:
-    """Rows of ``width`` floats appended one at a time into a buffer that doubles (no Python object per row)."""
-
-    def __init__(self, width: int):
-        self._buf = np.empty((64, width))
-        self._n = 0
-
-    def append(self, row) -> None:
-        if self._n == len(self._buf):
-            self._buf = np.concatenate((self._buf, np.empty_like(self._buf)))
-        self._buf[self._n] = row
-        self._n += 1
-
-    @property
-    def rows(self) -> np.ndarray:
-        return self._buf[:self._n]
 
 
 def stride_footprints(fp: np.ndarray, min_stride_m: float) -> np.ndarray:

@@ -73,3 +73,29 @@ def test_the_gait_period_convolution_is_scipys_bit_for_bit(m, c):
     z = np.random.default_rng(m + c).random(c + m)
     x = z[c:]
     np.testing.assert_array_equal(_convolve_full(z, x[::-1]), fftconvolve(z, x[::-1]))
+
+
+def test_order_statistics_keep_at_most_cap_values():
+    """The exact median and 99th percentile the block passes take over a whole record (Δt₀, ‖ω‖'s p99, the
+    adaptive γ), with memory bounded by ``cap`` and one piece, not by the record: 40 pieces of 10⁵ values
+    (32 MB in all) with cap 2¹⁶ (0.5 MB) stay under 8 MB traced (ten pieces; keeping them all is 32 MB)."""
+    import tracemalloc
+
+    from bootnav.postproc import pipeline
+
+    def pieces():
+        for i in range(40):
+            yield np.random.default_rng(i).normal(size=100_000)
+
+    whole = np.concatenate(list(pieces()))
+    m = len(whole)
+    tracemalloc.start()
+    try:
+        med = pipeline._order_statistics(pieces, ((m - 1) // 2, m // 2), cap=1 << 16)
+        p99 = pipeline._percentile(pieces, 99, cap=1 << 16)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert np.mean(med) == np.median(whole)
+    assert p99 == np.percentile(whole, 99)
+    assert peak < 8e6

@@ -1,5 +1,6 @@
 """Array helpers of the processing stages (stance detectors, checks, calibration, self-tuning): IMU array
-shapes, windows in seconds, centred moving means, row norms and dots, saturation / clipping masks. Vectorised with scipy.ndimage (no per-sample Python loop); scipy is imported
+shapes, windows in seconds, centred moving means, row norms and dots, saturation / clipping masks, rows grown
+in place (``GrowingRows``). Vectorised with scipy.ndimage (no per-sample Python loop); scipy is imported
 where it is used, so that importing the detector registry stays light (``bootnav process --help``)."""
 
 from __future__ import annotations
@@ -191,3 +192,41 @@ def dilate(mask: np.ndarray, n: int) -> np.ndarray:
     if n <= 0 or not mask.any():
         return mask.copy()
     return binary_dilation(mask, structure=np.ones(2 * n + 1, dtype=bool))
+
+
+class GrowingRows:
+    """Rows of ``width`` values appended in order into a buffer that doubles (no Python object per row: 8 B per
+    float64 value, at most twice that with the spare room); what the block passes keep per stance phase."""
+
+    def __init__(self, width: int, dtype=np.float64):
+        self._buf = np.empty((64, width), dtype)
+        self._n = 0
+
+    def append(self, row) -> None:
+        """Add one row."""
+        if self._n == len(self._buf):
+            self._buf = np.concatenate((self._buf, np.empty_like(self._buf)))
+        self._buf[self._n] = row
+        self._n += 1
+
+    def extend(self, rows) -> None:
+        """Add rows (m, width), or m values when ``width`` is 1."""
+        rows = np.asarray(rows).reshape(-1, self._buf.shape[1])
+        need = self._n + len(rows)
+        if need > len(self._buf):
+            size = len(self._buf)
+            while size < need:
+                size *= 2
+            buf = np.empty((size, self._buf.shape[1]), self._buf.dtype)
+            buf[:self._n] = self._buf[:self._n]
+            self._buf = buf
+        self._buf[self._n:need] = rows
+        self._n = need
+
+    def __len__(self) -> int:
+        return self._n
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The rows so far (n, width), a view."""
+        return self._buf[:self._n]

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bootnav.core.arrays import row_norm
+from bootnav.core.arrays import GrowingRows, row_norm
 from bootnav.core.runs import runs
 from bootnav.postproc.strides import footprints
 
@@ -103,9 +103,7 @@ class StrideQualityAccumulator:
         from bootnav.postproc.strides import FootprintAccumulator
 
         self._fp = FootprintAccumulator()
-        self._first: list[float] = []  # per stance phase: ~100 B each, 9 MB at 24 h of walking
-        self._last: list[float] = []
-        self._med: list[float] = []
+        self._phases = GrowingRows(3)  # per stance phase: first and last time, median rate (24 B each)
         self._open: list[np.ndarray] = []  # turning rates of the open phase, chunk by chunk
         self._open_t: tuple[float, float] | None = None
 
@@ -134,16 +132,15 @@ class StrideQualityAccumulator:
             return
         r = np.sort(np.concatenate(self._open))
         c = len(r)
-        self._med.append(0.5 * (r[(c - 1) // 2] + r[c // 2]))
-        self._first.append(self._open_t[0])
-        self._last.append(self._open_t[1])
+        self._phases.append((self._open_t[0], self._open_t[1], 0.5 * (r[(c - 1) // 2] + r[c // 2])))
         self._open, self._open_t = [], None
 
     def finish(self, period_s: float, settings: SelfTuneSettings | None = None) -> StrideQuality:
         """The flags of every stride pushed (``stride_flags``)."""
         self._close()
         t_mid, fp = self._fp.finish()
-        return stride_flags(t_mid, fp, self._first, self._last, self._med, period_s, settings)
+        first, last, med = self._phases.rows.T
+        return stride_flags(t_mid, fp, first, last, med, period_s, settings)
 
 
 def split_strides(quality: StrideQuality, period_s: float, settings: SelfTuneSettings | None = None) -> str | None:
