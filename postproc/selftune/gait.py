@@ -9,8 +9,12 @@ from bootnav.core.arrays import row_norm
 from bootnav.core.peaks import local_maxima
 from bootnav.core.timebase import sample_period
 
+#: lag range (s) searched for a stride period (one definition for the whole-record and the chunked estimate)
+PERIOD_MIN_S, PERIOD_MAX_S = 0.4, 3.0
 
-def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = 0.4, max_s: float = 3.0) -> float:
+
+def gait_period(t_s: np.ndarray, gyro_b: np.ndarray, min_s: float = PERIOD_MIN_S,
+                max_s: float = PERIOD_MAX_S) -> float:
     """One foot's stride period (s) from the autocorrelation of ‖ω‖, or NaN without a periodic gait.
 
     Parameters
@@ -74,7 +78,7 @@ class GaitPeriodAccumulator:
     accumulated chunk by chunk (each chunk's products with the carried tail) and headₗ, tailₗ the sums of the
     first and last l samples. Equal to ``gait_period``'s to rounding, given the same sample period."""
 
-    def __init__(self, dt_s: float, min_s: float = 0.4, max_s: float = 3.0):
+    def __init__(self, dt_s: float, min_s: float = PERIOD_MIN_S, max_s: float = PERIOD_MAX_S):
         self.dt, self.min_s, self.max_s = float(dt_s), float(min_s), float(max_s)
         self.lags = int(max_s / self.dt) + 1
         self._s = np.zeros(self.lags)
