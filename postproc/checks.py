@@ -181,17 +181,28 @@ def clipping_bits(acc_b: np.ndarray, gyro_b: np.ndarray, sloping: bool = False) 
         (``bootnav.core.arrays.clipped_axes``; with ``sloping``, also the rails that a calibrated output makes
         slope on a gyro axis without an exact one, ``bootnav.core.arrays.sloping_rails``).
     """
-    from bootnav.core.arrays import GYRO_MIN_FULL_SCALE_RADPS, clipped_axes, sloping_rails
+    from bootnav.core.arrays import clipped_axes
 
     bits = np.zeros(len(acc_b), dtype=np.uint8)
     exact = clipped_axes(gyro_b)
-    # a rail that repeats one value holds most of its plateau samples at it, and the samples just below are
-    # real values; a sloping rail may repeat its top by chance (quantised cross-axis terms), not most of it
-    rails = {k: m for k, m in sloping_rails(gyro_b, GYRO_MIN_FULL_SCALE_RADPS).items()
-             if k not in exact or 2 * np.count_nonzero(exact[k] & m) < np.count_nonzero(m)} if sloping else {}
-    for first, axes in ((0, clipped_axes(acc_b)), (3, exact), (3, rails)):
+    for first, axes in ((0, clipped_axes(acc_b)), (3, exact)):
         for k, mask in axes.items():
             bits |= mask.astype(np.uint8) << (first + k)
+    return bits | sloping_gyro_bits(gyro_b, exact) if sloping else bits
+
+
+def sloping_gyro_bits(gyro_b: np.ndarray, exact: dict) -> np.ndarray:
+    """Saturation bits (as ``clipping_bits``') of the gyro rails that a calibrated output makes slope
+    (``bootnav.core.arrays.sloping_rails``), on the axes whose exact rails (``exact``: {axis: mask}) do not
+    already explain them."""
+    from bootnav.core.arrays import GYRO_MIN_FULL_SCALE_RADPS, sloping_rails
+
+    bits = np.zeros(len(gyro_b), dtype=np.uint8)
+    # a rail that repeats one value holds most of its plateau samples at it, and the samples just below are
+    # real values; a sloping rail may repeat its top by chance (quantised cross-axis terms), not most of it
+    for k, m in sloping_rails(gyro_b, GYRO_MIN_FULL_SCALE_RADPS).items():
+        if k not in exact or 2 * np.count_nonzero(exact[k] & m) < np.count_nonzero(m):
+            bits |= m.astype(np.uint8) << (3 + k)
     return bits
 
 
@@ -351,13 +362,18 @@ class ClipRails:
 
     ``clipped_samples`` compares every sample with the per-axis extremes of the whole record and counts the
     samples at them; here ``add_peaks`` (first pass) and ``add_counts`` (second pass) see every block, and
-    ``bits`` then gives exactly ``clipping_bits`` for any block.
+    ``bits`` then gives exactly ``clipping_bits`` for any block. With ``sloping`` (``filter.sloping_rails``) the
+    sloping gyro rails are found within each block (``sloping_gyro_bits``: a rail shows on many swings of one
+    block), so a recording of one block gets exactly ``clipping_bits(..., sloping=True)``.
     """
 
     REL_TOL = 1e-6  # clipped_samples' defaults
     MIN_REPEATS = 3
 
-    def __init__(self):
+    def __init__(self, sloping: bool = False):
+        self.sloping = sloping
+        self._slope_key: tuple | None = None  # the block whose sloping bits are kept (the passes read it again)
+        self._slope_bits = None
         self.pos = np.full(6, -np.inf)  # max of x per axis (acc x/y/z, gyro x/y/z)
         self.neg = np.full(6, -np.inf)  # max of -x
         self.count_pos = np.zeros(6, np.int64)
@@ -392,4 +408,11 @@ class ClipRails:
         """Saturation bitmask (bits as ``clipping_bits``') of one block."""
         p, q = self._at(acc_b, gyro_b)
         on = (p & self.rail_pos) | (q & self.rail_neg)
-        return (on.astype(np.uint8) << np.arange(6, dtype=np.uint8)).sum(axis=1, dtype=np.uint8)
+        bits = (on.astype(np.uint8) << np.arange(6, dtype=np.uint8)).sum(axis=1, dtype=np.uint8)
+        if not self.sloping or len(gyro_b) == 0:
+            return bits
+        key = (len(gyro_b), gyro_b[0].tobytes(), gyro_b[-1].tobytes(), gyro_b[len(gyro_b) // 2].tobytes())
+        if key != self._slope_key:
+            exact = {k: on[:, 3 + k] for k in range(3) if on[:, 3 + k].any()}
+            self._slope_key, self._slope_bits = key, sloping_gyro_bits(gyro_b, exact)
+        return bits | self._slope_bits

@@ -457,7 +457,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
         rails = None
         if settings.detector.detect_clipping:  # the extremes of the whole record, then the samples at them
-            rails = ClipRails()
+            rails = ClipRails(settings.filter.sloping_rails)
             for i0, i1 in blocks:
                 rails.add_peaks(*read(i0, i1)[1:3])
             for i0, i1 in blocks:
