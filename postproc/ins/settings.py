@@ -70,7 +70,8 @@ class FilterSettings:
         Also find the gyro rails that a calibrated output makes slope (``bootnav.core.arrays.sloping_rails``;
         a sensor that clips and then applies its factory calibration, e.g. MicroStrain's ``scaledGyro``,
         does not repeat one value at full scale) and treat them as clipped (``sat_gyro_sigma_radps``).
-        Whole-record runs; a recording read in blocks finds exact rails only. True: a sample on a rail is a
+        In blocks (``checks.ClipRails``) each block finds its own sloping rails (a rail shows on many swings of
+        one block), so one block flags exactly what the whole record does. True: a sample on a rail is a
         lower bound, not a measurement, whether or not the output repeats one value there (physics; the
         leave-one-dataset-out check is flat, 1.002, as nothing but the railed MicroStrain files moves;
         docs/tuning-log.md 2026-12-02).
