@@ -96,14 +96,15 @@ RAIL_TOP_POWER = 4.0  # a rail's top is flatter than a quartic maximum (a swing 
 GYRO_MIN_FULL_SCALE_RADPS = math.radians(125.0)  # the smallest range of MEMS gyros (e.g. BMI160, ICM-42688: ±125 °/s)
 
 
-def _dwell(col: np.ndarray, j: int, level: float) -> tuple[int, int, float]:
+def _dwell(col: np.ndarray, j: int, level: float, a: int, b: int) -> tuple[int, int, float]:
     """First and last sample of the run above ``level`` that holds sample ``j``, and its duration in samples
-    with the crossings interpolated (NaN when the run touches an end of the record)."""
-    from .runs import runs
-
-    ra, rb = runs(col > level)
-    r = int(np.searchsorted(ra, j, side="right")) - 1
-    i0, i1 = int(ra[r]), int(rb[r]) - 1
+    with the crossings interpolated (NaN when the run touches an end of the record). The run lies inside the
+    excursion ``col[a:b]`` that holds ``j`` (``level`` is above the excursions' threshold), so only that
+    excursion is searched."""
+    below = np.flatnonzero(~(col[a:b] > level)) + a
+    r = int(np.searchsorted(below, j))
+    i0 = int(below[r - 1]) + 1 if r > 0 else a
+    i1 = int(below[r]) - 1 if r < len(below) else b - 1
     if i0 == 0 or i1 == len(col) - 1:
         return i0, i1, math.nan
     return i0, i1, ((i1 - i0) + (col[i0] - level) / (col[i0] - col[i0 - 1])
@@ -156,8 +157,8 @@ def sloping_rails(x: np.ndarray, min_full_scale: float, *, min_repeats: int = 3,
             flat = 0
             for e in near:  # one iteration per excursion at the top band (a few dozen at most)
                 j = int(a[e] + np.argmax(col[a[e]:b[e]]))
-                i0, i1, t1 = _dwell(col, j, top[e] - h)
-                t2 = _dwell(col, j, top[e] - 2.0 * h)[2]
+                i0, i1, t1 = _dwell(col, j, top[e] - h, a[e], b[e])
+                t2 = _dwell(col, j, top[e] - 2.0 * h, a[e], b[e])[2]
                 mask[i0:i1 + 1] = True
                 flat += bool(t2 < max_ratio * t1)
             if flat >= min_repeats:
