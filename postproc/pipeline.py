@@ -95,6 +95,7 @@ from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, 
 from .ellipses import stride_scale_covariance
 from .floors import snap_storeys
 from .navigate import navigate
+from .passcache import PassSpills
 from .selftune import TINY
 from .settings import ProcessSettings
 from .source import crop, is_hdf5, load_source
@@ -438,10 +439,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
 
         last_read: dict = {}  # one block: its rows, calibrated, decoded once for all the passes
+        spills = PassSpills(blocks)  # many blocks: decoded, stance and filter rows computed once (``passcache``)
 
         def read(i0: int, i1: int):
             if last_read.get("rows") == (i0, i1):
                 t, acc, gyro, sat = last_read["block"]
+            elif (kept := spills.samples.get(i0, i1)) is not None:  # decoded and calibrated by an earlier pass
+                t, acc, gyro, sat = kept
             else:
                 t, acc, gyro, sat = rec.block(i0, i1)
                 if sensor_cal.calibration is not None:
@@ -451,8 +455,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     for a in (t, acc, gyro, sat):  # shared by the passes: a stage that wrote into them fails here
                         a.flags.writeable = False
                     last_read.update(rows=(i0, i1), block=(t, acc, gyro, sat))
+                spills.samples.put(i0, i1, (t, acc, gyro, sat))
             if rails is not None and rails.rail_pos is not None:
-                sat = sat | rails.bits(acc, gyro)
+                sat = spills.samples.railed(i0, i1, lambda: sat | rails.bits(acc, gyro))
             return t, acc, gyro, sat
 
         rails = None
@@ -492,10 +497,15 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         chosen: dict = {}  # the fallback's stance: "detector" (settings, floor) or "cycle" (the mask); {}: configured
 
         def detector_stream(det_settings, det_floor):
+            replayed = spills.stance.replay(det_settings, det_floor)  # the chunks an earlier pass spilled
+            if replayed is not None:
+                yield from replayed
+                return
             det = StreamStance(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
+            keep = spills.stance.recorder(det_settings, det_floor).keep
             for i0, i1 in blocks:
-                yield from det.push(*read(i0, i1))
-            yield from det.finish()
+                yield from keep(det.push(*read(i0, i1)))
+            yield from keep(det.finish(), last=True)
 
         def stance_stream():
             """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking): the configured
@@ -666,9 +676,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         r.pos_n[:, ax] += np.interp(r.t_s, revisit[0], revisit[1][:, ax])
                 return r
 
-            # one block, no revisit correction: the navigator of the last filter pass and the rows of each of its
-            # pushes, which the final pass replays when it runs the same filter with the same gate (the heading
-            # decision off: the unaided path is the final one, as ``navigate`` runs it once)
+            # no revisit correction: the navigator of the last filter pass and the rows of each of its pushes (in
+            # memory over one block, spilled over more: ``passcache.NavRowSpill``), which the final pass replays when
+            # it runs the same filter with the same gate (the heading decision off: the unaided path is the final
+            # one, as ``navigate`` runs it once)
             replay: dict = {}
 
             def path_footprints(filter_settings, with_var=False):
@@ -677,7 +688,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
                 path_fp = FootprintAccumulator()
                 var = _PhaseInterpolation() if with_var else None
-                pieces = [] if len(blocks) == 1 and revisit is None else None
+                pieces = spills.nav_rows() if revisit is None else None  # one block: in memory; more: spilled
                 replay.clear()
                 for ch in stance_stream():
                     r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
@@ -689,7 +700,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
                 r = path_nav.finish()
                 if pieces is not None:
-                    replay.update(filter=filter_settings, gate=gate_iv, nav=path_nav, rows=pieces + [r])
+                    pieces.append(r)
+                    if pieces.kept:
+                        replay.update(filter=filter_settings, gate=gate_iv, nav=path_nav, rows=pieces)
                 r = corrected(r)
                 path_fp.push(r.t_s, r.pos_n, r.stance)
                 if var is not None:
