@@ -15,9 +15,9 @@ chunk by the passes after it, so the outputs are the same bit for bit and memory
 - ``NavRowSpill``: the ``NavRows`` of each push of a filter pass, which the final pass replays when it runs
   the same filter with the same gate (the condition of the one-block replay, which it keeps in memory).
 
-Each spill takes its bytes from the run's ``SpillBudget``; a spill that would go over it (or that the disk
-refuses) is dropped and its passes compute as without spills. At 200 Hz a run spills about 230 MB per hour
-of recording (``docs/long-recordings.md``).
+Each spill takes its bytes from the run's ``SpillBudget``; what would go over it (or what the disk refuses)
+is not kept, and the passes that would have read it compute as without spills. At 200 Hz a run spills about
+222 MB per hour of recording (``docs/long-recordings.md``).
 """
 
 from __future__ import annotations
@@ -87,8 +87,9 @@ class SpillBudget:
 class ArrayFile:
     """Arrays appended to one temporary file (their bytes as they are in memory) and read back by place.
 
-    Made by ``SpillBudget.open``. Once a write is refused (the budget, or the disk) the file is dropped: every
-    later write is refused too and its places are no longer readable, so a user recomputes.
+    Made by ``SpillBudget.open``. Once a write is refused (the budget, or the disk) the file is ``full``: every
+    later write is refused too (its user recomputes what it did not keep), while what it holds stays readable
+    (a pass may be replaying it).
     """
 
     def __init__(self, budget: SpillBudget, prefix: str):
@@ -96,33 +97,32 @@ class ArrayFile:
         self._prefix = prefix
         self._f = None
         self.size = 0
-        self.dropped = False
+        self.full = False
 
     def write(self, arrays) -> list | None:
         """Append ``arrays`` (a sequence of arrays or None); their places for ``read``, or None when refused."""
-        if self.dropped:
+        if self.full:
             return None
         arrays = [None if a is None else np.ascontiguousarray(a) for a in arrays]
         nbytes = sum(a.nbytes for a in arrays if a is not None)
         if not self._budget.allows(nbytes):
-            self.drop()
+            self.full = True
             return None
-        places = []
+        places, pos = [], self.size
         try:
             if self._f is None:
                 self._f = tempfile.TemporaryFile(prefix=self._prefix, dir=self._budget.folder)
-            self._f.seek(self.size)
+            self._f.seek(pos)
             for a in arrays:
-                if a is None:
-                    places.append(None)
-                    continue
-                if a.nbytes:
+                places.append(None if a is None else (pos, a.dtype, a.shape))
+                if a is not None and a.nbytes:
                     self._f.write(memoryview(a).cast("B"))
-                places.append((self.size, a.dtype, a.shape))
-                self.size += a.nbytes
-        except OSError:  # the disk is full (or gone): recompute
-            self.drop()
+                    pos += a.nbytes
+            self._f.flush()  # a full disk says so here, not at a later read
+        except OSError:  # the disk is full (or gone): what was written before stays readable
+            self.full = True
             return None
+        self.size = pos
         return places
 
     def read(self, places) -> list:
@@ -141,12 +141,9 @@ class ArrayFile:
             out.append(a)
         return out
 
-    def drop(self) -> None:
-        """Close and delete the file; its bytes go back to the budget."""
-        self.dropped = True
-        self.close()
-
     def close(self) -> None:
+        """Close and delete the file (its places are no longer readable); its bytes go back to the budget."""
+        self.full = True
         if self._f is not None:
             self._f.close()
             self._f = None
@@ -175,7 +172,7 @@ class DecodedBlocks:
     def get(self, i0: int, i1: int) -> tuple | None:
         """The block's ``(t, acc, gyro, saturated)`` as ``put`` was given them, or None when not kept."""
         places = self._samples.get((i0, i1))
-        return None if places is None or self._file.dropped else tuple(self._file.read(places))
+        return None if places is None else tuple(self._file.read(places))
 
     def put(self, i0: int, i1: int, samples: tuple) -> None:
         """Keep a block's decoded, calibrated ``(t, acc, gyro, saturated)`` (a window that is not a block, or
@@ -188,7 +185,7 @@ class DecodedBlocks:
     def railed(self, i0: int, i1: int, compute) -> np.ndarray:
         """The saturation bits of rows i0..i1-1 with the rails' (``compute()``), computed once per block."""
         places = self._railed.get((i0, i1))
-        if places is not None and not self._file.dropped:
+        if places is not None:
             return self._file.read(places)[0]
         sat = compute()
         if (i0, i1) in self._blocks:
@@ -226,7 +223,7 @@ class StanceSpill:
     def replay(self, det_settings, noise_floor_log10):
         """The recorded stream's chunks (a generator), or None when there is none."""
         rows = self._streams.get(self.key(det_settings, noise_floor_log10))
-        if rows is None or self._file.dropped:
+        if rows is None:
             return None
         return self._chunks(rows)
 
@@ -284,10 +281,7 @@ class NavRowSpill:
         self._memory: list | None = [] if in_memory else None
         self._file = None if in_memory else budget.open("bootnav-navrows-")
         self._places: list = []
-
-    @property
-    def kept(self) -> bool:
-        return self._file is None or not self._file.dropped
+        self.kept = True
 
     def append(self, rows) -> None:
         """Keep the rows of one push (``StreamNavigator.push`` or ``finish``)."""
@@ -296,12 +290,16 @@ class NavRowSpill:
         if self._memory is not None:
             self._memory.append(rows)
             return
-        if self._file.dropped:
+        if not self.kept:
             return
         names = [f.name for f in fields(rows) if f.name != "start"]
         places = self._file.write([getattr(rows, nm) for nm in names])
-        if places is not None:
-            self._places.append((rows.start, names, places))
+        if places is None:  # not replayed: its disk space back at once
+            self.kept = False
+            self._places = []
+            self._file.close()
+            return
+        self._places.append((rows.start, names, places))
 
     def __iter__(self):
         """The rows appended, in order (each a new ``NavRows`` read back from the file); the file is closed

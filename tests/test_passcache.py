@@ -5,6 +5,8 @@ again, with the same outputs."""
 
 import json
 import shutil
+import tempfile
+from types import SimpleNamespace
 
 import h5py
 import numpy as np
@@ -116,7 +118,7 @@ def test_a_spill_over_the_budget_is_computed_again(walk, tmp_path, monkeypatch, 
     assert c["detectors"] > c_on["detectors"] or bytes_per_sample > 130
 
 
-def test_array_file_refuses_over_its_budget_and_drops_what_it_held(tmp_path):
+def test_array_file_refuses_over_its_budget_and_keeps_what_it_held(tmp_path):
     budget = passcache.SpillBudget(1000, tmp_path)
     f = budget.open("t-")
     a = np.arange(50, dtype=np.float64)  # 400 B
@@ -127,7 +129,51 @@ def test_array_file_refuses_over_its_budget_and_drops_what_it_held(tmp_path):
     assert got[1] is None and got[2].dtype == bool and got[2].sum() == 49
     assert f.write([a]) is not None and budget.used == 850
     assert f.write([a]) is None  # 1250 B > 1000 B
-    assert f.dropped and budget.used == 0 and f.write([a[:1]]) is None
+    assert f.full and f.write([a[:1]]) is None  # and every write after it
+    np.testing.assert_array_equal(f.read(places)[0], a)  # a pass replaying it reads on
+    f.close()
+    assert budget.used == 0
+
+
+class _SmallDisk:
+    """A temporary file on a disk with ``free`` bytes left (then ENOSPC), shared by every file opened."""
+
+    free = 0
+    refused = 0
+
+    def __init__(self, *a, **k):
+        self._f = tempfile.TemporaryFile()
+
+    def write(self, b):
+        import errno
+
+        n = memoryview(b).nbytes
+        if n > _SmallDisk.free:
+            _SmallDisk.refused += 1
+            raise OSError(errno.ENOSPC, "No space left on device")
+        _SmallDisk.free -= n
+        return self._f.write(b)
+
+    def __getattr__(self, name):
+        return getattr(self._f, name)
+
+
+@pytest.mark.parametrize("bytes_per_sample", [30, 140])
+def test_a_full_disk_is_computed_again(walk, tmp_path, monkeypatch, bytes_per_sample):
+    """The disk fills up in the middle of the decoded samples, or of the filter's rows: the same outputs."""
+    off, _ = _run(walk, tmp_path / "off", monkeypatch, budget=0)
+    monkeypatch.setattr(_SmallDisk, "free", bytes_per_sample * off["input"]["samples_processed"])
+    monkeypatch.setattr(_SmallDisk, "refused", 0)
+    small = SimpleNamespace(TemporaryFile=_SmallDisk, gettempdir=tempfile.gettempdir)
+    monkeypatch.setattr(passcache, "tempfile", small)
+    _, c = _run(walk, tmp_path / "full", monkeypatch)
+    _assert_same(tmp_path / "full", tmp_path / "off")
+    assert _SmallDisk.refused >= 1  # it did fill up
+    blocks = off["navigation"]["blocks"]
+    if bytes_per_sample < 57:  # some blocks decoded again
+        assert c["decoded"] > 2 * blocks + 1
+    else:  # the filter's rows not kept: the final pass runs its own filter (as with no spill)
+        assert c["rts"] == 2 + off["filter"]["heading_decision"]["on"]
 
 
 def test_rows_over_the_budget_are_not_replayed(tmp_path):
@@ -154,6 +200,6 @@ def test_rows_over_the_budget_are_not_replayed(tmp_path):
 
 
 def test_the_budget_is_at_most_half_the_free_space(tmp_path, monkeypatch):
-    monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(100, 90, 10_000))
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: SimpleNamespace(total=20_000, used=10_000, free=10_000))
     assert passcache.SpillBudget(None, tmp_path).limit == 5_000
     assert passcache.SpillBudget(3_000, tmp_path).limit == 3_000
