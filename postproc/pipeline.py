@@ -36,7 +36,9 @@ taken in a pass before the one that needs it, the last pass writing through incr
 read-only, and decode it once (a quarter of their time on a one-minute recording, for when one block
 takes the passes too); over a single block the final pass also replays the rows of the filter pass before it
 when that ran the same filter (the storeys', or the unaided one the heading decision left off), as ``navigate``
-runs that filter once:
+runs that filter once. Over many blocks the same is read back from temporary files (``passcache``: each block
+decoded once, its rail bits found once, the stance detector run once, the filter rows replayed), within a disk
+budget beyond which the passes compute again:
 
 0. the nominal period Δt₀: the median step of the whole record (``_nominal_period``: exact order statistics
    from passes over the times, ``_order_statistics``), as ``timebase.sample_period`` gives ``process``;
