@@ -203,3 +203,19 @@ def test_the_budget_is_at_most_half_the_free_space(tmp_path, monkeypatch):
     monkeypatch.setattr(shutil, "disk_usage", lambda p: SimpleNamespace(total=20_000, used=10_000, free=10_000))
     assert passcache.SpillBudget(None, tmp_path).limit == 5_000
     assert passcache.SpillBudget(3_000, tmp_path).limit == 3_000
+
+
+def test_no_spill_on_a_file_system_in_memory(tmp_path, monkeypatch):
+    """A temporary folder on tmpfs holds its files in memory: the spills would be memory growing with the length."""
+    mounts = tmp_path / "mounts"
+    mounts.write_text(f"/dev/vda / ext4 rw 0 0\ntmpfs {tmp_path} tmpfs rw 0 0\n")
+    real_open = open
+
+    def fake_open(f, *a, **k):
+        return real_open(mounts if f == "/proc/self/mounts" else f, *a, **k)
+
+    monkeypatch.setattr("builtins.open", fake_open)
+    assert passcache.ram_backed(tmp_path) and passcache.ram_backed(tmp_path / "x")
+    assert not passcache.ram_backed(tmp_path.parent)
+    assert passcache.SpillBudget(None, tmp_path).limit == 0
+    assert passcache.SpillBudget(None, tmp_path.parent).limit > 0
