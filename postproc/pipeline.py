@@ -105,6 +105,24 @@ Progress = Callable[[str, float], None]
 
 
 @dataclass
+class Navigation:
+    """The navigation stages' decisions and path (SI; masks and arrays have one row per sample)."""
+
+    configured: Any  # detectors.StanceResult of the configured detector (its statistic; the mask the filter used)
+    stance: np.ndarray  # (N,) bool, the mask the filter used
+    nav: Any  # ins.NavSolution: the filter + smoother's path (before the storeys)
+    acc_used_b: np.ndarray  # (N, 3) m/s², the specific force given to the filter (rotated by τ)
+    choice: str  # "configured (<method>)" or the fallback candidate's name
+    failed: str | None  # why the configured detector was not kept (None: it was)
+    timing: dict  # the timing calibration's figures (tau_s, n_level, applied, ...); {} when off
+    confidence: float  # in [0, 1], selftune.confidence
+    period_s: float  # gait (stride) period, s; NaN without a periodic gait
+    quality: Any  # selftune.StrideQuality of the raw strides (stance phase to stance phase)
+    candidates: list[dict] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass
 class ProcessResult:
     """Everything one run produced (SI, nav frame ENU z up, origin at the first processed sample)."""
 
@@ -131,8 +149,9 @@ class ProcessResult:
     saturation_intervals: list[dict] = field(default_factory=list)
     metrics: dict | None = None  # reference metrics [Heidari2019, Table 1] when a reference was given
     reference: Any = None  # reference_path.Reference
-    navigation: Any = None  # navigate.Navigation: stance choice, timing offset, confidence, stride flags
+    navigation: Any = None  # Navigation: stance choice, timing offset, confidence, stride flags
     sensor_calibration: Any = None  # calibration.AppliedCalibration: which calibration ran (or none, and why)
+    saturation_bits: np.ndarray | None = None  # (N,) uint8, the bits the filter got (recording's + clipping rails)
 
 
 def _call_progress(progress: Progress | None, stage: str, fraction: float) -> None:
@@ -159,6 +178,10 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
             progress: Progress | None = None, calibration=None) -> ProcessResult:
     """Run every stage (module docstring) on one input and return the result; writes nothing.
 
+    The same block passes as ``bootnav process`` (``_block_passes``), their final pass keeping its rows in
+    memory instead of writing them: the result's arrays are the rows of ``trajectory.csv`` and ``results.h5``,
+    its summary the one ``summary.json`` holds (but ``files``).
+
     Parameters
     ----------
     source
@@ -175,99 +198,58 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     Returns
     -------
     ProcessResult
-        The path, stance mask, strides, summary (``summary.build_summary``) and every intermediate a writer
-        or a plot needs.
+        The path, stance mask, strides, summary and every intermediate a writer or a plot needs.
 
     Raises
     ------
     InputError
         Bad settings, an unreadable input or reference, input that cannot be integrated
-        (``checks.check_samples``), a recording that cannot be a walking foot (``navigate``), or a diverged
-        filter.
+        (``checks.check_samples``), a recording that cannot be a walking foot, or a diverged filter.
     """
-    from .calibration import calibrate_recording, initial_alignment
-    from .reference_path import compute_metrics, load_reference, truth_reference
+    from .reference_path import load_reference, truth_reference
+    from .source import MemoryReader, crop_window
 
     settings = settings or ProcessSettings()
     settings.validate()
     lap = _StageClock(progress)
-    timings = lap.timings
-
     ref = None
     if settings.reference and settings.reference != "truth":  # a bad reference fails before any work
         ref = load_reference(settings.reference)
     _call_progress(progress, "load", 0.0)
     src = load_source(source)
-    name = src.name
     if settings.reference == "truth":
         ref = truth_reference(src.recording, src.path if src.is_hdf5 else None)
-    lap("load")
+    window = crop_window(MemoryReader(src.recording), settings.crop_s, src.name)
+    run = _Input(window, src.name, src.path, src.is_hdf5, src.recording, False, ref, calibration, _Collected())
+    summary, _ = _block_passes(run, settings, None, [], lap, None, progress)
+    return _result_of(run, summary, settings, src)
 
-    samples = crop(src.recording, settings.crop_s, name)
-    t_s, gyro_b, offset = samples.t_s, samples.gyro_b, samples.index.start
-    warnings = check_samples(name, t_s, samples.acc_b, gyro_b, offset, settings.checks)
-    sat_bits = samples.saturated
-    if settings.detector.detect_clipping:
-        sat_bits = sat_bits | clipping_bits(samples.acc_b, gyro_b, settings.filter.sloping_rails)
-    sat_iv = saturation_intervals(t_s, sat_bits, offset)
-    warnings += saturation_warnings(sat_iv)
-    lap("checks")
 
-    cal = settings.calibration
-    acc_b, gyro_b, sensor_cal = calibrate_recording(src.recording, samples.index, samples.acc_b, gyro_b, cal,
-                                                    calibration)
-    warnings += sensor_cal.warnings
-    gravity = cal.gravity()
-    init = initial_alignment(t_s, acc_b, gyro_b, cal, gravity)
-    warnings += list(init.warnings)
-    lap("calibration")
+def _result_of(run: _Input, summary: dict, settings: ProcessSettings, src) -> ProcessResult:
+    """The ``ProcessResult`` of ``process``'s passes: their rows, samples and figures (``_Collected``)."""
+    from .detectors import StanceResult
+    from .ins.filter import NavSolution
 
-    filter_progress = (lambda f: _call_progress(progress, "navigation", min(float(f), 0.99))) if progress else None
-    navi = navigate(name, t_s, acc_b, gyro_b, init, gravity, settings, sat_bits, filter_progress)
-    nav, stance = navi.nav, navi.stance
-    pos_n = np.asarray(nav.pos_n)
-    check_path_finite(name, t_s, pos_n, offset)
-    storeys = None
-    floors = settings.floor_settings()
-    if floors.storeys:
-        pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                      floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
-                                      floors.floor_height_m)
-    # the floor number: the storeys found (``floors.storey_numbers``) as heights of whole nominal storeys, so that
-    # the hysteresis counting of ``strides.floor_levels`` returns exactly their numbers
-    floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
-    warnings += navi.warnings
-    warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
-    lap("navigation")
-
-    min_stride = settings.selftune.min_stride_m
-    cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings,
-                                        sensor_cal.provenance.get("status") == "applied")
-    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None), floor_z, cov_extra)
-    if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
-        raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
-                         f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
-    findings = stride_findings(steps, settings.checks, navi.choice)
-    warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, floor_z)
-    path_stats["storeys"] = storeys.summary() if storeys is not None else None
-    lap("strides")
-    metrics = None
-    if ref is not None:
-        metrics = compute_metrics(ref, t_s, pos_n, stance, src.recording.meta.get("mount"), min_stride)
-        lap("reference")
-
-    timings["total_process"] = float(sum(timings.values()))
-    result = ProcessResult(
-        t_s=t_s, pos_n=pos_n, vel_n=np.asarray(nav.vel_n), q_nb=np.asarray(nav.q_nb), stance=stance,
-        steps=steps, summary={}, settings=settings, warnings=warnings, saturated=sat_bits.astype(bool),
-        acc_b=acc_b, gyro_b=gyro_b, gravity_mps2=float(gravity), stance_result=navi.configured, nav=nav, init=init,
-        recording=src.recording, source=src.path, source_is_hdf5=src.is_hdf5, index=samples.index,
-        saturation_intervals=sat_iv, metrics=metrics, reference=ref, navigation=navi, sensor_calibration=sensor_cal,
-    )
-    result.summary = build_summary(result, path_stats, timings)
-    return result
+    x, rows = run.rows.extra, run.rows.arrays()
+    stance = rows["stance"].astype(bool)
+    nav = NavSolution(rows["t_s"], rows["pos_filter"], rows["vel_n"], rows["q_nb"], rows["acc_bias_b"],
+                      rows["gyro_bias_b"], rows["pos_sigma_n"], x["filter_info"], pos_cov_en=rows["pos_cov_en"])
+    stance_result = StanceResult(stance, rows["statistic"], x["threshold"], settings.detector.method,
+                                 dict(x["stance_info"]))
+    acc_used = rows["acc_used"] if rows["acc_used"] is not None else rows["acc_b"]
+    navigation = Navigation(
+        configured=stance_result, stance=stance, nav=nav, acc_used_b=acc_used, choice=x["choice"],
+        failed=x["failed"], timing=x["timing"], confidence=x["confidence"], period_s=x["period"],
+        quality=x["quality"], candidates=x["candidates"], warnings=[])
+    start = run.rec.start
+    return ProcessResult(
+        t_s=rows["t_s"], pos_n=rows["pos_n"], vel_n=rows["vel_n"], q_nb=rows["q_nb"], stance=stance,
+        steps=x["steps"], summary=summary, settings=settings, warnings=summary["warnings"],
+        saturated=rows["saturated"] != 0, acc_b=rows["acc_b"], gyro_b=rows["gyro_b"], gravity_mps2=x["gravity"],
+        stance_result=stance_result, nav=nav, init=x["init"], recording=src.recording, source=src.path,
+        source_is_hdf5=src.is_hdf5, index=slice(start, start + len(rows["t_s"])),
+        saturation_intervals=x["saturation_intervals"], metrics=x["metrics"], reference=run.reference,
+        navigation=navigation, sensor_calibration=x["sensor_cal"], saturation_bits=rows["saturated"])
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -281,9 +263,9 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     The input is read in blocks of ``settings.block_s`` seconds: an HDF5 recording through ``RecordingReader``,
     any other file through ``source.MemoryReader`` (read whole by ``bootnav import``'s reader), the crop as a
     window of rows (``source.crop_window``). Every window, one block or many, runs the stages of ``process`` as
-    passes over its blocks (``_block_passes``), memory bounded by the block. A stage that cannot run in passes
-    (a detector that cannot stream) runs ``process`` on the whole window, written by ``outputs.write_outputs``,
-    with a warning when that is longer than ``block_s``.
+    passes over its blocks (``_block_passes``), memory bounded by the block. A detector that cannot stream
+    gets the whole window's samples (``detectors.stream.WholeRecordStance``), with a warning when that is
+    longer than ``block_s``.
 
     Returns
     -------
@@ -296,7 +278,7 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     from bootnav.core.jsonio import to_jsonable
     from bootnav.logger.recording import RecordingReader
 
-    from .outputs import ChartWorker, check_outputs, planned_files, write_outputs
+    from .outputs import ChartWorker, check_outputs, planned_files
     from .reference_path import load_reference, truth_reference
     from .source import MemoryReader, crop_window, load_source
 
@@ -319,25 +301,17 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         rows = block_rows(window.times(0, min(window.n, 1 << 16)), settings.block_s)
         blocks = -(-window.n // rows) if window.n else 1
         whole_why = _needs_whole_record(settings)
-        if whole_why is not None:
-            reader.close()  # ``process`` reads the input itself
-        elif settings.reference == "truth":
+        warnings = [] if whole_why is None or blocks == 1 else [  # ``detectors.stream.WholeRecordStance``
+            f"{path}: {whole_why}: its stance is detected on the whole record ({blocks} blocks of "
+            f"{settings.block_s:g} s held at once), so memory grows with the recording's length"]
+        if settings.reference == "truth":
             ref = truth_reference(SimpleNamespace(n=reader.n, t_s=reader.times()) if hdf5 else src.recording,
                                   path if hdf5 else None)
         check_outputs(settings, out, [path], into_recording, force)
         worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
-            if whole_why is not None:
-                result = process(path if src is None else src.recording, settings, progress=progress)
-                if blocks > 1:
-                    result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
-                                           f"since {whole_why}: memory grows with the recording's length")
-                    result.summary["warnings"] = result.warnings
-                files = write_outputs(result, out, into_recording, force, charts=worker)
-                worker = None  # closed by write_outputs
-                return result.summary, files
             run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording, ref)
-            summary, files = _block_passes(run, settings, out, [], _StageClock(progress), worker, progress)
+            summary, files = _block_passes(run, settings, out, warnings, _StageClock(progress), worker, progress)
             files["summary"] = str(out / "summary.json")
             summary["files"] = files
             atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
@@ -359,6 +333,45 @@ class _Input:
     recording: Recording | None  # an imported file's Recording (written into results.h5), None for HDF5
     into_recording: bool
     reference: Any  # reference_path.Reference or None
+    calibration: Any = None  # a SensorCalibration given to ``process`` (None: the settings' choice; False: none)
+    rows: Any = None  # ``_Collected``: the final pass's rows and samples kept in memory (``process``), else None
+
+
+class _Collected:
+    """What the final pass gives ``process`` instead of files: its rows (``NavRows`` after the revisits' and the
+    storeys' corrections, the filter's path before the storeys, the detector statistic) and its samples
+    (calibrated, saturation bits, the specific force the filter got), in order; ``arrays()`` joins them, and
+    ``extra`` holds the run's figures (``_block_passes`` sets it after the final pass)."""
+
+    ROWS = ("t_s", "pos_n", "vel_n", "q_nb", "stance", "acc_bias_b", "gyro_bias_b", "pos_sigma_n", "pos_cov_en")
+
+    def __init__(self):
+        self._rows: dict[str, list] = {k: [] for k in (*self.ROWS, "pos_filter", "statistic")}
+        self._samples: dict[str, list] = {"acc_b": [], "gyro_b": [], "saturated": [], "acc_used": []}
+        self.extra: dict = {}
+
+    def push_rows(self, r, pos_filter, statistic) -> None:
+        for k in self.ROWS:
+            self._rows[k].append(np.asarray(getattr(r, k)))
+        self._rows["pos_filter"].append(pos_filter)
+        if statistic is not None:
+            self._rows["statistic"].append(np.asarray(statistic, np.float64))
+
+    def push_samples(self, ch, acc_used) -> None:
+        self._samples["acc_b"].append(ch.acc_b)
+        self._samples["gyro_b"].append(ch.gyro_b)
+        self._samples["saturated"].append(np.asarray(ch.saturated))
+        if acc_used is not None:  # None: the samples' own (no timing offset)
+            self._samples["acc_used"].append(acc_used)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Every row and sample array joined (pushed arrays are released as they are joined)."""
+        out = {}
+        for parts in (self._rows, self._samples):
+            for k in list(parts):
+                v = parts.pop(k)
+                out[k] = np.concatenate(v) if len(v) > 1 else (np.array(v[0]) if v else None)
+        return out
 
 
 def block_rows(t_head: np.ndarray, block_s: float) -> int:
@@ -370,7 +383,8 @@ def block_rows(t_head: np.ndarray, block_s: float) -> int:
 
 
 def _needs_whole_record(settings: ProcessSettings) -> str | None:
-    """Why a stage of this run cannot run as passes over blocks (None: it can)."""
+    """Why the stance detection of this run needs the whole record (None: it streams), as the passes' warning
+    says it (``detectors.stream.WholeRecordStance`` holds the record's samples)."""
     from .detectors.stream import stream_refusal
 
     why = stream_refusal(settings.detector)
@@ -394,7 +408,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
-    from .detectors.stream import StreamStance
+    from .detectors.stream import StreamStance, stance_detector
     from .ins.filter import propagated_gaps_warning
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
@@ -417,7 +431,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     timings = lap.timings
     with contextlib.nullcontext(run.rec) as rec:
         device = rec.meta.get("device")
-        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"))
+        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"), run.calibration)
         warnings += sensor_cal.warnings
         n = rec.n
         t_first, t_last = (float(rec.times(i, i + 1)[0]) for i in (0, n - 1)) if n else (0.0, 0.0)
@@ -492,7 +506,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         chosen: dict = {}  # the fallback's stance: "detector" (settings, floor) or "cycle" (the mask); {}: configured
 
         def detector_stream(det_settings, det_floor):
-            det = StreamStance(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
+            det = stance_detector(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
             for i0, i1 in blocks:
                 yield from det.push(*read(i0, i1))
             yield from det.finish()
@@ -728,12 +742,16 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             del path_fp
             snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
 
-            # the final pass: the filter + smoother, outputs appended as rows become final
-            out.mkdir(parents=True, exist_ok=True)
+            # the final pass: the filter + smoother, outputs appended as rows become final (``out`` None: kept in
+            # ``run.rows``, no file written)
+            collect = run.rows
             opts = settings.output
             group = f"/results/{opts.results_name}"
-            target = run.path if run.into_recording else out / "results.h5"
-            tmp = atomic.temporary_beside(target)
+            tmp = None
+            if out is not None:
+                out.mkdir(parents=True, exist_ok=True)
+                target = run.path if run.into_recording else out / "results.h5"
+                tmp = atomic.temporary_beside(target)
             reuse = bool(replay) and replay["filter"] is final_filter and replay["gate"] is gate_iv and revisit is None
             nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
             replayed = iter(replay.pop("rows")) if reuse else None
@@ -743,7 +761,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             quality_acc = selftune.StrideQualityAccumulator()
             gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
             charts = None
-            if opts.plots:
+            if opts.plots and out is not None:
                 from .plots import ChartStream
 
                 charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
@@ -763,11 +781,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             gamma_range = [np.inf, -np.inf]  # the adaptive detector's log10 γ range (its ``threshold_log10_range``)
             n_saturated = 0  # samples the detector excluded as saturated (``detect_stance``'s ``n_saturated``)
             try:
-                if opts.write_hdf5:
+                if opts.write_hdf5 and out is not None:
                     start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
-                writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
-                with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
-                    csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
+                writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 and out is not None else None
+                # trajectory.csv appears complete or not at all
+                with atomic.replacing(out / "trajectory.csv") if out is not None else contextlib.nullcontext() as csv:
+                    if csv is not None:
+                        csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
 
                     def emit(r) -> None:
                         nonlocal n_rows, n_stance
@@ -778,18 +798,24 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                         corrected(r)
                         quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
                                          r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
+                        pos_filter = r.pos_n  # the filter's path (revisits corrected), before the storeys
                         if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
                             r.pos_n = r.pos_n.copy()
                             r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
-                        append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
-                                        TRAJECTORY_FORMATS)
+                        if csv is not None:
+                            append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
+                                            TRAJECTORY_FORMATS)
                         if spill is not None:
                             np.column_stack((r.t_s, r.pos_n, r.stance)).astype(np.float64).tofile(spill)
+                        stat = (stat_rows.take(r.start, r.start + len(r))
+                                if writer is not None or collect is not None else None)
                         if writer is not None:
                             writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                            "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
                                            "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
-                                           "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
+                                           "stance_statistic": stat})
+                        if collect is not None:
+                            collect.push_rows(r, pos_filter, stat)
                         fp_acc.push(r.t_s, r.pos_n, r.stance,
                                     np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
                         yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
@@ -815,8 +841,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             if len(ch):
                                 gamma_range[:] = [min(gamma_range[0], float(np.min(ch.threshold_log10))),
                                                   max(gamma_range[1], float(np.max(ch.threshold_log10)))]
-                        if writer is not None:
+                        if writer is not None or collect is not None:
                             stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
+                        if collect is not None:
+                            collect.push_samples(ch, acc_used(ch) if tau else None)
                         emit(next(replayed) if replayed is not None else
                              nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
                         _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
@@ -925,6 +953,14 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     "settings": settings.to_dict(),
                     "warnings": warnings,
                 }
+                if collect is not None:  # ``process``: the run's figures beside its rows
+                    collect.extra.update(
+                        init=init, gravity=float(gravity), sensor_cal=sensor_cal, saturation_intervals=sat_iv,
+                        steps=steps, metrics=metrics, period=float(period), quality=quality, timing=timing,
+                        confidence=float(confidence), choice=choice, failed=failed,
+                        candidates=fallback["candidates"] if fallback else [], threshold=threshold,
+                        stance_info=summary["stance"]["info"], filter_info=summary["filter"])
+                    break
                 if charts is not None:  # drawn by the chart processes while the files are finished
                     charts.finish(t_mid, fp, steps, summary, settings)
                     if worker is not None:
@@ -966,10 +1002,11 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     spill.close()
                 if gamma_spill is not None:
                     gamma_spill.close()
-                tmp.unlink(missing_ok=True)
+                if tmp is not None:
+                    tmp.unlink(missing_ok=True)
             break
         rate_rows.close()
-    return summary, files
+    return summary, ({} if out is None else files)
 
 
 def _with_stance_of(chunks, other):
