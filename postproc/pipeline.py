@@ -89,17 +89,10 @@ from bootnav.core import atomic
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
-from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, clipping_bits,
-                     join_saturation_intervals, refuse_fatal, saturation_intervals, saturation_warnings,
-                     stride_findings)
-from .ellipses import stride_scale_covariance
-from .floors import snap_storeys
-from .navigate import navigate
-from .selftune import TINY
+from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, join_saturation_intervals,
+                     refuse_fatal, saturation_intervals, saturation_warnings, stride_findings)
 from .settings import ProcessSettings
-from .source import crop, is_hdf5, load_source
-from .strides import path_summary, segment_strides
-from .summary import build_summary
+from .source import is_hdf5, load_source
 
 Progress = Callable[[str, float], None]
 
@@ -346,6 +339,10 @@ class _Collected:
     ROWS = ("t_s", "pos_n", "vel_n", "q_nb", "stance", "acc_bias_b", "gyro_bias_b", "pos_sigma_n", "pos_cov_en")
 
     def __init__(self):
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every row and sample pushed."""
         self._rows: dict[str, list] = {k: [] for k in (*self.ROWS, "pos_filter", "statistic")}
         self._samples: dict[str, list] = {"acc_b": [], "gyro_b": [], "saturated": [], "acc_used": []}
         self.extra: dict = {}
@@ -425,7 +422,6 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .summary import HEADLINE_KEYS, PATH_CONVENTIONS, alignment_summary, final_uncertainty, mount_check_of
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
-    from .navigate import implausible_strides
 
     name = run.name
     timings = lap.timings
@@ -481,13 +477,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         if duration < settings.checks.min_duration_s:  # as check_samples refuses it
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
-        block_checks = replace(settings.checks, min_duration_s=0.0)
         step_checks = StepWarnings(dt0)  # the warnings of ``check_samples`` on the whole record's steps
         sat_iv: list[dict] = []
         for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
             a = max(i0 - 2, 0)
             t, acc, gyro, sat = read(a, i1)
-            check_samples(name, t, acc, gyro, rec.start + a, block_checks)  # refusals; warnings of the whole below
+            check_samples(name, t, acc, gyro, rec.start + a, settings.checks, (t_first, t_last))  # refusals; warnings
+            # of the whole record below
             k = max(i0 - a - 1, 0)  # the steps that end in this block
             step_checks.push(t[k:-1], np.diff(t[k:]))
             sat_iv = join_saturation_intervals(sat_iv, saturation_intervals(t[i0 - a:], sat[i0 - a:], rec.start + i0))
@@ -745,6 +741,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             # the final pass: the filter + smoother, outputs appended as rows become final (``out`` None: kept in
             # ``run.rows``, no file written)
             collect = run.rows
+            if collect is not None:
+                collect.reset()  # the fallback's passes run the final pass again: the rows of the last one
             opts = settings.output
             group = f"/results/{opts.results_name}"
             tmp = None
@@ -873,7 +871,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                                      f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
                 if attempt == 0 and failed is None and quality.bad_fraction > st.max_bad_fraction:
-                    failed = implausible_strides(quality)
+                    failed = selftune.implausible_strides(quality)
                     if st.fallback:  # the configured path's strides fail: the fallback's passes (``navigate``)
                         del warnings[n_warn:]
                         fallback = select_fallback(failed, period)
@@ -934,7 +932,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                                     for bit, nm in selftune.FLAG_NAMES.items()},
                                    "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                    "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable({**nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
+                    "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
+                                           "n_states": final_filter.n_states, "smoother": final_filter.smoother,
+                                           **nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
                                            # the last sample, as ``ins.run_filter`` gives it
                                            "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
                                            **({} if heading_decision is None else

@@ -72,9 +72,9 @@ from __future__ import annotations
 
 from .settings import SelfTuneSettings
 from .gait import gait_period, GaitPeriodAccumulator
-from .quality import FAST, MISSED, VERTICAL, ROLLING, TINY, IMPLAUSIBLE, FLAG_NAMES, StrideQuality, stride_quality, stride_flags, StrideQualityAccumulator, split_strides
+from .quality import FAST, MISSED, VERTICAL, ROLLING, TINY, IMPLAUSIBLE, FLAG_NAMES, StrideQuality, stride_quality, stride_flags, StrideQualityAccumulator, split_strides, implausible_strides
 from .scoring import onset_innovations, innovation_rms, confidence
 from .fallback import SelfTuneResult, cycle_minimum_stance, cycle_minimum_candidate, select_stance
 from .timing import rotate_specific_force, level_stride_dz, footprint_level_dz, level_timing_offset, timing_from_probes
 
-__all__ = ["FAST", "FLAG_NAMES", "GaitPeriodAccumulator", "IMPLAUSIBLE", "MISSED", "ROLLING", "SelfTuneResult", "SelfTuneSettings", "StrideQuality", "StrideQualityAccumulator", "TINY", "VERTICAL", "confidence", "cycle_minimum_candidate", "cycle_minimum_stance", "footprint_level_dz", "gait_period", "innovation_rms", "level_stride_dz", "level_timing_offset", "onset_innovations", "rotate_specific_force", "select_stance", "split_strides", "stride_flags", "stride_quality", "timing_from_probes"]
+__all__ = ["FAST", "FLAG_NAMES", "GaitPeriodAccumulator", "IMPLAUSIBLE", "MISSED", "ROLLING", "SelfTuneResult", "SelfTuneSettings", "StrideQuality", "StrideQualityAccumulator", "TINY", "VERTICAL", "confidence", "cycle_minimum_candidate", "cycle_minimum_stance", "footprint_level_dz", "gait_period", "implausible_strides", "innovation_rms", "level_stride_dz", "level_timing_offset", "onset_innovations", "rotate_specific_force", "select_stance", "split_strides", "stride_flags", "stride_quality", "timing_from_probes"]
