@@ -10,26 +10,27 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    flag saturated bursts and short gaps as warnings.
 3. **calibration** (``calibration``): optional accelerometer calibration file, gravity (WGS-84 normal gravity
    from latitude/height unless given), roll/pitch and gyro bias from the initial still period.
-4. **navigation** (``navigate``): the stance (zero-velocity) mask of the configured detector
-   (``detectors``, [Heidari2019, eq. 2]); when it is implausible (``checks.stance_findings``, per-stride
+4. **navigation**: the stance (zero-velocity) mask of the configured detector
+   (``detectors``, [Heidari2019, eq. 2]); when it is implausible (``checks.stance_findings_of``, per-stride
    flags of ``selftune``) a truth-free fallback chooses another, with a warning and a confidence figure; the
    per-recording timing calibration of the vertical channel; the ZUPT error-state Kalman filter + RTS
-   smoother (``ins.run_filter``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking foot is
-   refused.
+   smoother (``ins.stream.StreamNavigator``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking
+   foot is refused.
 5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
    ``selftune.min_stride_m`` are not strides), distance, closure, floors; before them the storeys
-   (``floors.snap_storeys``: flights counted in risers, landings on discrete storeys).
+   (``floors.storey_offsets``: flights counted in risers, landings on discrete storeys).
 6. **reference** (``reference_path``), when a reference is given: its metrics [Heidari2019, Table 1].
 
-The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
-``plots`` do.
-
-**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The input is read through a
+**One pipeline, read in blocks**: ``process_to`` (what ``bootnav process`` runs) writes the outputs as the rows
+become final; ``process`` (the Python API, ``eval``, two boots) runs the same passes and keeps the final pass's
+rows in memory instead (``_Collected``: the ``ProcessResult``'s arrays, the same rows as ``trajectory.csv`` and
+``results.h5``; its summary is the one ``summary.json`` holds), writing nothing (``outputs.write_outputs`` and
+``plots`` write a ``ProcessResult``). The input is read through a
 reader of blocks of ``settings.block_s`` seconds, the memory budget (900 s: about 400-440 MB at 200 Hz):
 ``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) for an HDF5 recording,
 ``source.MemoryReader`` for any other file (read whole by ``bootnav import``'s reader), the crop a window of its
 rows (``source.crop_window``). Every window, one block (every recording of the development datasets) or
-many, runs the stages above as passes over its blocks (``_block_passes``; outputs as the stages on whole
+many, runs the stages above as passes over its blocks (``_block_passes``; outputs as the former stages on whole
 arrays: ``trajectory.csv``/``steps.csv`` byte for byte, ``results.h5`` to 1e-9), each whole-record decision
 taken in a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
 ``outputs.ResultsWriter``, ``plots.ChartStream``). Passes over a single block keep its rows, calibrated and
@@ -46,13 +47,11 @@ runs that filter once:
    seconds (with Δt₀);
 2. the adaptive detector's noise floor F: one pass of ``StreamStance``, its histogram quantile then fixed, so
    every block length gives the same stance mask;
-3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.level_timing_offset``'s
-   rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
+3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.timing_from_probes``' rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
    confidence), the gait period (``selftune.GaitPeriodAccumulator``), the stance findings
    (``checks.stance_findings_of``; ‖ω‖'s median at rest from a 1e-3-decade histogram);
-4. with ``heading_aid="auto"``, the heading decision (``building.directions.auto_heading``'s steps): the
-   unaided filter + smoother's footprints (the path ``navigate._run`` decides on: after the timing offset τ,
-   before the storeys), ``heading_plan``'s decision and per-stride flags, the gate as sample intervals
+4. with ``heading_aid="auto"``, the heading decision (``building.directions.heading_plan``): the
+   unaided filter + smoother's footprints (after the timing offset τ, before the storeys), ``heading_plan``'s decision and per-stride flags, the gate as sample intervals
    (``gate_intervals``: one row per run of aided strides); the passes after it run the aided filter, each
    sample pushed with its gate flag (``StreamNavigator.push(heading_gate=…)``);
    the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
@@ -67,13 +66,17 @@ runs that filter once:
 6. the mount check: ‖ω‖'s 99th percentile, exact from passes (``_percentile``; ``summary.mount_check_of``).
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
-the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): a detector that cannot stream. The stance fallback runs in passes
-(``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
-``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
+the block length (``tests/test_long_chunked.py``). A detector that cannot stream gets the samples of the whole
+record and its stance is cut into the chunks the passes push (``detectors.stream.WholeRecordStance``; a warning
+says memory grows with the length). The stance fallback runs in passes: when the configured mask fails (after pass 3) or its strides do (after pass 5),
+the fallback's candidates (``selftune``'s docstring) are scored by forward runs over the blocks (``_CandidateScore``; the
 "cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
-configured one's (its statistic kept) and passes 3-5 run again. ``process`` (the API, ``eval``, two boots, and
-``process_to`` for a detector that cannot stream) is still the whole-array path.
+configured one's (its statistic kept) and passes 3-5 run again.
+
+The whole-array functions of some stages remain as the definitions the passes are tested against
+(``detectors.detect_stance``, ``checks.stance_findings``, ``selftune.gait_period``, ``selftune.stride_quality``,
+``selftune.level_timing_offset``, ``ins.run_filter``, ``floors.snap_storeys``, ``strides.segment_strides``);
+``tests/test_pipeline.py`` composes them and checks that ``process`` gives their result.
 """
 
 from __future__ import annotations
@@ -215,6 +218,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     window = crop_window(MemoryReader(src.recording), settings.crop_s, src.name)
     run = _Input(window, src.name, src.path, src.is_hdf5, src.recording, False, ref, calibration, _Collected())
     summary, _ = _block_passes(run, settings, None, [], lap, None, progress)
+    lap.timings["total_process"] = float(sum(lap.timings.values()))
     return _result_of(run, summary, settings, src)
 
 
@@ -535,7 +539,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             return probe.noise_floor_log10 if low is None else low  # all excluded (saturated): the stream's
 
         def select_fallback(failed: str, period: float) -> dict:
-            """``navigate``'s fallback in passes: ``selftune.select_stance``'s candidates scored by forward runs
+            """The stance fallback in passes: ``selftune``'s candidates scored by forward runs
             over the blocks, the no-rest and mount rules; sets ``chosen``; returns choice, candidates, no_rest
             and the warnings."""
             st_ = settings.selftune
@@ -610,7 +614,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             timing: dict = {}
             tau = 0.0
             # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
-            # it off, the one forward run that scores the path (``selftune.innovation_rms``)
+            # it off, the one forward run that scores the path (the RMS of its ZUPT-onset innovations, ``selftune.onset_innovations``)
             signs = (-1, 1) if st.timing_calibration else (0,)
             probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
             forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
@@ -644,7 +648,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 innovation = float(np.sqrt(onsets[0].mean_square(n)))
             del probes, fp_probe, onsets
             method = settings.detector.method
-            if attempt == 0:  # the configured detector's mask (``navigate``)
+            if attempt == 0:  # the configured detector's mask (``checks.stance_findings_of``)
                 findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
                                               stance_rate.median() if n_stance_all else None, settings.checks, method)
                 warnings += [f.message for f in findings if not f.fatal]
@@ -711,7 +715,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             storeys = None
             revisit, revisit_report = None, None  # the pose graph's (footprint times, corrections (K, 2))
             final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
-            if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
+            if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (after τ)
                 path_fp = path_footprints(settings.filter)
                 dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
                 heading_decision = dec.as_dict()
@@ -795,7 +799,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             check_path_finite(name, r.t_s, r.pos_n, rec.start + r.start)
                         corrected(r)
                         quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
-                                         r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
+                                         r.gyro_bias_b)  # on the filter's path, before the storeys
                         pos_filter = r.pos_n  # the filter's path (revisits corrected), before the storeys
                         if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
                             r.pos_n = r.pos_n.copy()
@@ -872,7 +876,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                      f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
                 if attempt == 0 and failed is None and quality.bad_fraction > st.max_bad_fraction:
                     failed = selftune.implausible_strides(quality)
-                    if st.fallback:  # the configured path's strides fail: the fallback's passes (``navigate``)
+                    if st.fallback:  # the configured path's strides fail: the fallback's passes
                         del warnings[n_warn:]
                         fallback = select_fallback(failed, period)
                         warnings[n_warn:n_warn] = fallback["warnings"]
@@ -1011,7 +1015,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
 def _with_stance_of(chunks, other):
     """``chunks`` (StanceChunks) with the stance of ``other`` (another detector's StanceChunks of the same samples,
-    cut elsewhere): ``navigate``'s fallback keeps the configured detector's statistic and takes another mask."""
+    cut elsewhere): the fallback keeps the configured detector's statistic and takes another mask."""
     queue, upto, other = _RowQueue(), 0, iter(other)
     for ch in chunks:
         end = ch.start + len(ch)
@@ -1025,7 +1029,7 @@ def _with_stance_of(chunks, other):
 
 
 class _CandidateScore:
-    """One candidate of ``selftune.select_stance`` scored in a pass (``selftune._row``'s figures): a forward run of
+    """One candidate of the stance fallback (``selftune``'s docstring) scored in a pass: a forward run of
     the filter (no smoother, the specific force not rotated by τ) on its mask, the RMS of its ZUPT-onset
     innovations and its stride flags (``selftune.StrideQualityAccumulator`` on the forward path)."""
 
@@ -1049,7 +1053,7 @@ class _CandidateScore:
             self.finite = self.finite and bool(np.all(np.isfinite(r.pos_n)))
 
     def run(self, pairs, period_s: float, settings, n: int) -> dict:
-        """Push every (StanceChunk, mask) of the record; the candidate's row (``select_stance``'s ``candidates``)."""
+        """Push every (StanceChunk, mask) of the record; the candidate's row (the summary's ``navigation.candidates``)."""
         for ch, mask in pairs:
             mask = np.asarray(mask, bool)
             self.phases.push(ch.start, mask)

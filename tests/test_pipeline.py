@@ -152,7 +152,7 @@ def test_each_stage_runs_alone_and_process_is_the_stages(tmp_path):
     order (1e-9 of their scale). The crop makes the recording index offset matter (saturation intervals and
     messages use recording indices)."""
     from bootnav.postproc import selftune
-    from bootnav.postproc.building.directions import auto_heading
+    from bootnav.postproc.building.directions import aided_settings, heading_plan, segment_gate
     from bootnav.postproc.calibration import initial_alignment, stance_reference
     from bootnav.postproc.detectors import detect_stance
     from bootnav.postproc.ellipses import stride_scale_covariance
@@ -163,7 +163,7 @@ def test_each_stage_runs_alone_and_process_is_the_stages(tmp_path):
     from bootnav.postproc.ins import run_filter
     from bootnav.postproc.selftune import TINY
     from bootnav.postproc.source import crop, load_source
-    from bootnav.postproc.strides import path_summary, segment_strides
+    from bootnav.postproc.strides import footprints, path_summary, segment_strides
 
     rec_path = tmp_path / "walk.h5"
     rec_path.write_bytes(BUNDLED.read_bytes())
@@ -195,8 +195,11 @@ def test_each_stage_runs_alone_and_process_is_the_stages(tmp_path):
                                           max_level_strides=st.timing_max_level_strides)
     acc_used = selftune.rotate_specific_force(acc_b, gyro_b, timing["tau_s"]) if timing["tau_s"] else acc_b
     nav = run_filter(t_s, acc_used, gyro_b, stance, init, gravity, settings.filter, saturated=sat_bits)
-    nav = auto_heading(nav, t_s, stance, settings.filter, lambda fs, gate: run_filter(
-        t_s, acc_used, gyro_b, stance, init, gravity, fs, saturated=sat_bits, heading_gate=gate))
+    dec, ends, aided = heading_plan(footprints(t_s, nav.pos_n, stance)[1][:, :2], settings.filter)  # on the unaided path
+    if dec.on:  # the aid at the decided grid direction, gated to the aided strides
+        gate = None if aided is None else segment_gate(len(t_s), stance, ends, aided)
+        nav = run_filter(t_s, acc_used, gyro_b, stance, init, gravity, aided_settings(settings.filter, dec),
+                         saturated=sat_bits, heading_gate=gate)
     quality = selftune.stride_quality(t_s, nav.pos_n, stance, gyro_b, nav.gyro_bias_b, period, st)
     confidence = selftune.confidence(timing["innovation_rms_mps"], quality.bad_fraction, period, st)
     # a good walk keeps the configured detector and gets a confident path
