@@ -411,6 +411,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
     from .detectors.stream import StreamStance, stance_detector
     from .ins.filter import propagated_gaps_warning
+    from .ins.measurements import LevelHeightMeasurement, ZaruMeasurement
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
                           start_results, append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
@@ -938,6 +939,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                    "timing_offset": to_jsonable(timing)},
                     "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
                                            "n_states": final_filter.n_states, "smoother": final_filter.smoother,
+                                           # which aids ran (as ``ins.run_filter`` says it)
+                                           "zaru": ZaruMeasurement.active(final_filter),
+                                           "heading_aid": final_filter.heading_aid,
+                                           "level_height": LevelHeightMeasurement.active(final_filter),
                                            **nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
                                            # the last sample, as ``ins.run_filter`` gives it
                                            "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
