@@ -1,7 +1,8 @@
 """Where `bootnav process` spends its CPU: seconds of process CPU per stage of one run (issue 25, point 5).
 
-Runs ``pipeline.process`` + ``outputs.write_outputs`` (without charts) on a cached ``bench_long`` recording under ``cProfile`` with the process CPU clock as its timer: a stage's
-figure is the CPU of every thread of the process while the stage ran (the timing probes' two threads, the
+Runs ``pipeline.process`` (the block passes, rows kept in memory) + ``outputs.write_outputs`` (without charts) on a
+cached ``bench_long`` recording under ``cProfile`` with the process CPU clock as its timer: a stage's
+figure (a function of the passes, cumulative over every pass that calls it) is the CPU of every thread of the process while the stage ran (the timing probes' two threads, the
 smoother's thread). The kernels are loaded first (a one-minute run), so compile time is not counted; the
 import row is a child ``python -c "import ..."``. The charts (``plots.ChartStream`` and the drawing of the
 chart processes, here in this process) are timed without the profiler, whose cost per Python call would
@@ -33,27 +34,39 @@ from bench_long import recording  # noqa: E402  (the cached simulated shift)
 # (label, function name as cProfile lists it: file suffix, function)
 STAGES = [
     ("load", "source.py", "load_source"),
+    ("read blocks (decoded, calibrated)", "pipeline.py", "read"),
     ("initial alignment", "calibration.py", "initial_alignment"),
-    ("stance detection", "detectors/__init__.py", "detect_stance"),
-    ("gait period", "selftune/gait.py", "gait_period"),
-    ("timing probes (2 filters, 2 threads)", "selftune/timing.py", "level_timing_offset"),
-    ("final filter + smoother", "navigate.py", "_run"),
+    ("stance detection (stream)", "detectors/stream.py", "_detect"),
+    ("noise floor pass", "pipeline.py", "noise_floor"),
+    ("timing probes (2 filters, 2 threads)", "pipeline.py", "_ForwardProbes.push"),
+    ("filter + smoother pushes (every pass)", "ins/stream.py", "push"),
     ("  of which filter kernel", "fast.py", "filter_chunk"),
     ("  of which smoother kernel (this thread)", "fast.py", "smooth_segments"),
-    ("stride quality", "selftune/quality.py", "stride_quality"),
-    ("storeys", "floors.py", "snap_storeys"),
-    ("strides", "strides.py", "segment_strides"),
-    ("process (all stages)", "pipeline.py", "process"),
+    ("heading / storeys' filter pass", "pipeline.py", "path_footprints"),
+    ("final pass rows (emit)", "pipeline.py", "emit"),
+    ("storeys", "floors.py", "storey_offsets"),
+    ("strides", "strides.py", "footprint_strides"),
+    ("process (all passes)", "pipeline.py", "process"),
     ("trajectory.csv", "outputs.py", "write_trajectory_csv"),
     ("write_outputs (no charts)", "outputs.py", "write_outputs"),
 ]
 
-IMPORTS = ("import bootnav.postproc.pipeline, bootnav.postproc.outputs, bootnav.postproc.navigate, "
+IMPORTS = ("import bootnav.postproc.pipeline, bootnav.postproc.outputs, "
            "bootnav.postproc.ins, bootnav.postproc.cli_process")
 
 
 def _cumulative(stats: pstats.Stats, suffix: str, name: str) -> float:
-    return sum(v[3] for (path, _, func), v in stats.stats.items() if func == name and path.endswith(suffix))
+    """Cumulative CPU of the functions ``name`` of the files ending in ``suffix`` ("Class.method": that class's)."""
+    line = None
+    if "." in name:
+        cls, name = name.split(".")
+        import bootnav.postproc.pipeline as module  # the one file such a row names
+
+        text = Path(module.__file__).read_text().splitlines()
+        start = next(i for i, t in enumerate(text) if t.startswith(f"class {cls}"))
+        line = next(i for i in range(start, len(text)) if text[i].startswith(f"    def {name}(")) + 1
+    return sum(v[3] for (path, ln, func), v in stats.stats.items()
+               if func == name and path.endswith(suffix) and line in (None, ln))
 
 
 def main() -> None:

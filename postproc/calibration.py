@@ -554,18 +554,3 @@ def apply_calibration(applied: AppliedCalibration, acc_b, gyro_b, temp_degc=None
             applied.provenance["recording_temp_range_degc"] = [float(t.min()), float(t.max())]
     applied.provenance["temperature_applied"] = temp_degc is not None
     return acc, gyro
-
-
-def calibrate_recording(recording, index: slice, acc_b, gyro_b, settings: CalibrationSettings | None = None,
-                        given=None):
-    """Resolve (``resolve_calibration``, the recording's ``/meta`` device id) and apply
-    (``apply_calibration``, its temperature channel over ``index``) the calibration of one recording.
-
-    Returns ``(acc_b, gyro_b, AppliedCalibration)``.
-    """
-    meta = getattr(recording, "meta", None) or {}
-    applied = resolve_calibration(settings, meta.get("device_id"), given)
-    temp = getattr(recording, "temp_degc", None)
-    temp = None if temp is None else np.asarray(temp)[index]
-    acc, gyro = apply_calibration(applied, acc_b, gyro_b, temp)
-    return acc, gyro, applied

@@ -70,7 +70,7 @@ def refuse_fatal(name: str, findings: list[Finding]) -> list[str]:
 
 
 def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, offset: int,
-                  checks: InputChecks) -> list[str]:
+                  checks: InputChecks, record_span: tuple[float, float] | None = None) -> list[str]:
     """Refuse samples that cannot be integrated; report what is only suspicious.
 
     Parameters
@@ -83,6 +83,9 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
         Index of the window's first sample in the recording (messages give recording sample indices).
     checks
         The limits.
+    record_span
+        The first and last time of the whole window when ``t_s`` is one block of it (the passes over blocks):
+        its duration is the one checked and the crops a gap suggests end there; None: ``t_s``'s own.
 
     Returns
     -------
@@ -115,7 +118,8 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
         i = int(back[0]) + 1
         raise InputError(f"{name}: sample {i + offset}: time goes backwards ({t_s[i - 1]:.6f} s -> {t_s[i]:.6f} s); "
                          "re-import the file (`bootnav import` repairs device-clock wraps)")
-    duration = float(t_s[-1] - t_s[0])
+    t_first, t_last = (float(t_s[0]), float(t_s[-1])) if record_span is None else record_span
+    duration = t_last - t_first
     if duration < checks.min_duration_s:
         raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {checks.min_duration_s:g} s: "
                          "a still period plus a few strides)")
@@ -125,7 +129,7 @@ def check_samples(name: str, t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndar
     if len(big):
         i = int(big[0])
         # suggest only the sides long enough to process (never a zero-length crop)
-        sides = [f"--crop {a:.3f} {b:.3f}" for a, b in ((t_s[0], t_s[i]), (t_s[i + 1], t_s[-1]))
+        sides = [f"--crop {a:.3f} {b:.3f}" for a, b in ((t_first, t_s[i]), (t_s[i + 1], t_last))
                  if b - a >= checks.min_duration_s]
         how = (f"process {'each side' if len(sides) == 2 else 'the part after or before it'} with "
                + " / ".join(sides) if sides else "neither side is long enough to process; are the times in seconds?")

@@ -10,26 +10,27 @@ timed in ``summary["timings_s"]`` and each lives in its own module, read top to 
    flag saturated bursts and short gaps as warnings.
 3. **calibration** (``calibration``): optional accelerometer calibration file, gravity (WGS-84 normal gravity
    from latitude/height unless given), roll/pitch and gyro bias from the initial still period.
-4. **navigation** (``navigate``): the stance (zero-velocity) mask of the configured detector
-   (``detectors``, [Heidari2019, eq. 2]); when it is implausible (``checks.stance_findings``, per-stride
+4. **navigation**: the stance (zero-velocity) mask of the configured detector
+   (``detectors``, [Heidari2019, eq. 2]); when it is implausible (``checks.stance_findings_of``, per-stride
    flags of ``selftune``) a truth-free fallback chooses another, with a warning and a confidence figure; the
    per-recording timing calibration of the vertical channel; the ZUPT error-state Kalman filter + RTS
-   smoother (``ins.run_filter``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking foot is
-   refused.
+   smoother (``ins.stream.StreamNavigator``, [Heidari2019, eqs. 1, 3-7]). Only input that cannot be a walking
+   foot is refused.
 5. **strides** (``strides``, ``checks.stride_findings``): strides (moves shorter than
    ``selftune.min_stride_m`` are not strides), distance, closure, floors; before them the storeys
-   (``floors.snap_storeys``: flights counted in risers, landings on discrete storeys).
+   (``floors.storey_offsets``: flights counted in risers, landings on discrete storeys).
 6. **reference** (``reference_path``), when a reference is given: its metrics [Heidari2019, Table 1].
 
-The summary layout is ``summary.build_summary``. ``process`` writes nothing; ``outputs.write_outputs`` and
-``plots`` do.
-
-**One pipeline, read in blocks** (``process_to``, what ``bootnav process`` runs). The input is read through a
+**One pipeline, read in blocks**: ``process_to`` (what ``bootnav process`` runs) writes the outputs as the rows
+become final; ``process`` (the Python API, ``eval``, two boots) runs the same passes and keeps the final pass's
+rows in memory instead (``_Collected``: the ``ProcessResult``'s arrays, the same rows as ``trajectory.csv`` and
+``results.h5``; its summary is the one ``summary.json`` holds), writing nothing (``outputs.write_outputs`` and
+``plots`` write a ``ProcessResult``). The input is read through a
 reader of blocks of ``settings.block_s`` seconds, the memory budget (900 s: about 400-440 MB at 200 Hz):
 ``recording.RecordingReader`` (the one decoder of the ``/imu`` layout) for an HDF5 recording,
 ``source.MemoryReader`` for any other file (read whole by ``bootnav import``'s reader), the crop a window of its
 rows (``source.crop_window``). Every window, one block (every recording of the development datasets) or
-many, runs the stages above as passes over its blocks (``_block_passes``; outputs as the stages on whole
+many, runs the stages above as passes over its blocks (``_block_passes``; outputs as the former stages on whole
 arrays: ``trajectory.csv``/``steps.csv`` byte for byte, ``results.h5`` to 1e-9), each whole-record decision
 taken in a pass before the one that needs it, the last pass writing through incremental sinks (``trajectory.csv`` rows,
 ``outputs.ResultsWriter``, ``plots.ChartStream``). Passes over a single block keep its rows, calibrated and
@@ -48,13 +49,11 @@ budget beyond which the passes compute again:
    seconds (with Δt₀);
 2. the adaptive detector's noise floor F: one pass of ``StreamStance``, its histogram quantile then fixed, so
    every block length gives the same stance mask;
-3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.level_timing_offset``'s
-   rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
+3. the forward runs: the two probe filters of the vertical timing calibration τ (``selftune.timing_from_probes``' rule, their footprints accumulated), their ZUPT-onset innovations over the part the whole run probes (the
    confidence), the gait period (``selftune.GaitPeriodAccumulator``), the stance findings
    (``checks.stance_findings_of``; ‖ω‖'s median at rest from a 1e-3-decade histogram);
-4. with ``heading_aid="auto"``, the heading decision (``building.directions.auto_heading``'s steps): the
-   unaided filter + smoother's footprints (the path ``navigate._run`` decides on: after the timing offset τ,
-   before the storeys), ``heading_plan``'s decision and per-stride flags, the gate as sample intervals
+4. with ``heading_aid="auto"``, the heading decision (``building.directions.heading_plan``): the
+   unaided filter + smoother's footprints (after the timing offset τ, before the storeys), ``heading_plan``'s decision and per-stride flags, the gate as sample intervals
    (``gate_intervals``: one row per run of aided strides); the passes after it run the aided filter, each
    sample pushed with its gate flag (``StreamNavigator.push(heading_gate=…)``);
    the storeys (``floors``): the final filter's footprints, then ``floors.storey_offsets`` — a look-back stage:
@@ -69,13 +68,17 @@ budget beyond which the passes compute again:
 6. the mount check: ‖ω‖'s 99th percentile, exact from passes (``_percentile``; ``summary.mount_check_of``).
 
 Why passes and not per-block decisions: each decision then equals the one-block run's (to rounding), whatever
-the block length (``tests/test_long_chunked.py``). Not done in blocks, so run as one block with a warning
-(memory grows with the length): a detector that cannot stream. The stance fallback runs in passes
-(``navigate``'s rules): when the configured mask fails (after pass 3) or its strides do (after pass 5),
-``selftune.select_stance``'s candidates are scored by forward runs over the blocks (``_CandidateScore``; the
+the block length (``tests/test_long_chunked.py``). A detector that cannot stream gets the samples of the whole
+record and its stance is cut into the chunks the passes push (``detectors.stream.WholeRecordStance``; a warning
+says memory grows with the length). The stance fallback runs in passes: when the configured mask fails (after pass 3) or its strides do (after pass 5),
+the fallback's candidates (``selftune``'s docstring) are scored by forward runs over the blocks (``_CandidateScore``; the
 "cycle minimum" from samples spilled to a temporary file, ``_cycle_minimum``), the chosen mask replaces the
-configured one's (its statistic kept) and passes 3-5 run again. ``process`` (the API, ``eval``, two boots, and
-``process_to`` for a detector that cannot stream) is still the whole-array path.
+configured one's (its statistic kept) and passes 3-5 run again.
+
+The whole-array functions of some stages remain as the definitions the passes are tested against
+(``detectors.detect_stance``, ``checks.stance_findings``, ``selftune.gait_period``, ``selftune.stride_quality``,
+``selftune.level_timing_offset``, ``ins.run_filter``, ``floors.snap_storeys``, ``strides.segment_strides``);
+``tests/test_pipeline.py`` composes them and checks that ``process`` gives their result.
 """
 
 from __future__ import annotations
@@ -91,20 +94,31 @@ from bootnav.core import atomic
 from bootnav.errors import InputError
 from bootnav.logger.recording import Recording
 
-from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, clipping_bits,
-                     join_saturation_intervals, refuse_fatal, saturation_intervals, saturation_warnings,
-                     stride_findings)
-from .ellipses import stride_scale_covariance
-from .floors import snap_storeys
-from .navigate import navigate
+from .checks import (ClipRails, StepWarnings, check_path_finite, check_samples, join_saturation_intervals,
+                     refuse_fatal, saturation_intervals, saturation_warnings, stride_findings)
 from .passcache import PassSpills
-from .selftune import TINY
 from .settings import ProcessSettings
-from .source import crop, is_hdf5, load_source
-from .strides import path_summary, segment_strides
-from .summary import build_summary
+from .source import is_hdf5, load_source
 
 Progress = Callable[[str, float], None]
+
+
+@dataclass
+class Navigation:
+    """The navigation stages' decisions and path (SI; masks and arrays have one row per sample)."""
+
+    configured: Any  # detectors.StanceResult of the configured detector (its statistic; the mask the filter used)
+    stance: np.ndarray  # (N,) bool, the mask the filter used
+    nav: Any  # ins.NavSolution: the filter + smoother's path (before the storeys)
+    acc_used_b: np.ndarray  # (N, 3) m/s², the specific force given to the filter (rotated by τ)
+    choice: str  # "configured (<method>)" or the fallback candidate's name
+    failed: str | None  # why the configured detector was not kept (None: it was)
+    timing: dict  # the timing calibration's figures (tau_s, n_level, applied, ...); {} when off
+    confidence: float  # in [0, 1], selftune.confidence
+    period_s: float  # gait (stride) period, s; NaN without a periodic gait
+    quality: Any  # selftune.StrideQuality of the raw strides (stance phase to stance phase)
+    candidates: list[dict] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -134,8 +148,9 @@ class ProcessResult:
     saturation_intervals: list[dict] = field(default_factory=list)
     metrics: dict | None = None  # reference metrics [Heidari2019, Table 1] when a reference was given
     reference: Any = None  # reference_path.Reference
-    navigation: Any = None  # navigate.Navigation: stance choice, timing offset, confidence, stride flags
+    navigation: Any = None  # Navigation: stance choice, timing offset, confidence, stride flags
     sensor_calibration: Any = None  # calibration.AppliedCalibration: which calibration ran (or none, and why)
+    saturation_bits: np.ndarray | None = None  # (N,) uint8, the bits the filter got (recording's + clipping rails)
 
 
 def _call_progress(progress: Progress | None, stage: str, fraction: float) -> None:
@@ -162,6 +177,10 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
             progress: Progress | None = None, calibration=None) -> ProcessResult:
     """Run every stage (module docstring) on one input and return the result; writes nothing.
 
+    The same block passes as ``bootnav process`` (``_block_passes``), their final pass keeping its rows in
+    memory instead of writing them: the result's arrays are the rows of ``trajectory.csv`` and ``results.h5``,
+    its summary the one ``summary.json`` holds (but ``files``).
+
     Parameters
     ----------
     source
@@ -178,99 +197,59 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
     Returns
     -------
     ProcessResult
-        The path, stance mask, strides, summary (``summary.build_summary``) and every intermediate a writer
-        or a plot needs.
+        The path, stance mask, strides, summary and every intermediate a writer or a plot needs.
 
     Raises
     ------
     InputError
         Bad settings, an unreadable input or reference, input that cannot be integrated
-        (``checks.check_samples``), a recording that cannot be a walking foot (``navigate``), or a diverged
-        filter.
+        (``checks.check_samples``), a recording that cannot be a walking foot, or a diverged filter.
     """
-    from .calibration import calibrate_recording, initial_alignment
-    from .reference_path import compute_metrics, load_reference, truth_reference
+    from .reference_path import load_reference, truth_reference
+    from .source import MemoryReader, crop_window
 
     settings = settings or ProcessSettings()
     settings.validate()
     lap = _StageClock(progress)
-    timings = lap.timings
-
     ref = None
     if settings.reference and settings.reference != "truth":  # a bad reference fails before any work
         ref = load_reference(settings.reference)
     _call_progress(progress, "load", 0.0)
     src = load_source(source)
-    name = src.name
     if settings.reference == "truth":
         ref = truth_reference(src.recording, src.path if src.is_hdf5 else None)
-    lap("load")
+    window = crop_window(MemoryReader(src.recording), settings.crop_s, src.name)
+    run = _Input(window, src.name, src.path, src.is_hdf5, src.recording, False, ref, calibration, _Collected())
+    summary, _ = _block_passes(run, settings, None, [], lap, None, progress)
+    lap.timings["total_process"] = float(sum(lap.timings.values()))
+    return _result_of(run, summary, settings, src)
 
-    samples = crop(src.recording, settings.crop_s, name)
-    t_s, gyro_b, offset = samples.t_s, samples.gyro_b, samples.index.start
-    warnings = check_samples(name, t_s, samples.acc_b, gyro_b, offset, settings.checks)
-    sat_bits = samples.saturated
-    if settings.detector.detect_clipping:
-        sat_bits = sat_bits | clipping_bits(samples.acc_b, gyro_b, settings.filter.sloping_rails)
-    sat_iv = saturation_intervals(t_s, sat_bits, offset)
-    warnings += saturation_warnings(sat_iv)
-    lap("checks")
 
-    cal = settings.calibration
-    acc_b, gyro_b, sensor_cal = calibrate_recording(src.recording, samples.index, samples.acc_b, gyro_b, cal,
-                                                    calibration)
-    warnings += sensor_cal.warnings
-    gravity = cal.gravity()
-    init = initial_alignment(t_s, acc_b, gyro_b, cal, gravity)
-    warnings += list(init.warnings)
-    lap("calibration")
+def _result_of(run: _Input, summary: dict, settings: ProcessSettings, src) -> ProcessResult:
+    """The ``ProcessResult`` of ``process``'s passes: their rows, samples and figures (``_Collected``)."""
+    from .detectors import StanceResult
+    from .ins.filter import NavSolution
 
-    filter_progress = (lambda f: _call_progress(progress, "navigation", min(float(f), 0.99))) if progress else None
-    navi = navigate(name, t_s, acc_b, gyro_b, init, gravity, settings, sat_bits, filter_progress)
-    nav, stance = navi.nav, navi.stance
-    pos_n = np.asarray(nav.pos_n)
-    check_path_finite(name, t_s, pos_n, offset)
-    storeys = None
-    floors = settings.floor_settings()
-    if floors.storeys:
-        pos_n, storeys = snap_storeys(t_s, pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                      floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
-                                      floors.floor_height_m)
-    # the floor number: the storeys found (``floors.storey_numbers``) as heights of whole nominal storeys, so that
-    # the hysteresis counting of ``strides.floor_levels`` returns exactly their numbers
-    floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
-    warnings += navi.warnings
-    warnings += [str(w) for w in (getattr(nav, "info", None) or {}).get("warnings", [])]
-    lap("navigation")
-
-    min_stride = settings.selftune.min_stride_m
-    cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings,
-                                        sensor_cal.provenance.get("status") == "applied")
-    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY),  # a kept stride is not tiny
-                            floors, nav.pos_sigma_n, getattr(nav, "pos_cov_en", None), floor_z, cov_extra)
-    if len(steps["t_s"]) == 0 and not np.isfinite(navi.period_s):
-        raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
-                         f"{t_s[-1] - t_s[0]:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
-    findings = stride_findings(steps, settings.checks, navi.choice)
-    warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-    path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, floor_z)
-    path_stats["storeys"] = storeys.summary() if storeys is not None else None
-    lap("strides")
-    metrics = None
-    if ref is not None:
-        metrics = compute_metrics(ref, t_s, pos_n, stance, src.recording.meta.get("mount"), min_stride)
-        lap("reference")
-
-    timings["total_process"] = float(sum(timings.values()))
-    result = ProcessResult(
-        t_s=t_s, pos_n=pos_n, vel_n=np.asarray(nav.vel_n), q_nb=np.asarray(nav.q_nb), stance=stance,
-        steps=steps, summary={}, settings=settings, warnings=warnings, saturated=sat_bits.astype(bool),
-        acc_b=acc_b, gyro_b=gyro_b, gravity_mps2=float(gravity), stance_result=navi.configured, nav=nav, init=init,
-        recording=src.recording, source=src.path, source_is_hdf5=src.is_hdf5, index=samples.index,
-        saturation_intervals=sat_iv, metrics=metrics, reference=ref, navigation=navi, sensor_calibration=sensor_cal,
-    )
-    result.summary = build_summary(result, path_stats, timings)
-    return result
+    x, rows = run.rows.extra, run.rows.arrays()
+    stance = rows["stance"].astype(bool)
+    nav = NavSolution(rows["t_s"], rows["pos_filter"], rows["vel_n"], rows["q_nb"], rows["acc_bias_b"],
+                      rows["gyro_bias_b"], rows["pos_sigma_n"], x["filter_info"], pos_cov_en=rows["pos_cov_en"])
+    stance_result = StanceResult(stance, rows["statistic"], x["threshold"], settings.detector.method,
+                                 dict(x["stance_info"]))
+    acc_used = rows["acc_used"] if rows["acc_used"] is not None else rows["acc_b"]
+    navigation = Navigation(
+        configured=stance_result, stance=stance, nav=nav, acc_used_b=acc_used, choice=x["choice"],
+        failed=x["failed"], timing=x["timing"], confidence=x["confidence"], period_s=x["period"],
+        quality=x["quality"], candidates=x["candidates"], warnings=[])
+    start = run.rec.start
+    return ProcessResult(
+        t_s=rows["t_s"], pos_n=rows["pos_n"], vel_n=rows["vel_n"], q_nb=rows["q_nb"], stance=stance,
+        steps=x["steps"], summary=summary, settings=settings, warnings=summary["warnings"],
+        saturated=rows["saturated"] != 0, acc_b=rows["acc_b"], gyro_b=rows["gyro_b"], gravity_mps2=x["gravity"],
+        stance_result=stance_result, nav=nav, init=x["init"], recording=src.recording, source=src.path,
+        source_is_hdf5=src.is_hdf5, index=slice(start, start + len(rows["t_s"])),
+        saturation_intervals=x["saturation_intervals"], metrics=x["metrics"], reference=run.reference,
+        navigation=navigation, sensor_calibration=x["sensor_cal"], saturation_bits=rows["saturated"])
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -284,9 +263,9 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     The input is read in blocks of ``settings.block_s`` seconds: an HDF5 recording through ``RecordingReader``,
     any other file through ``source.MemoryReader`` (read whole by ``bootnav import``'s reader), the crop as a
     window of rows (``source.crop_window``). Every window, one block or many, runs the stages of ``process`` as
-    passes over its blocks (``_block_passes``), memory bounded by the block. A stage that cannot run in passes
-    (a detector that cannot stream) runs ``process`` on the whole window, written by ``outputs.write_outputs``,
-    with a warning when that is longer than ``block_s``.
+    passes over its blocks (``_block_passes``), memory bounded by the block. A detector that cannot stream
+    gets the whole window's samples (``detectors.stream.WholeRecordStance``), with a warning when that is
+    longer than ``block_s``.
 
     Returns
     -------
@@ -299,7 +278,7 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
     from bootnav.core.jsonio import to_jsonable
     from bootnav.logger.recording import RecordingReader
 
-    from .outputs import ChartWorker, check_outputs, planned_files, write_outputs
+    from .outputs import ChartWorker, check_outputs, planned_files
     from .reference_path import load_reference, truth_reference
     from .source import MemoryReader, crop_window, load_source
 
@@ -322,25 +301,17 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         rows = block_rows(window.times(0, min(window.n, 1 << 16)), settings.block_s)
         blocks = -(-window.n // rows) if window.n else 1
         whole_why = _needs_whole_record(settings)
-        if whole_why is not None:
-            reader.close()  # ``process`` reads the input itself
-        elif settings.reference == "truth":
+        warnings = [] if whole_why is None or blocks == 1 else [  # ``detectors.stream.WholeRecordStance``
+            f"{path}: {whole_why}: its stance is detected on the whole record ({blocks} blocks of "
+            f"{settings.block_s:g} s held at once), so memory grows with the recording's length"]
+        if settings.reference == "truth":
             ref = truth_reference(SimpleNamespace(n=reader.n, t_s=reader.times()) if hdf5 else src.recording,
                                   path if hdf5 else None)
         check_outputs(settings, out, [path], into_recording, force)
         worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
-            if whole_why is not None:
-                result = process(path if src is None else src.recording, settings, progress=progress)
-                if blocks > 1:
-                    result.warnings.append(f"{path}: {blocks} blocks of {settings.block_s:g} s processed as one, "
-                                           f"since {whole_why}: memory grows with the recording's length")
-                    result.summary["warnings"] = result.warnings
-                files = write_outputs(result, out, into_recording, force, charts=worker)
-                worker = None  # closed by write_outputs
-                return result.summary, files
             run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording, ref)
-            summary, files = _block_passes(run, settings, out, [], _StageClock(progress), worker, progress)
+            summary, files = _block_passes(run, settings, out, warnings, _StageClock(progress), worker, progress)
             files["summary"] = str(out / "summary.json")
             summary["files"] = files
             atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
@@ -362,6 +333,49 @@ class _Input:
     recording: Recording | None  # an imported file's Recording (written into results.h5), None for HDF5
     into_recording: bool
     reference: Any  # reference_path.Reference or None
+    calibration: Any = None  # a SensorCalibration given to ``process`` (None: the settings' choice; False: none)
+    rows: Any = None  # ``_Collected``: the final pass's rows and samples kept in memory (``process``), else None
+
+
+class _Collected:
+    """What the final pass gives ``process`` instead of files: its rows (``NavRows`` after the revisits' and the
+    storeys' corrections, the filter's path before the storeys, the detector statistic) and its samples
+    (calibrated, saturation bits, the specific force the filter got), in order; ``arrays()`` joins them, and
+    ``extra`` holds the run's figures (``_block_passes`` sets it after the final pass)."""
+
+    ROWS = ("t_s", "pos_n", "vel_n", "q_nb", "stance", "acc_bias_b", "gyro_bias_b", "pos_sigma_n", "pos_cov_en")
+
+    def __init__(self):
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every row and sample pushed."""
+        self._rows: dict[str, list] = {k: [] for k in (*self.ROWS, "pos_filter", "statistic")}
+        self._samples: dict[str, list] = {"acc_b": [], "gyro_b": [], "saturated": [], "acc_used": []}
+        self.extra: dict = {}
+
+    def push_rows(self, r, pos_filter, statistic) -> None:
+        for k in self.ROWS:
+            self._rows[k].append(np.asarray(getattr(r, k)))
+        self._rows["pos_filter"].append(pos_filter)
+        if statistic is not None:
+            self._rows["statistic"].append(np.asarray(statistic, np.float64))
+
+    def push_samples(self, ch, acc_used) -> None:
+        self._samples["acc_b"].append(ch.acc_b)
+        self._samples["gyro_b"].append(ch.gyro_b)
+        self._samples["saturated"].append(np.asarray(ch.saturated))
+        if acc_used is not None:  # None: the samples' own (no timing offset)
+            self._samples["acc_used"].append(acc_used)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Every row and sample array joined (pushed arrays are released as they are joined)."""
+        out = {}
+        for parts in (self._rows, self._samples):
+            for k in list(parts):
+                v = parts.pop(k)
+                out[k] = np.concatenate(v) if len(v) > 1 else (np.array(v[0]) if v else None)
+        return out
 
 
 def block_rows(t_head: np.ndarray, block_s: float) -> int:
@@ -373,7 +387,8 @@ def block_rows(t_head: np.ndarray, block_s: float) -> int:
 
 
 def _needs_whole_record(settings: ProcessSettings) -> str | None:
-    """Why a stage of this run cannot run as passes over blocks (None: it can)."""
+    """Why the stance detection of this run needs the whole record (None: it streams), as the passes' warning
+    says it (``detectors.stream.WholeRecordStance`` holds the record's samples)."""
     from .detectors.stream import stream_refusal
 
     why = stream_refusal(settings.detector)
@@ -397,8 +412,9 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
 
     from . import selftune
     from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
-    from .detectors.stream import StreamStance
+    from .detectors.stream import StreamStance, stance_detector
     from .ins.filter import propagated_gaps_warning
+    from .ins.measurements import LevelHeightMeasurement, ZaruMeasurement
     from .ins.stream import StreamNavigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
                           start_results, append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
@@ -414,13 +430,12 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .summary import HEADLINE_KEYS, PATH_CONVENTIONS, alignment_summary, final_uncertainty, mount_check_of
     from bootnav.core.arrays import row_norm
     from .checks import stance_findings_of
-    from .navigate import implausible_strides
 
     name = run.name
     timings = lap.timings
     with contextlib.nullcontext(run.rec) as rec:
         device = rec.meta.get("device")
-        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"))
+        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"), run.calibration)
         warnings += sensor_cal.warnings
         n = rec.n
         t_first, t_last = (float(rec.times(i, i + 1)[0]) for i in (0, n - 1)) if n else (0.0, 0.0)
@@ -474,13 +489,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
         if duration < settings.checks.min_duration_s:  # as check_samples refuses it
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
-        block_checks = replace(settings.checks, min_duration_s=0.0)
         step_checks = StepWarnings(dt0)  # the warnings of ``check_samples`` on the whole record's steps
         sat_iv: list[dict] = []
         for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
             a = max(i0 - 2, 0)
             t, acc, gyro, sat = read(a, i1)
-            check_samples(name, t, acc, gyro, rec.start + a, block_checks)  # refusals; warnings of the whole below
+            check_samples(name, t, acc, gyro, rec.start + a, settings.checks, (t_first, t_last))  # refusals; warnings
+            # of the whole record below
             k = max(i0 - a - 1, 0)  # the steps that end in this block
             step_checks.push(t[k:-1], np.diff(t[k:]))
             sat_iv = join_saturation_intervals(sat_iv, saturation_intervals(t[i0 - a:], sat[i0 - a:], rec.start + i0))
@@ -503,7 +518,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             if replayed is not None:
                 yield from replayed
                 return
-            det = StreamStance(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
+            det = stance_detector(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
             keep = spills.stance.recorder(det_settings, det_floor).keep
             for i0, i1 in blocks:
                 yield from keep(det.push(*read(i0, i1)))
@@ -537,7 +552,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             return probe.noise_floor_log10 if low is None else low  # all excluded (saturated): the stream's
 
         def select_fallback(failed: str, period: float) -> dict:
-            """``navigate``'s fallback in passes: ``selftune.select_stance``'s candidates scored by forward runs
+            """The stance fallback in passes: ``selftune``'s candidates scored by forward runs
             over the blocks, the no-rest and mount rules; sets ``chosen``; returns choice, candidates, no_rest
             and the warnings."""
             st_ = settings.selftune
@@ -612,7 +627,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             timing: dict = {}
             tau = 0.0
             # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
-            # it off, the one forward run that scores the path (``selftune.innovation_rms``)
+            # it off, the one forward run that scores the path (the RMS of its ZUPT-onset innovations, ``selftune.onset_innovations``)
             signs = (-1, 1) if st.timing_calibration else (0,)
             probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
             forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
@@ -646,7 +661,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 innovation = float(np.sqrt(onsets[0].mean_square(n)))
             del probes, fp_probe, onsets
             method = settings.detector.method
-            if attempt == 0:  # the configured detector's mask (``navigate``)
+            if attempt == 0:  # the configured detector's mask (``checks.stance_findings_of``)
                 findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
                                               stance_rate.median() if n_stance_all else None, settings.checks, method)
                 warnings += [f.message for f in findings if not f.fatal]
@@ -716,7 +731,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             storeys = None
             revisit, revisit_report = None, None  # the pose graph's (footprint times, corrections (K, 2))
             final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
-            if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (``navigate._run``)
+            if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (after τ)
                 path_fp = path_footprints(settings.filter)
                 dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
                 heading_decision = dec.as_dict()
@@ -743,12 +758,18 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             del path_fp
             snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
 
-            # the final pass: the filter + smoother, outputs appended as rows become final
-            out.mkdir(parents=True, exist_ok=True)
+            # the final pass: the filter + smoother, outputs appended as rows become final (``out`` None: kept in
+            # ``run.rows``, no file written)
+            collect = run.rows
+            if collect is not None:
+                collect.reset()  # the fallback's passes run the final pass again: the rows of the last one
             opts = settings.output
             group = f"/results/{opts.results_name}"
-            target = run.path if run.into_recording else out / "results.h5"
-            tmp = atomic.temporary_beside(target)
+            tmp = None
+            if out is not None:
+                out.mkdir(parents=True, exist_ok=True)
+                target = run.path if run.into_recording else out / "results.h5"
+                tmp = atomic.temporary_beside(target)
             reuse = bool(replay) and replay["filter"] is final_filter and replay["gate"] is gate_iv and revisit is None
             nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
             replayed = iter(replay.pop("rows")) if reuse else None
@@ -758,7 +779,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             quality_acc = selftune.StrideQualityAccumulator()
             gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
             charts = None
-            if opts.plots:
+            if opts.plots and out is not None:
                 from .plots import ChartStream
 
                 charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
@@ -778,11 +799,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             gamma_range = [np.inf, -np.inf]  # the adaptive detector's log10 γ range (its ``threshold_log10_range``)
             n_saturated = 0  # samples the detector excluded as saturated (``detect_stance``'s ``n_saturated``)
             try:
-                if opts.write_hdf5:
+                if opts.write_hdf5 and out is not None:
                     start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
-                writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 else None
-                with atomic.replacing(out / "trajectory.csv") as csv:  # appears complete or not at all
-                    csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
+                writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 and out is not None else None
+                # trajectory.csv appears complete or not at all
+                with atomic.replacing(out / "trajectory.csv") if out is not None else contextlib.nullcontext() as csv:
+                    if csv is not None:
+                        csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
 
                     def emit(r) -> None:
                         nonlocal n_rows, n_stance
@@ -792,19 +815,25 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             check_path_finite(name, r.t_s, r.pos_n, rec.start + r.start)
                         corrected(r)
                         quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
-                                         r.gyro_bias_b)  # on the filter's path, as ``navigate`` flags it
+                                         r.gyro_bias_b)  # on the filter's path, before the storeys
+                        pos_filter = r.pos_n  # the filter's path (revisits corrected), before the storeys
                         if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
                             r.pos_n = r.pos_n.copy()
                             r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
-                        append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
-                                        TRAJECTORY_FORMATS)
+                        if csv is not None:
+                            append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
+                                            TRAJECTORY_FORMATS)
                         if spill is not None:
                             np.column_stack((r.t_s, r.pos_n, r.stance)).astype(np.float64).tofile(spill)
+                        stat = (stat_rows.take(r.start, r.start + len(r))
+                                if writer is not None or collect is not None else None)
                         if writer is not None:
                             writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
                                            "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
                                            "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
-                                           "stance_statistic": stat_rows.take(r.start, r.start + len(r))})
+                                           "stance_statistic": stat})
+                        if collect is not None:
+                            collect.push_rows(r, pos_filter, stat)
                         fp_acc.push(r.t_s, r.pos_n, r.stance,
                                     np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
                         yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
@@ -830,8 +859,10 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                             if len(ch):
                                 gamma_range[:] = [min(gamma_range[0], float(np.min(ch.threshold_log10))),
                                                   max(gamma_range[1], float(np.max(ch.threshold_log10)))]
-                        if writer is not None:
+                        if writer is not None or collect is not None:
                             stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
+                        if collect is not None:
+                            collect.push_samples(ch, acc_used(ch) if tau else None)
                         emit(next(replayed) if replayed is not None else
                              nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
                         _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
@@ -860,8 +891,8 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
                                      f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
                 if attempt == 0 and failed is None and quality.bad_fraction > st.max_bad_fraction:
-                    failed = implausible_strides(quality)
-                    if st.fallback:  # the configured path's strides fail: the fallback's passes (``navigate``)
+                    failed = selftune.implausible_strides(quality)
+                    if st.fallback:  # the configured path's strides fail: the fallback's passes
                         del warnings[n_warn:]
                         fallback = select_fallback(failed, period)
                         warnings[n_warn:n_warn] = fallback["warnings"]
@@ -921,7 +952,13 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                                     for bit, nm in selftune.FLAG_NAMES.items()},
                                    "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                    "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable({**nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
+                    "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
+                                           "n_states": final_filter.n_states, "smoother": final_filter.smoother,
+                                           # which aids ran (as ``ins.run_filter`` says it)
+                                           "zaru": ZaruMeasurement.active(final_filter),
+                                           "heading_aid": final_filter.heading_aid,
+                                           "level_height": LevelHeightMeasurement.active(final_filter),
+                                           **nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
                                            # the last sample, as ``ins.run_filter`` gives it
                                            "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
                                            **({} if heading_decision is None else
@@ -940,6 +977,14 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     "settings": settings.to_dict(),
                     "warnings": warnings,
                 }
+                if collect is not None:  # ``process``: the run's figures beside its rows
+                    collect.extra.update(
+                        init=init, gravity=float(gravity), sensor_cal=sensor_cal, saturation_intervals=sat_iv,
+                        steps=steps, metrics=metrics, period=float(period), quality=quality, timing=timing,
+                        confidence=float(confidence), choice=choice, failed=failed,
+                        candidates=fallback["candidates"] if fallback else [], threshold=threshold,
+                        stance_info=summary["stance"]["info"], filter_info=summary["filter"])
+                    break
                 if charts is not None:  # drawn by the chart processes while the files are finished
                     charts.finish(t_mid, fp, steps, summary, settings)
                     if worker is not None:
@@ -981,15 +1026,16 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                     spill.close()
                 if gamma_spill is not None:
                     gamma_spill.close()
-                tmp.unlink(missing_ok=True)
+                if tmp is not None:
+                    tmp.unlink(missing_ok=True)
             break
         rate_rows.close()
-    return summary, files
+    return summary, ({} if out is None else files)
 
 
 def _with_stance_of(chunks, other):
     """``chunks`` (StanceChunks) with the stance of ``other`` (another detector's StanceChunks of the same samples,
-    cut elsewhere): ``navigate``'s fallback keeps the configured detector's statistic and takes another mask."""
+    cut elsewhere): the fallback keeps the configured detector's statistic and takes another mask."""
     queue, upto, other = _RowQueue(), 0, iter(other)
     for ch in chunks:
         end = ch.start + len(ch)
@@ -1003,7 +1049,7 @@ def _with_stance_of(chunks, other):
 
 
 class _CandidateScore:
-    """One candidate of ``selftune.select_stance`` scored in a pass (``selftune._row``'s figures): a forward run of
+    """One candidate of the stance fallback (``selftune``'s docstring) scored in a pass: a forward run of
     the filter (no smoother, the specific force not rotated by τ) on its mask, the RMS of its ZUPT-onset
     innovations and its stride flags (``selftune.StrideQualityAccumulator`` on the forward path)."""
 
@@ -1027,7 +1073,7 @@ class _CandidateScore:
             self.finite = self.finite and bool(np.all(np.isfinite(r.pos_n)))
 
     def run(self, pairs, period_s: float, settings, n: int) -> dict:
-        """Push every (StanceChunk, mask) of the record; the candidate's row (``select_stance``'s ``candidates``)."""
+        """Push every (StanceChunk, mask) of the record; the candidate's row (the summary's ``navigation.candidates``)."""
         for ch, mask in pairs:
             mask = np.asarray(mask, bool)
             self.phases.push(ch.start, mask)

@@ -117,7 +117,7 @@ class ProcessSettings:
         Plausibility limits.
     selftune : SelfTuneSettings
         The stance fallback, stride quality flags, the minimum stride and the vertical timing calibration
-        (``selftune``, ``navigate``).
+        (``selftune``, the passes of ``pipeline``).
     output : OutputSettings
         What is written.
     crop_s : tuple of float or None, (s, s)

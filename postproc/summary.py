@@ -1,7 +1,8 @@
 """The layout of ``summary.json``: what one ``process`` run did and found, in plain JSON types.
 
-The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: this one,
-``pipeline._block_passes`` for a recording of many blocks, ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
+The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: the one
+``pipeline._block_passes`` builds for ``process`` and ``bootnav process``, ``build_summary``'s of a
+``ProcessResult`` (a fused foot of ``twoboots``), ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
 ``calibration`` (which sensor calibration ran: file, device id, date, residuals; or "none" and why),
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``
 (``strides.path_summary``), ``metrics`` (reference metrics or null), ``saturation_intervals``, ``warnings``,
@@ -227,7 +228,7 @@ def mount_check_of(p99: float, duration: float, period_s: float, distance_m: flo
 
 
 def _navigation(navi: Any) -> dict | None:
-    """The stance choice, its confidence, the stride flags and the timing offset (``navigate.Navigation``)."""
+    """The stance choice, its confidence, the stride flags and the timing offset (``pipeline.Navigation``)."""
     if navi is None:
         return None
     from .selftune import FLAG_NAMES

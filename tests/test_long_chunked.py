@@ -177,14 +177,18 @@ def test_old_command_lines_still_run(walk, tmp_path):
     assert np.abs(results(tmp_path / "o")["pos_n_m"] - whole.pos_n).max() <= 1e-9
 
 
-def test_a_stage_that_needs_the_whole_record_runs_one_block_with_a_warning(walk, tmp_path):
+def test_a_detector_that_needs_the_whole_record_runs_in_the_passes_with_a_warning(walk, tmp_path):
+    """A detector that cannot stream (``xio``) gets its whole-record stance in chunks: blocks of 10 s give the
+    one-block path, with a warning that memory grows with the recording."""
     d, rec, whole = walk
-    p = _cli(rec, "--out", tmp_path / "c", "--block-s", "10", "--detector", "xio", "--no-plots", "--no-hdf5")
-    assert p.returncode == 0, p.stderr
+    for out, block in (("c", "10"), ("one", "1000")):
+        p = _cli(rec, "--out", tmp_path / out, "--block-s", block, "--detector", "xio", "--no-plots", "--no-hdf5")
+        assert p.returncode == 0, p.stderr
     summary = json.loads((tmp_path / "c" / "summary.json").read_text())
-    assert any("processed as one, since the stance detector 'xio' cannot run block by block" in w
+    assert any("the stance detector 'xio' cannot run block by block" in w and "memory grows" in w
                for w in summary["warnings"])
-    assert "confidence" in summary  # the whole-record stages ran
+    assert summary["navigation"]["blocks"] > 1 and "confidence" in summary  # the whole-record stages ran
+    assert (tmp_path / "c" / "trajectory.csv").read_bytes() == (tmp_path / "one" / "trajectory.csv").read_bytes()
     p = _cli(rec, "--out", tmp_path / "b", "--block-s", "-1")
     assert p.returncode == 1 and "block_s" in p.stderr and "Traceback" not in p.stderr
 

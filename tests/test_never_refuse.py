@@ -99,7 +99,7 @@ def test_a_failed_detector_without_a_gait_rhythm_still_gets_a_path(tmp_path, mon
     path = _sim(tmp_path, "fast-corridor", "mpu6050-noise-only", duration_s=25.0)
     s = ProcessSettings()
     s.detector = s.detector.with_method("shoe", threshold=1e12)  # every sample "stance": a fatal finding
-    monkeypatch.setattr(selftune, "gait_period", lambda *a, **k: float("nan"))
+    monkeypatch.setattr(selftune.GaitPeriodAccumulator, "finish", lambda self: float("nan"))  # no rhythm found
     strict = ProcessSettings()
     strict.detector = s.detector
     strict.selftune = replace(strict.selftune, fallback=False)

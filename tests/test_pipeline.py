@@ -68,7 +68,7 @@ def test_real_closed_loop_walk_closes(short_walk_result):
     assert np.all(np.hypot(r.steps["stride_length_m"], r.steps["dz_m"]) >= r.settings.selftune.min_stride_m)
     assert 0.8 < np.median(r.steps["stride_length_m"]) < 1.8
     assert r.summary["path"]["stance_phases"] > 16  # the standing phases are still there
-    for stage in ("load", "checks", "calibration", "navigation", "strides"):
+    for stage in ("load", "timing", "navigation", "strides", "reference"):  # the passes of ``_block_passes``
         assert r.summary["timings_s"][stage] >= 0.0
 
 
@@ -145,25 +145,30 @@ def test_crop_keeps_the_recording_clock(short_walk_rec):
 BUNDLED = Path(__file__).resolve().parents[1] / "recordings" / "xio_ngimu_short_walk.h5"
 
 
-def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
-    """The stages of ``process`` called one by one on the bundled x-io walk (a copy: never written to) give
-    bit for bit what ``process`` returns, so the orchestration hides nothing. The crop makes the recording
-    index offset matter (saturation intervals and messages use recording indices)."""
-    from bootnav.postproc.calibration import initial_alignment
+def test_each_stage_runs_alone_and_process_is_the_stages(tmp_path):
+    """The stages of ``process`` called one by one on whole arrays of the bundled x-io walk (a copy: never written
+    to) give what ``process``'s passes over blocks return, so the orchestration hides nothing: the same samples,
+    checks, stance mask and stride flags exactly, the path and strides to the rounding of sums taken in another
+    order (1e-9 of their scale). The crop makes the recording index offset matter (saturation intervals and
+    messages use recording indices)."""
+    from bootnav.postproc import selftune
+    from bootnav.postproc.building.directions import aided_settings, heading_plan, segment_gate
+    from bootnav.postproc.calibration import initial_alignment, stance_reference
+    from bootnav.postproc.detectors import detect_stance
     from bootnav.postproc.ellipses import stride_scale_covariance
     from bootnav.postproc.floors import snap_storeys
     from bootnav.postproc.checks import (check_path_finite, check_samples, clipping_bits, refuse_fatal,
                                          saturation_intervals, saturation_warnings, stance_findings,
                                          stride_findings)
-    from bootnav.postproc.navigate import navigate
+    from bootnav.postproc.ins import run_filter
     from bootnav.postproc.selftune import TINY
     from bootnav.postproc.source import crop, load_source
-    from bootnav.postproc.strides import path_summary, segment_strides
-    from bootnav.postproc.summary import build_summary
+    from bootnav.postproc.strides import footprints, path_summary, segment_strides
 
     rec_path = tmp_path / "walk.h5"
     rec_path.write_bytes(BUNDLED.read_bytes())
     settings = ProcessSettings(crop_s=(1.0, 40.0), reference='{"closed_loop": true}')
+    st = settings.selftune
 
     src = load_source(rec_path)
     assert src.is_hdf5 and src.name == str(rec_path) and src.recording.n > 10_000
@@ -177,14 +182,29 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
     gravity = settings.calibration.gravity()
     init = initial_alignment(t_s, acc_b, gyro_b, settings.calibration, gravity)
     warnings += list(init.warnings)
-    navi = navigate(src.name, t_s, acc_b, gyro_b, init, gravity, settings, sat_bits)
-    stance_res, stance, nav = navi.configured, navi.stance, navi.nav
-    # a good walk keeps the configured detector and gets a confident path
-    assert navi.failed is None and navi.choice == f"configured ({stance_res.method})" and navi.confidence > 0.5
-    np.testing.assert_array_equal(stance, stance_res.stance)
+    # navigation: the configured detector's mask (on the rates less the rest's, as the sensor reads rest), its
+    # checks, the gait period, the timing offset τ, the filter + smoother, the heading decision, the stride flags
+    bias_det, gravity_det = stance_reference(init, gravity)
+    stance_res = detect_stance(t_s, acc_b, gyro_b - bias_det, settings.detector, gravity_det, saturated=sat_bits)
+    stance = stance_res.stance
     assert stance_findings(t_s, stance, settings.checks, stance_res.method, gyro_b) == []
+    period = selftune.gait_period(t_s, gyro_b)
+    timing = selftune.level_timing_offset(t_s, acc_b, gyro_b, stance, init, gravity, settings.filter,
+                                          saturated=sat_bits, delta_s=st.timing_probe_s, max_abs_s=st.timing_max_abs_s,
+                                          min_level_strides=st.timing_min_level_strides,
+                                          max_level_strides=st.timing_max_level_strides)
+    acc_used = selftune.rotate_specific_force(acc_b, gyro_b, timing["tau_s"]) if timing["tau_s"] else acc_b
+    nav = run_filter(t_s, acc_used, gyro_b, stance, init, gravity, settings.filter, saturated=sat_bits)
+    dec, ends, aided = heading_plan(footprints(t_s, nav.pos_n, stance)[1][:, :2], settings.filter)  # on the unaided path
+    if dec.on:  # the aid at the decided grid direction, gated to the aided strides
+        gate = None if aided is None else segment_gate(len(t_s), stance, ends, aided)
+        nav = run_filter(t_s, acc_used, gyro_b, stance, init, gravity, aided_settings(settings.filter, dec),
+                         saturated=sat_bits, heading_gate=gate)
+    quality = selftune.stride_quality(t_s, nav.pos_n, stance, gyro_b, nav.gyro_bias_b, period, st)
+    confidence = selftune.confidence(timing["innovation_rms_mps"], quality.bad_fraction, period, st)
+    # a good walk keeps the configured detector and gets a confident path
+    assert quality.bad_fraction <= st.max_bad_fraction and confidence > 0.5
     check_path_finite(src.name, t_s, nav.pos_n, offset)
-    warnings += navi.warnings
     warnings += [str(w) for w in (nav.info or {}).get("warnings", [])]
     floors = settings.floor_settings()
     pos_n, storeys = snap_storeys(t_s, nav.pos_n, stance, settings.filter.level_max_dz_m, floors.riser_min_m,
@@ -193,21 +213,29 @@ def test_each_stage_runs_alone_and_process_is_exactly_the_stages(tmp_path):
     floor_z = storeys.storey_fp * floors.floor_height_m
     min_stride = settings.selftune.min_stride_m
     cov_extra = stride_scale_covariance(t_s, pos_n, stance, nav.q_nb, settings, False)  # no calibration here
-    steps = segment_strides(t_s, pos_n, stance, min_stride, navi.quality.flags & np.uint8(0xFF ^ TINY), floors,
+    steps = segment_strides(t_s, pos_n, stance, min_stride, quality.flags & np.uint8(0xFF ^ TINY), floors,
                             nav.pos_sigma_n, nav.pos_cov_en, floor_z, cov_extra)
-    warnings += [f.message for f in stride_findings(steps, settings.checks, navi.choice)]
+    warnings += [f.message for f in stride_findings(steps, settings.checks, f"configured ({stance_res.method})")]
     path_stats = path_summary(t_s, pos_n, stance, floors, min_stride, floor_z)
-    path_stats["storeys"] = storeys.summary()
 
     r = process(rec_path, settings)
     for got, want in ((r.t_s, t_s), (r.acc_b, acc_b), (r.gyro_b, gyro_b), (r.stance, stance),
-                      (r.saturated, sat_bits.astype(bool)), (r.pos_n, pos_n), (r.vel_n, nav.vel_n),
-                      (r.q_nb, nav.q_nb), *((r.steps[k], steps[k]) for k in steps)):
+                      (r.saturated, sat_bits.astype(bool)), (r.navigation.quality.flags, quality.flags), (r.steps["quality_flags"], steps["quality_flags"]),
+                      (r.steps["floor"], steps["floor"])):
         np.testing.assert_array_equal(got, want)
+    for got, want in ((r.pos_n, pos_n), (r.nav.pos_n, nav.pos_n), (r.vel_n, nav.vel_n), (r.q_nb, nav.q_nb),
+                      (r.nav.pos_sigma_n, nav.pos_sigma_n), (r.navigation.acc_used_b, acc_used),
+                      (r.stance_result.statistic, stance_res.statistic),  # moving sums over the stream's buffer
+                      *((r.steps[k], steps[k]) for k in steps)):
+        want = np.asarray(want, float)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * max(float(np.max(np.abs(want), initial=0)), 1.0))
+    assert r.navigation.timing["tau_s"] == timing["tau_s"] and r.navigation.period_s == pytest.approx(period, 1e-12)
+    assert r.navigation.confidence == pytest.approx(confidence, rel=1e-9)
     assert r.index == samples.index and r.saturation_intervals == sat_iv and r.warnings == warnings
-    assert r.summary["path"] == path_stats
-    # the summary layout is a pure function of the result
-    assert json.dumps(build_summary(r, path_stats, r.summary["timings_s"])) == json.dumps(r.summary)
+    for key in ("distance_m", "closure_3d_m", "height_change_m", "strides", "stance_phases", "floors_climbed"):
+        assert r.summary["path"][key] == pytest.approx(path_stats[key], rel=1e-9), key
+    got, want = dict(r.summary["path"]["storeys"]), storeys.summary()
+    assert got.pop("max_correction_m") == pytest.approx(want.pop("max_correction_m"), rel=1e-9) and got == want
     assert BUNDLED.read_bytes() == rec_path.read_bytes()  # process wrote nothing
 
     # findings are returned, not raised: refusing is the caller's choice (today's policy: refuse_fatal)

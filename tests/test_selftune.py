@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -47,25 +48,36 @@ def test_gait_period_is_the_simulated_stride_period(walk, run_no_flat):
         assert S.gait_period(t, w) == pytest.approx(120.0 / g.cadence_spm, abs=0.01)
 
 
+def _process(res, **settings):
+    """``process`` of a simulated recording's arrays (the passes, with their fallback): its ``ProcessResult``."""
+    import bootnav
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # e.g. a short still period: not what these tests are about
+        return bootnav.process(*_arrays(res), **settings).raw
+
+
 def test_no_gait_in_a_standing_recording():
+    """No gait rhythm and no stride: not a failed stance detection but no motion, refused as such."""
+    from bootnav.errors import InputError
+
     res = sim.simulate(scenarios.custom("stand", lambda pb: pb.stand(20.0)), seed=5)
     t, a, w = _arrays(res)
     assert np.isnan(S.gait_period(t, w))
-    init = initial_alignment(t, a, w, CalibrationSettings(), G)
-    out = S.select_stance(t, a, w, init, G, DetectorSettings(), FilterSettings())  # must not raise
-    assert out.stance.shape == t.shape and out.confidence == 0.0 and out.warnings
+    with pytest.raises(InputError, match="no motion: not one stride .* and no periodic gait"):
+        _process(res)
 
 
 def test_walking_keeps_the_configured_detector(walk):
     t, a, w = _arrays(walk)
-    init = initial_alignment(t, a, w, CalibrationSettings(), G)
-    out = S.select_stance(t, a, w, init, G, DetectorSettings(), FilterSettings())
-    assert out.choice.startswith("configured")
+    r = _process(walk)
+    out = r.navigation
+    assert out.choice.startswith("configured") and out.failed is None and not out.candidates
     from bootnav.postproc.calibration import stance_reference
 
-    bias, g_rest = stance_reference(init, G)  # the configured detector sees the rest as the sensor read it
+    bias, g_rest = stance_reference(r.init, G)  # the configured detector sees the rest as the sensor read it
     configured = detect_stance(t, a, w - bias, DetectorSettings(), g_rest).stance
-    assert np.array_equal(out.stance, configured)
+    assert np.array_equal(r.stance, configured)
     assert out.quality.bad_fraction == 0.0 and 0.5 < out.confidence <= 1.0
 
 
@@ -92,17 +104,13 @@ def test_cycle_minimum_finds_the_slowest_instant_of_every_stride(run_no_flat):
 
 
 def test_running_without_foot_flat_gets_one_update_per_stride(run_no_flat):
-    from bootnav.postproc.strides import segment_strides
-
-    t, a, w = _arrays(run_no_flat)
-    init = initial_alignment(t, a, w, CalibrationSettings(), G)
     # the adaptive detector without its share rule misses these stances (what got refused): the fallback's case
     old_rule = DetectorSettings(params={"isolated_min_flat_fraction": 0.0})
-    out = S.select_stance(t, a, w, init, G, old_rule, FilterSettings())
+    r = _process(run_no_flat, detector=old_rule.to_dict())
+    out = r.navigation
     assert out.candidates[0]["bad_fraction"] > 0.1
     assert not out.choice.startswith("configured") and out.quality.bad_fraction == 0.0
-    nav = run_filter(t, a, w, out.stance, init, G, FilterSettings())
-    est = segment_strides(t, nav.pos_n, out.stance)
+    est = r.steps
     steps = run_no_flat.steps
     running = steps["length_m"] > 2.0
     k = np.flatnonzero(running[:-1] & running[1:])[1:]  # strides that start and end inside the run

@@ -364,7 +364,7 @@ def segment_gate(n_samples: int, stance: np.ndarray, stride_end_fp: np.ndarray, 
 
 
 def heading_plan(fp_xy: np.ndarray, settings) -> tuple[HeadingDecision, np.ndarray | None, np.ndarray | None]:
-    """``auto_heading``'s decision on the footprints (K, 2) of the unaided path: (decision, index of the
+    """The heading decision (``heading_aid="auto"``) on the footprints (K, 2) of the unaided path: (decision, index of the
     footprint each stride ends in, aided flag per stride); both None when the aid is off or acts on every
     stride (``heading_aid_segments`` off). The decision's reason names the per-segment counts."""
     dec = decide(fp_xy, settings)
@@ -385,23 +385,3 @@ def aided_settings(settings, dec: HeadingDecision):
     from dataclasses import replace
 
     return replace(settings, heading_aid="dominant_directions", heading_aid_reference_rad=dec.reference_rad)
-
-
-def auto_heading(nav, t_s: np.ndarray, stance: np.ndarray, settings, rerun):
-    """``heading_aid = "auto"`` in ``process``: decide on the unaided path ``nav`` (a ``NavSolution``) and,
-    when the rule says on, return ``rerun(settings, heading_gate)`` with the aid on at the decided grid
-    direction (``heading_gate``: per-sample gate of the aided legs, or None with ``heading_aid_segments``
-    off). ``pipeline._block_passes`` takes the same steps over the blocks of a long recording.
-
-    The decision (``HeadingDecision.as_dict``) goes into ``nav.info["heading_decision"]`` (the summary's
-    ``filter`` section)."""
-    from bootnav.postproc.strides import footprints
-
-    stance = np.asarray(stance, bool)
-    _, fp = footprints(t_s, np.asarray(nav.pos_n), stance)
-    dec, ends, aided = heading_plan(fp[:, :2], settings)
-    if dec.on:
-        gate = None if aided is None else segment_gate(len(t_s), stance, ends, aided)
-        nav = rerun(aided_settings(settings, dec), gate)
-    nav.info["heading_decision"] = dec.as_dict()
-    return nav

@@ -271,6 +271,64 @@ def _as_bits(saturated, m: int, at: int) -> np.ndarray:
     return s.astype(np.uint8)
 
 
+class WholeRecordStance:
+    """``StreamStance``'s interface for a detector that needs the whole record (``stream_refusal`` names why):
+    the pushed samples are kept until ``finish``, which runs ``detect_stance`` once on all of them (with the
+    record's median step, as on whole arrays) and returns the decisions cut as the samples were pushed. So the
+    block passes run such a detector too, its stance being the whole-record one; its memory grows with the
+    record (the samples, about 60 B each, until ``finish``).
+
+    Parameters are ``StreamStance``'s (``rate_hz`` and ``noise_floor_log10`` unused: such a detector reads
+    its period and its threshold off the record).
+    """
+
+    def __init__(self, settings, rate_hz: float, gravity: float = STANDARD_GRAVITY_MPS2, *,
+                 noise_floor_log10: float | None = None, gyro_bias_b=None):
+        self.settings = settings
+        self.gravity = float(gravity)
+        self._gyro_bias = None if gyro_bias_b is None else np.asarray(gyro_bias_b, dtype=np.float64).reshape(3)
+        self._parts: list[tuple] = []
+        self._n = 0
+        self.result = None  # the detector's ``StanceResult`` after ``finish``
+        self.noise_floor_log10 = None
+
+    def push(self, t_s, acc_b, gyro_b, saturated=None) -> list[StanceChunk]:
+        """Keep the samples (arguments as ``StreamStance.push``); nothing is decided before ``finish``."""
+        t_s = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        m = t_s.shape[0]
+        self._parts.append((t_s, np.asarray(acc_b, np.float64).reshape(m, 3),
+                            np.asarray(gyro_b, np.float64).reshape(m, 3), _as_bits(saturated, m, self._n)))
+        self._n += m
+        return []
+
+    def finish(self) -> list[StanceChunk]:
+        """The stance of every sample pushed, one chunk per push."""
+        from . import detect_stance
+
+        if not self._parts:
+            return []
+        t, acc, gyro, bits = (np.concatenate(a) for a in zip(*self._parts))
+        gyro_det = gyro if self._gyro_bias is None else gyro - self._gyro_bias
+        res = detect_stance(t, acc, gyro_det, self.settings, self.gravity, saturated=bits)
+        self.result = res
+        stance, stat = np.asarray(res.stance, bool), np.asarray(res.statistic, np.float64)
+        out, a = [], 0
+        for part in self._parts:
+            b = a + len(part[0])
+            out.append(StanceChunk(a, *part[:3], stance[a:b], part[3], stat[a:b]))
+            a = b
+        self._parts = []
+        return out
+
+
+def stance_detector(settings, rate_hz: float, gravity: float = STANDARD_GRAVITY_MPS2, *,
+                  noise_floor_log10: float | None = None, gyro_bias_b=None):
+    """``StreamStance`` for a detector that streams, ``WholeRecordStance`` for one that cannot (the same
+    arguments): what the block passes of ``process`` push their samples through."""
+    cls = WholeRecordStance if stream_refusal(settings) else StreamStance
+    return cls(settings, rate_hz, gravity, noise_floor_log10=noise_floor_log10, gyro_bias_b=gyro_bias_b)
+
+
 def stream_refusal(settings) -> str | None:
     """Why ``StreamStance`` refuses these ``DetectorSettings`` (None: it runs them exactly)."""
     return _unsupported(settings.build())
@@ -287,4 +345,5 @@ def streamable_detectors() -> list[str]:
     return out
 
 
-__all__ = ["StanceChunk", "StreamStance", "stream_refusal", "streamable_detectors"]
+__all__ = ["StanceChunk", "StreamStance", "WholeRecordStance", "stance_detector", "stream_refusal",
+           "streamable_detectors"]

@@ -41,7 +41,7 @@ The sensor calibration is ``process``'s (``calibration.resolve_calibration`` wit
 the cue and the navigator see it.
 
 What ``process`` does on the whole record and a stream cannot (``ins.stream``): the stance fallback
-(``selftune.select_stance``) and the per-recording vertical timing calibration; the live view uses the
+(the fallback of ``pipeline``'s passes) and the per-recording vertical timing calibration; the live view uses the
 configured detector and no timing offset.
 """
 

@@ -1,6 +1,8 @@
 """Truth-free choice of the stance detection per recording, per-stride quality flags, and a level-stride
-timing self-calibration of the vertical channel; ``bootnav.postproc.pipeline.process`` calls them (stage
-"navigation").
+timing self-calibration of the vertical channel; the passes of ``bootnav.postproc.pipeline`` apply them (stage
+"navigation"), each whole-record figure from its accumulator (``GaitPeriodAccumulator``,
+``StrideQualityAccumulator``, the timing probes' footprints) or, for the fallback's candidates, from forward runs
+over the blocks.
 
 Why: the best stance detector setting varies between people, gaits and sensors (fast walks and runs have a
 foot-flat of a few tens of milliseconds, or none), and a fixed default either misses the short stances (the
@@ -8,7 +10,7 @@ path between two ZUPTs is unaided drift) or declares stance on a moving foot. Th
 million samples per second, so a few candidate masks can be tried per recording and judged by what the
 data say about them.
 
-Candidates (``select_stance``): the configured detector (default: adaptive, α = 0.3), the adaptive rule
+Candidates (``pipeline._block_passes``' fallback): the configured detector (default: adaptive, α = 0.3), the adaptive rule
 with α = 0.2 and 0.4, fixed-threshold SHOE [Skog2010], and "cycle minimum": the configured mask plus, in
 every gait cycle it missed, the lowest-energy window of the SHOE statistic (``cycle_minimum_stance``), so
 that every stride gets at least one zero-velocity update even when the foot never rests (running, fast
@@ -72,9 +74,9 @@ from __future__ import annotations
 
 from .settings import SelfTuneSettings
 from .gait import gait_period, GaitPeriodAccumulator
-from .quality import FAST, MISSED, VERTICAL, ROLLING, TINY, IMPLAUSIBLE, FLAG_NAMES, StrideQuality, stride_quality, stride_flags, StrideQualityAccumulator, split_strides
-from .scoring import onset_innovations, innovation_rms, confidence
-from .fallback import SelfTuneResult, cycle_minimum_stance, cycle_minimum_candidate, select_stance
+from .quality import FAST, MISSED, VERTICAL, ROLLING, TINY, IMPLAUSIBLE, FLAG_NAMES, StrideQuality, stride_quality, stride_flags, StrideQualityAccumulator, split_strides, implausible_strides
+from .scoring import onset_innovations, confidence
+from .fallback import cycle_minimum_stance, cycle_minimum_candidate
 from .timing import rotate_specific_force, level_stride_dz, footprint_level_dz, level_timing_offset, timing_from_probes
 
-__all__ = ["FAST", "FLAG_NAMES", "GaitPeriodAccumulator", "IMPLAUSIBLE", "MISSED", "ROLLING", "SelfTuneResult", "SelfTuneSettings", "StrideQuality", "StrideQualityAccumulator", "TINY", "VERTICAL", "confidence", "cycle_minimum_candidate", "cycle_minimum_stance", "footprint_level_dz", "gait_period", "innovation_rms", "level_stride_dz", "level_timing_offset", "onset_innovations", "rotate_specific_force", "select_stance", "split_strides", "stride_flags", "stride_quality", "timing_from_probes"]
+__all__ = ["FAST", "FLAG_NAMES", "GaitPeriodAccumulator", "IMPLAUSIBLE", "MISSED", "ROLLING", "SelfTuneSettings", "StrideQuality", "StrideQualityAccumulator", "TINY", "VERTICAL", "confidence", "cycle_minimum_candidate", "cycle_minimum_stance", "footprint_level_dz", "gait_period", "implausible_strides", "level_stride_dz", "level_timing_offset", "onset_innovations", "rotate_specific_force", "split_strides", "stride_flags", "stride_quality", "timing_from_probes"]

@@ -143,6 +143,13 @@ class StrideQualityAccumulator:
         return stride_flags(t_mid, fp, first, last, med, period_s, settings)
 
 
+def implausible_strides(quality: StrideQuality) -> str:
+    """Why the configured detector fails on its strides (``StrideQuality`` over ``max_bad_fraction``): the
+    message of the stance fallback's trigger."""
+    return (f"{quality.bad_fraction:.0%} of its {len(quality.flags)} strides are implausible (longer or faster than a "
+            "foot moves, a missed stance, or a climb steeper than stairs)")
+
+
 def split_strides(quality: StrideQuality, period_s: float, settings: SelfTuneSettings | None = None) -> str | None:
     """A warning when most strides are split: a foot rests once per gait cycle, so footprints closer in time
     than ``split_factor`` (1/2) of the gait period are a stance detected inside a swing (or a turn on the spot).

@@ -1,10 +1,8 @@
 """How a stance mask is judged from the data alone: the ZUPT innovations at stance onsets
-(``onset_innovations``, ``innovation_rms``) and the confidence of a path (``confidence``); see
+(``onset_innovations``; the passes of ``pipeline`` take their RMS over forward runs) and the confidence of a path (``confidence``); see
 ``bootnav.postproc.selftune``."""
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import numpy as np
 
@@ -38,16 +36,6 @@ def onset_innovations(t_s, vel_n, stance, filter_settings) -> np.ndarray:
     k0, _ = runs(aided)
     k0 = k0[k0 > 0]
     return np.asarray(vel_n)[k0 - 1]
-
-
-def innovation_rms(t_s, acc_b, gyro_b, stance, init, gravity: float, filter_settings, saturated=None) -> float:
-    """RMS ZUPT-onset innovation (m/s) of one forward filter run (no smoother): e_c of the module docstring."""
-    from bootnav.postproc.ins import run_filter
-
-    nav = run_filter(t_s, acc_b, gyro_b, stance, init, gravity, replace(filter_settings, smoother="none"),
-                     saturated=saturated)
-    v = onset_innovations(t_s, nav.vel_n, stance, filter_settings)
-    return float(np.sqrt(np.mean(np.sum(v**2, axis=1)))) if len(v) else float("inf")
 
 
 def confidence(innovation_rms_mps: float, bad_fraction: float, period_s: float,

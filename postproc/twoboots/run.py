@@ -56,25 +56,13 @@ class TwoBootResult:
     names: dict = field(default_factory=dict)  # label -> input name
 
 
-def _saturation_bits(res) -> np.ndarray:
-    """The saturation bits the single-foot filter got (as ``pipeline.process`` builds them)."""
-    from bootnav.postproc.checks import clipping_bits
-    from bootnav.postproc.source import crop
-
-    samples = crop(res.recording, res.settings.crop_s, "recording")
-    bits = samples.saturated
-    if res.settings.detector.detect_clipping:
-        bits = bits | clipping_bits(samples.acc_b, samples.gyro_b, res.settings.filter.sloping_rails)
-    return bits
-
-
 def foot_input(label: str, res, offset_s: float = 0.0, yaw_rad: float = 0.0, start_n=None,
                yaw_sigma_rad: float | None = None) -> FootInput:
     """The fusion's inputs of one foot from its single-foot ``ProcessResult`` (clock shift, frame yaw, start)."""
     init = dataclasses.replace(res.init, q_nb=align.rotate_yaw_quat(res.init.q_nb, yaw_rad)) if yaw_rad else res.init
     return FootInput(label, np.asarray(res.t_s, float) + offset_s, np.asarray(res.navigation.acc_used_b, float),
                      np.asarray(res.gyro_b, float), np.asarray(res.stance, bool), init, float(res.gravity_mps2),
-                     _saturation_bits(res), np.zeros(3) if start_n is None else np.asarray(start_n, float),
+                     res.saturation_bits, np.zeros(3) if start_n is None else np.asarray(start_n, float),
                      yaw_sigma_rad)
 
 
