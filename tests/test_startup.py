@@ -61,3 +61,19 @@ def test_only_the_programs_own_exit_freezes_the_garbage_collector():
                           "print('RESULT', main(), gc.get_freeze_count() > 0)"],
                          capture_output=True, text=True, check=True, timeout=120).stdout
     assert [line for line in out.splitlines() if line.startswith("RESULT")] == ["RESULT 0 False", "RESULT 0 True"]
+
+
+def test_process_freezes_the_import_objects_only_while_it_runs(tmp_path):
+    # the objects the numerics' imports made are frozen during the run (no collection walks them), and the
+    # collector is as before after it: enabled, nothing left frozen when main() is called from Python
+    rec = str(REPO / "recordings" / "sim_paper-straight.h5")
+    out = subprocess.run([sys.executable, "-c",
+                          "import gc\nimport bootnav.postproc.pipeline as p\nfrom bootnav.cli import main\nseen = []\n"
+                          "real = p.process_to\n"
+                          "def spy(*a, **k):\n    seen.append((gc.get_freeze_count() > 10000, gc.isenabled()))\n"
+                          "    return real(*a, **k)\n"
+                          "p.process_to = spy\n"
+                          f"code = main(['-q', 'process', {rec!r}, '--out', {str(tmp_path / 'o')!r}, '--no-plots'])\n"
+                          "print('RESULT', code, seen, gc.get_freeze_count(), gc.isenabled())"],
+                         capture_output=True, text=True, check=True, timeout=300).stdout
+    assert [line for line in out.splitlines() if line.startswith("RESULT")] == ["RESULT 0 [(True, True)] 0 True"]
