@@ -201,7 +201,11 @@ def _common_options(top: bool) -> argparse.ArgumentParser:
     return parent
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The ``bootnav`` parser: every subcommand's options, or, given the command line ``argv``, only those of the
+    subcommand it names (the others listed with their help line: importing every subcommand's module costs the
+    start of each command about 50 ms)."""
+    only = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
     parser = argparse.ArgumentParser(
         prog="bootnav", parents=[_common_options(top=True)],
         description="Indoor path of a pedestrian from an inertial sensor on the boot: record or import the "
@@ -213,6 +217,8 @@ def build_parser() -> argparse.ArgumentParser:
     for name, (module_name, help_text) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text, parents=[_common_options(top=False)])
         p.set_defaults(_module=module_name)
+        if only is not None and name != only:
+            continue
         try:
             module = importlib.import_module(module_name)
         except ModuleNotFoundError as exc:
@@ -251,6 +257,13 @@ def main(argv: list[str] | None = None) -> int:
             except (OSError, ValueError, AttributeError):
                 pass
         os._exit(code)
+    if argv is None:
+        # the program's own exit (never main() called from Python): the interpreter's teardown would run the cyclic
+        # garbage collector over every object left (numba's and scipy's modules: ~0.3-0.8 s after `bootnav process`);
+        # frozen, they are skipped, and the memory goes back to the system with the process. atexit handlers still run.
+        import gc
+
+        gc.freeze()
     return code
 
 
@@ -266,7 +279,7 @@ def hdf5_left_open() -> bool:
 
 
 def _main(raw: list[str]) -> int:
-    parser = build_parser()
+    parser = build_parser(raw)
     args = parser.parse_args(raw)
     # a global flag given before the subcommand is seen by subcommands defining their own copy too
     args.verbose = bool(getattr(args, "verbose", False) or "--verbose" in raw)

@@ -11,6 +11,14 @@ phone step detectors and four step-length models), [Lazarevskiy2021] (a phone PD
 2021). Each module says which parameters are literal and which are engineered.
 """
 
-from bootnav.postproc.pdr.pipeline import PdrResult, PdrSettings, run_pdr
-
 __all__ = ["PdrResult", "PdrSettings", "run_pdr"]
+
+
+def __getattr__(name: str):
+    """The pipeline's names on first use (PEP 562): importing ``bootnav.postproc.pdr.cli`` (every ``bootnav``
+    command builds its parser) then imports no numpy."""
+    if name in __all__:
+        from bootnav.postproc.pdr import pipeline
+
+        return getattr(pipeline, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
