@@ -47,7 +47,7 @@ from typing import NamedTuple
 from numba import literal_unroll, njit
 
 from bootnav.postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
-from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, POS, QUAT, VEL
+from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, N_NOMINAL, POS, QUAT, VEL
 from bootnav.postproc.ins.kalman import joseph3, sequential_update
 from bootnav.postproc.ins.measurements import KERNEL_REGISTRY, MAX_ROWS, N_KINDS, ZUPT, measure, zupt
 from bootnav.postproc.ins.riccati import gain_into
@@ -158,6 +158,44 @@ class SmootherBuffers(NamedTuple):
     dx: np.ndarray  # (cap, n) the error-state correction
 
 
+class FilterModel(NamedTuple):
+    """What a run's filter computes with, fixed for the run (``StreamNavigator.kernel_model``)."""
+
+    prm: object  # params.KernelParams
+    active: np.ndarray  # (N_KINDS,) bool, which measurement models run (``measurements.active_flags``)
+    n: int  # error states, 9 or 15
+    ric: RiccatiGain  # the paper mode's ZUPT gain
+
+
+class FilterState(NamedTuple):
+    """The filter's state at the last filtered sample, updated in place and carried from call to call."""
+
+    nominal: np.ndarray  # (N_NOMINAL,) the nominal state (``layout.py``)
+    cov: np.ndarray  # (n, n) the error-state covariance P
+
+
+class PathUncertainty(NamedTuple):
+    """The filter's (not smoothed) position uncertainty of each output row."""
+
+    pos_sigma: np.ndarray  # (M, 3) m, 1-σ per axis
+    pos_cov_en: np.ndarray  # (M,) m², the east-north covariance P_EN (the horizontal ellipse, ``strides.ellipse``)
+
+
+class SegmentBook(NamedTuple):
+    """The smoother's bookkeeping of its segments in the ring of ``SmootherBuffers``."""
+
+    seg: np.ndarray  # (N_SEG,) int64, the open segment and the ring's tail (SEG_* indices)
+    closed: np.ndarray  # (c, 3) int64, the closed segments waiting to be smoothed (CL_* columns)
+    batch_rows: int  # hand closed segments on once they hold this many buffer rows
+
+
+class RunCounts(NamedTuple):
+    """Counters of a run, incremented in place."""
+
+    applied: np.ndarray  # (N_KINDS,) int64, updates of each measurement model
+    smoother: np.ndarray  # (2,) int64, SMOOTHER_SKIPPED steps and SMOOTHER_SEGMENTS
+
+
 @njit(cache=True, nogil=True)
 def close_segment(seg, closed, counters, next_row):
     """End the open segment: list it in ``closed`` to be smoothed (``smooth_segments``; one sample needs no
@@ -193,29 +231,31 @@ def smooth_segments(closed, n, rows, bufs):
 
 
 @njit(cache=True, nogil=True)
-def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, pos_cen, bufs, seg, closed, batch_rows,
-                 applied,
-                 counters):
-    """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
+def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
+    """Filter input rows k0..k1−1 (k0 ≥ 1) of ``inp`` (``KernelInputs``, whose ``stance`` is the ZUPT mask) with
+    ``model`` (``FilterModel``); ``state`` (``FilterState``: nominal state, layout.py, and P) is updated in place.
     Returns the input row to resume at: k1, or earlier when the smoother's closed segments are due
-    (``seg``'s SEG_N_CLOSED of them in ``closed``; call again from there after handing them on).
+    (``book.seg``'s SEG_N_CLOSED of them in ``book.closed``; call again from there after handing them on).
 
-    Input row k (``inp``: ``KernelInputs``, whose ``stance`` is the ZUPT mask) writes output row o0 + k of
-    ``rows`` (``PathRows``) and ``pos_sig``; ``ric`` is the paper mode's gain (``RiccatiGain``). Input row k0 − 1 is the sample before (only its ZUPT flag is read: the heading aid's stance
-    onset and the end of a stance phase; a False row before the record's first sample). The smoother's open
-    segment starts at output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in
-    ``closed`` for ``smooth_segments``) when the next sample shows that it ended: after the last sample of a
-    stance phase, or when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one).
-    Its buffers (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx) are
-    a ring of segments: sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel
-    returns after a close when the closed segments reach ``batch_rows`` buffer rows, when ``closed`` is full,
-    or when the next segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest
-    buffer row not smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on.
-    ``pos_sig`` gets the filter's position 1-σ per axis, ``pos_cen`` the east-north covariance P_EN (m²; the
-horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
-    (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
-    smoother's bookkeeping.
+    Input row k writes output row o0 + k of ``rows`` (``PathRows``) and of ``unc`` (``PathUncertainty``: the
+    filter's position 1-σ per axis and the east-north covariance P_EN, m²). Input row k0 − 1 is the sample
+    before (only its ZUPT flag is read: the heading aid's stance onset and the end of a stance phase; a False
+    row before the record's first sample). The smoother's open segment (``book``: ``SegmentBook``) starts at
+    output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in ``closed`` for
+    ``smooth_segments``) when the next sample shows that it ended: after the last sample of a stance phase, or
+    when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one). Its buffers
+    (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx) are a ring of segments:
+    sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel returns after a close
+    when the closed segments reach ``book.batch_rows`` buffer rows, when ``closed`` is full, or when the next
+    segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest buffer row not
+    smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on. ``counts``
+    (``RunCounts``) counts each measurement model's updates and the smoother's bookkeeping.
     """
+    prm, active, n, ric = model
+    st, P = state
+    pos_sig, pos_cen = unc
+    seg, closed, batch_rows = book
+    applied, counters = counts
     dt_s, acc, gyro, stance, xvar, ric_tau = inp
     ric_u, ric_lam, ric_t = ric
     pos, vel, q, ba, bg = rows
@@ -410,30 +450,32 @@ def _needs_compiling() -> bool:
     return not all(cached_on_disk(k) for k in kernels)
 
 
-def ensure_compiled(nav) -> float:
-    """Compile (or load from numba's cache) the kernels with the argument types ``nav`` (a
-    ``stream.StreamNavigator``) passes; returns the seconds spent. The ``compile_notice`` listeners are told
-    first when a real compilation is due."""
+def ensure_compiled(model: FilterModel) -> float:
+    """Compile (or load from numba's cache) the kernels for the argument types a run with ``model`` passes;
+    returns the seconds spent. The ``compile_notice`` listeners are told first when a real compilation is
+    due."""
     t0 = time.perf_counter()
     with _compile_lock:
-        _compile(nav)
+        _compile(model)
     return time.perf_counter() - t0
 
 
-def _compile(nav) -> None:
-    """``ensure_compiled``'s work (called under ``_compile_lock``)."""
+def _compile(model: FilterModel) -> None:
+    """``ensure_compiled``'s work (called under ``_compile_lock``): one call of each kernel on empty arrays of
+    the types a run passes."""
     if _needs_compiling():
         for cb in list(_compile_listeners):
             cb()
     if not all(k.signatures for k in (filter_chunk, close_segment, smooth_segments)):
-        n = nav.n
+        n = model.n
         one3 = np.zeros((1, 3))
         none3, none4 = np.zeros((0, 3)), np.zeros((0, 4))
-        seg, counters = np.zeros(N_SEG, dtype=np.int64), np.zeros(2, dtype=np.int64)
-        closed = np.zeros((1, 3), dtype=np.int64)
+        book = SegmentBook(np.zeros(N_SEG, dtype=np.int64), np.zeros((1, 3), dtype=np.int64), 1)
+        counts = RunCounts(np.zeros(N_KINDS, dtype=np.int64), np.zeros(2, dtype=np.int64))
         inp = KernelInputs(np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1))
         rows = PathRows(none3, none3.copy(), none4, none3.copy(), none3.copy())
-        filter_chunk(1, 1, inp, 0, nav.prm, nav._active, n, nav._ric, nav._st.copy(), nav._P.copy(), rows,
-                     none3.copy(), np.zeros(0), nav._bufs, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
-        close_segment(seg, closed, counters, 0)
-        smooth_segments(closed[:0], n, rows, nav._bufs)
+        bufs = SmootherBuffers(np.zeros((1, n, n)), np.zeros((1, n * (n + 1) // 2)), np.zeros((1, 13)), np.zeros((1, n)))
+        state = FilterState(np.zeros(N_NOMINAL), np.zeros((n, n)))
+        filter_chunk(1, 1, inp, 0, model, state, rows, PathUncertainty(none3.copy(), np.zeros(0)), bufs, book, counts)
+        close_segment(book.seg, book.closed, counts.smoother, 0)
+        smooth_segments(book.closed[:0], n, rows, bufs)
