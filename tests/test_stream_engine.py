@@ -436,7 +436,9 @@ def test_smoother_kernel_restarts_where_the_prior_is_not_positive_definite(n):
         post[rows], pred[rows], fp[rows], dxu[rows] = p_post, p_pred[:, low[0], low[1]], fpar, dx_upd
         out = [np.zeros((m + 3, 3)) for _ in range(4)]
         q = np.tile([1.0, 0.0, 0.0, 0.0], (m + 3, 1))
-        bad = rts_backward(post, pred, fp, dxu, first, m, n, 3, out[0], out[1], q, out[2], out[3])
+        upd = np.zeros(capacity, dtype=bool)
+        upd[rows] = True  # every row has a correction
+        bad = rts_backward(post, pred, fp, dxu, upd, first, m, n, 3, out[0], out[1], q, out[2], out[3])
         return bad, out, q
 
     bad, (pos, vel, ba, bg), q = run(b0, cap)

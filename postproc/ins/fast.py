@@ -120,6 +120,14 @@ def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
             P[DBG + i, DBG + i] += qbg * dt
 
 
+@njit(cache=True, inline="always")
+def _store_prior(buf_pred, j, P, n):
+    """Buffer row j of P⁻ ← the lower triangle of P, packed (``smoother.tri_index``)."""
+    for a_ in range(n):
+        for b_ in range(a_ + 1):
+            buf_pred[j, tri_index(a_, b_)] = P[a_, b_]
+
+
 class KernelInputs(NamedTuple):
     """The input rows of a ``filter_chunk`` call (row 0 is the sample before the chunk)."""
 
@@ -153,9 +161,10 @@ class SmootherBuffers(NamedTuple):
     """The ring of the smoother's open and closed segments (``filter_chunk`` docstring)."""
 
     post: np.ndarray  # (cap, n, n) P⁺
-    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle
+    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle, written at updated rows only
     fpar: np.ndarray  # (cap, 13) the transition's parameters
     dx: np.ndarray  # (cap, n) the error-state correction
+    updated: np.ndarray  # (cap,) bool, a measurement update was made at the row (else P⁺ = P⁻, dx = 0)
 
 
 class FilterModel(NamedTuple):
@@ -222,10 +231,10 @@ def smooth_segments(closed, n, rows, bufs):
     after the oldest one still listed, ``seg[SEG_TAIL]``, and output rows after theirs), so this may run in
     another thread while ``filter_chunk`` goes on."""
     pos, vel, q, ba, bg = rows
-    buf_post, buf_pred, buf_fpar, buf_dx = bufs
+    buf_post, buf_pred, buf_fpar, buf_dx, buf_upd = bufs
     bad = 0
     for i in range(closed.shape[0]):
-        bad += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, closed[i, CL_RING], closed[i, CL_LEN], n,
+        bad += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, buf_upd, closed[i, CL_RING], closed[i, CL_LEN], n,
                             closed[i, CL_ROW], pos, vel, q, ba, bg)
     return bad
 
@@ -259,7 +268,7 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     dt_s, acc, gyro, stance, xvar, ric_tau = inp
     ric_u, ric_lam, ric_t = ric
     pos, vel, q, ba, bg = rows
-    buf_post, buf_pred, buf_fpar, buf_dx = bufs
+    buf_post, buf_pred, buf_fpar, buf_dx, buf_upd = bufs
     ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
     K = np.zeros((n, 3))
     A = np.empty((n, n))
@@ -321,9 +330,6 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
                             P[o + i, o + m] += qx_ * dt * c[i, col] * c[m, col]
         j = (seg[SEG_RING] + seg[SEG_LEN]) % cap
         if prm.smooth:
-            for a_ in range(n):
-                for b_ in range(a_ + 1):
-                    buf_pred[j, tri_index(a_, b_)] = P[a_, b_]
             buf_fpar[j, 0] = dt
             buf_fpar[j, 1], buf_fpar[j, 2], buf_fpar[j, 3] = fx, fy, fz
             for a_ in range(3):
@@ -336,6 +342,8 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
             if stance[k] and dt > 0.0:
                 # paper mode: the constant Riccati gain per step (riccati.gain_into) on the ZUPT's z = −v̂;
                 # Joseph form with the paper's constant R = σ_zupt² I
+                if prm.smooth:
+                    _store_prior(buf_pred, j, P, n)
                 gain_into(K, n, dt, ric_tau[k], c, ric_u, ric_lam, ric_t)
                 zupt(st, dx, acc, gyro, stance, k, prm, z)
                 for i in range(n):
@@ -348,6 +356,8 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
                 if active[entry.kind]:
                     mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
                     if mrows > 0:
+                        if prm.smooth and not updated:  # P⁻, for the smoother (before the first update)
+                            _store_prior(buf_pred, j, P, n)
                         sequential_update(P, dx, z, mrows, first, rr, n, K, A)
                         applied[entry.kind] += 1
                         updated = True
@@ -374,6 +384,7 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
         for i in range(4):
             q[r, i] = st[iq + i]
         if prm.smooth:
+            buf_upd[j] = updated
             for a_ in range(n):
                 buf_dx[j, a_] = dx[a_]
                 for b_ in range(n):
@@ -474,7 +485,8 @@ def _compile(model: FilterModel) -> None:
         counts = RunCounts(np.zeros(N_KINDS, dtype=np.int64), np.zeros(2, dtype=np.int64))
         inp = KernelInputs(np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1))
         rows = PathRows(none3, none3.copy(), none4, none3.copy(), none3.copy())
-        bufs = SmootherBuffers(np.zeros((1, n, n)), np.zeros((1, n * (n + 1) // 2)), np.zeros((1, 13)), np.zeros((1, n)))
+        bufs = SmootherBuffers(np.zeros((1, n, n)), np.zeros((1, n * (n + 1) // 2)), np.zeros((1, 13)), np.zeros((1, n)),
+                               np.zeros(1, dtype=np.bool_))
         state = FilterState(np.zeros(N_NOMINAL), np.zeros((n, n)))
         filter_chunk(1, 1, inp, 0, model, state, rows, PathUncertainty(none3.copy(), np.zeros(0)), bufs, book, counts)
         close_segment(book.seg, book.closed, counts.smoother, 0)

@@ -170,28 +170,15 @@ def _transition_t_times(fpar, y, n, out):
 
 
 @njit(cache=True)
-def _not_updated(p_post, p_pred_tri, dx_upd, jb, n):
-    """Whether the filter left buffer row ``jb`` as it predicted it: no correction (δx_upd = 0) and P⁺ = P⁻
-    bit for bit (on P⁻'s stored lower triangle), i.e. no measurement update at that sample."""
-    for i in range(n):
-        if dx_upd[jb, i] != 0.0:
-            return False
-    for i in range(n):
-        for c in range(i + 1):
-            if p_post[jb, i, c] != p_pred_tri[jb, tri_index(i, c)]:
-                return False
-    return True
-
-
-@njit(cache=True)
-def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q, ba, bg):
+def rts_backward(p_post, p_pred_tri, fpar, dx_upd, updated, b0, m, n, start, pos, vel, q, ba, bg):
     """Numba backward pass over one segment; corrects its output rows start..start+m−1 in place.
 
     The segment's m samples are the buffer rows (b0 + j) mod len(p_post), j = 0..m−1 (a ring: ``fast.py``).
     ``p_post`` (n×n per row) is the filter's posterior covariance; ``p_pred_tri`` the lower triangle of the
-    prior, packed (``tri_index``), the only part the Cholesky factor reads. Only the vector recursion is
+    prior, packed (``tri_index``), the only part the Cholesky factor reads, and written only at the rows where
+    ``updated`` (bool per row) says that the filter made a measurement update (elsewhere P⁺ = P⁻). Only the vector recursion is
     needed: δx_s(j) = P⁺(j) Fᵀ y with P⁻(j+1) y = δx_s(j+1) + δx_upd(j+1) (one Cholesky solve per sample,
-    no n×n gain matrix). Where the filter made no update at sample j+1 (``_not_updated``: a swing sample),
+    no n×n gain matrix). Where the filter made no update at sample j+1 (not ``updated``: a swing sample),
     P⁺(j+1) = P⁻(j+1) and δx_upd(j+1) = 0, so the right-hand side is P⁻(j+1) Fᵀ y' of the step before (y' its
     solution) and y = Fᵀ y' exactly: no factorisation (the modified Bryson–Frazier form of the same recursion
     [Bierman1977]); the result differs from the solve only at its rounding. Returns the number of steps where
@@ -210,7 +197,7 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q,
     j = m - 2
     while j >= 0:
         jn = (b0 + j + 1) % cap
-        if have_fty and _not_updated(p_post, p_pred_tri, dx_upd, jn, n):
+        if have_fty and not updated[jn]:
             for i in range(n):
                 y[i] = fty[i]
             have_lg = False
@@ -219,7 +206,7 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q,
                 lf, lg = lg, lf
                 ok = ok_lg
                 have_lg = False
-            elif j > 0 and not _not_updated(p_post, p_pred_tri, dx_upd, (b0 + j) % cap, n):
+            elif j > 0 and updated[(b0 + j) % cap]:
                 # the next step will need P⁻(j)'s factor too: both together (``_cholesky_pair``)
                 ok, ok_lg = _cholesky_pair(p_pred_tri[jn], p_pred_tri[(b0 + j) % cap], lf, lg, n)
                 have_lg = True
