@@ -195,7 +195,7 @@ class SegmentBook(NamedTuple):
 
     seg: np.ndarray  # (N_SEG,) int64, the open segment and the ring's tail (SEG_* indices)
     closed: np.ndarray  # (c, 3) int64, the closed segments waiting to be smoothed (CL_* columns)
-    batch_rows: int  # hand closed segments on once they hold this many buffer rows
+    batch_rows: int  # hand closed segments on once they hold this many buffer rows; 0: smooth each one in the kernel
 
 
 class RunCounts(NamedTuple):
@@ -257,7 +257,9 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel returns after a close
     when the closed segments reach ``book.batch_rows`` buffer rows, when ``closed`` is full, or when the next
     segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest buffer row not
-    smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on. ``counts``
+    smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on. With
+    ``book.batch_rows`` 0 (no smoothing thread) it smooths each segment itself as it closes (``smooth_segments``,
+    the same arithmetic) and never returns early. ``counts``
     (``RunCounts``) counts each measurement model's updates and the smoother's bookkeeping.
     """
     prm, active, n, ric = model
@@ -281,7 +283,12 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
         if prm.smooth and seg[SEG_LEN] > 0 and (seg[SEG_LEN] >= prm.max_segment or (stance[k - 1] and not stance[k])):
             close_segment(seg, closed, counters, r)
             nc = seg[SEG_N_CLOSED]
-            if (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
+            if batch_rows == 0:  # no smoothing thread: smooth it now, while its buffers are in the cache
+                if nc > 0:
+                    counters[SMOOTHER_SKIPPED] += smooth_segments(closed[:nc], n, rows, bufs)
+                    seg[SEG_N_CLOSED] = 0
+                seg[SEG_TAIL] = seg[SEG_RING]
+            elif (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
                     or seg[SEG_RING] + prm.max_segment - seg[SEG_TAIL] > cap):
                 return k
         dt = dt_s[k]

@@ -43,8 +43,9 @@ Each push costs ~0.1 ms of Python besides the samples' own time: push chunks of 
 Within a long push the smoother runs beside the filter when a core is free (``SMOOTHING_THREAD``): closed
 segments go in batches to a smoothing thread (``fast.smooth_segments``, GIL released) while the filter fills
 the other half of a fixed ring of buffers (the filter waits when the ring is full); at the end of the push the
-rest is smoothed and the thread ends, so the rows returned are final and no thread outlives a push. The
-arithmetic is the same in either thread: so is the result.
+rest is smoothed and the thread ends, so the rows returned are final and no thread outlives a push. Without
+the thread the kernel smooths each segment as soon as it closes. The arithmetic is the same in either thread:
+so is the result.
 
 API-STABLE
 
@@ -97,10 +98,11 @@ _PUSH_MAX = 65_536  # samples per push in run_fast (bounded temporaries)
 # ring spreads the buffers over more cache, smaller batches cost more Python (docs/tuning-log.md)
 _RING_CAPS = 2
 _BATCH_CAPS = 0.5
-# smooth in a thread beside the filter? None: when a core is free at the push's first hand-over (runnable
+# smooth in a thread beside the filter? None: when a core is free as the push starts (runnable
 # tasks, this one included, ≤ usable cores − 1; on a busy machine, or in one of eval's worker processes, a
 # second thread gains no time and costs the cache traffic of handing the buffers over); True / False: always /
-# never. The result is the same either way.
+# never. Without the thread the kernel smooths each segment as it closes (its buffers still in the cache). The
+# result is the same either way.
 SMOOTHING_THREAD: bool | None = None
 
 
@@ -230,9 +232,10 @@ class StreamNavigator:
         self._seg = np.zeros(fast.N_SEG, dtype=np.int64)
         self._closed = np.zeros((nb // 2 + 1, 3), dtype=np.int64)  # closed segments hold ≥ 2 buffer rows each
         self._book = fast.SegmentBook(self._seg, self._closed, max(1, int(_BATCH_CAPS * prm.max_segment)))
+        self._book_inline = fast.SegmentBook(self._seg, self._closed, 0)  # no thread: the kernel smooths
         self._in_flight: deque = deque()  # (future, first buffer row) of the batches being smoothed, oldest first
         self._pool = None
-        self._workers = None  # smoothing threads of this push (_smoothing_workers), decided at its first hand-over
+        self._workers = None  # smoothing threads of this push (_smoothing_workers), decided as it starts
         self._applied = np.zeros(N_KINDS, dtype=np.int64)
         self._counters = np.zeros(2, dtype=np.int64)
         self._counts = fast.RunCounts(self._applied, self._counters)
@@ -754,13 +757,16 @@ class StreamNavigator:
             cut = np.flatnonzero(np.diff(g)) + 1
             edges = np.concatenate(([0], cut, [L]))
             pieces = [(int(a) + 1, int(b) + 1, float(g[a])) for a, b in zip(edges[:-1], edges[1:])]
+        if self._workers is None and self.prm.smooth:
+            self._workers = _smoothing_workers()
+        book = self._book if self._workers else self._book_inline
         try:
             for k, stop, flag in pieces:
                 if flag is not None:
                     self._st[HDE_GATE] = flag
                 while k < stop:
                     k = fast.filter_chunk(k, stop, inp, n_open - 1, self.kernel_model, self._state, rows_out, unc,
-                                          self._bufs, self._book, self._counts)
+                                          self._bufs, book, self._counts)
                     if k < stop:  # closed segments due: smooth them in another thread while the filter goes on
                         self._hand_on(rows_out)
             if final and self.prm.smooth and filled:
