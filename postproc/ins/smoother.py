@@ -175,9 +175,9 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, updated, b0, m, n, start, pos
 
     The segment's m samples are the buffer rows (b0 + j) mod len(p_post), j = 0..m−1 (a ring: ``fast.py``).
     ``p_post`` (n×n per row) is the filter's posterior covariance; ``p_pred_tri`` the lower triangle of the
-    prior, packed (``tri_index``), the only part the Cholesky factor reads, and written only at the rows where
-    ``updated`` (bool per row) says that the filter made a measurement update (elsewhere P⁺ = P⁻). Only the vector recursion is
-    needed: δx_s(j) = P⁺(j) Fᵀ y with P⁻(j+1) y = δx_s(j+1) + δx_upd(j+1) (one Cholesky solve per sample,
+    prior, packed (``tri_index``), the only part the Cholesky factor reads, written only at the rows where
+    ``updated`` (bool per row) says that the filter made a measurement update (elsewhere P⁻ = P⁺, read from
+    ``p_post``: ``_prior_tri``). Only the vector recursion is needed: δx_s(j) = P⁺(j) Fᵀ y with P⁻(j+1) y = δx_s(j+1) + δx_upd(j+1) (one Cholesky solve per sample,
     no n×n gain matrix). Where the filter made no update at sample j+1 (not ``updated``: a swing sample),
     P⁺(j+1) = P⁻(j+1) and δx_upd(j+1) = 0, so the right-hand side is P⁻(j+1) Fᵀ y' of the step before (y' its
     solution) and y = Fᵀ y' exactly: no factorisation (the modified Bryson–Frazier form of the same recursion
@@ -190,6 +190,7 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, updated, b0, m, n, start, pos
     y = np.empty(n)
     fty = np.empty(n)
     dxs = np.zeros(n)
+    tri = np.empty(n * (n + 1) // 2)
     bad = 0
     have_fty = False  # fty holds Fᵀ y of the step before, which δx_s(j+1) = P⁺(j+1) fty came from
     have_lg = False  # lg holds the factor of P⁻(j+1) (made with the step before's)
@@ -206,12 +207,14 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, updated, b0, m, n, start, pos
                 lf, lg = lg, lf
                 ok = ok_lg
                 have_lg = False
-            elif j > 0 and updated[(b0 + j) % cap]:
-                # the next step will need P⁻(j)'s factor too: both together (``_cholesky_pair``)
-                ok, ok_lg = _cholesky_pair(p_pred_tri[jn], p_pred_tri[(b0 + j) % cap], lf, lg, n)
-                have_lg = True
             else:
-                ok, _ = _cholesky_pair(p_pred_tri[jn], p_pred_tri[jn], lf, lg, n)
+                prior = _prior_tri(p_post, p_pred_tri, updated, jn, n, tri)
+                if j > 0 and updated[(b0 + j) % cap]:
+                    # the next step will need P⁻(j)'s factor too: both together (``_cholesky_pair``)
+                    ok, ok_lg = _cholesky_pair(prior, p_pred_tri[(b0 + j) % cap], lf, lg, n)
+                    have_lg = True
+                else:
+                    ok, _ = _cholesky_pair(prior, prior, lf, lg, n)
             if not ok:
                 for i in range(n):
                     dxs[i] = 0.0
@@ -226,6 +229,18 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, updated, b0, m, n, start, pos
         have_fty = True
         j -= 1
     return bad
+
+
+@njit(cache=True)
+def _prior_tri(p_post, p_pred_tri, updated, jb, n, out):
+    """P⁻ of buffer row ``jb``, its lower triangle packed: the stored one where the filter made an update,
+    else P⁺'s (the same numbers: no update) copied into ``out``."""
+    if updated[jb]:
+        return p_pred_tri[jb]
+    for i in range(n):
+        for c in range(i + 1):
+            out[tri_index(i, c)] = p_post[jb, i, c]
+    return out
 
 
 @njit(cache=True)
