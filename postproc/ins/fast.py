@@ -48,7 +48,7 @@ from numba import literal_unroll, njit
 
 from bootnav.postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
 from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, N_NOMINAL, POS, QUAT, VEL
-from bootnav.postproc.ins.kalman import joseph3, sequential_update
+from bootnav.postproc.ins.kalman import innovation_weight, joseph3, sequential_update
 from bootnav.postproc.ins.measurements import KERNEL_REGISTRY, MAX_ROWS, N_KINDS, ZUPT, measure, zupt
 from bootnav.postproc.ins.riccati import gain_into
 from bootnav.postproc.ins.smoother import rts_backward, tri_index
@@ -164,7 +164,11 @@ class SmootherBuffers(NamedTuple):
     pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle, written at updated rows only
     fpar: np.ndarray  # (cap, 13) the transition's parameters
     dx: np.ndarray  # (cap, n) the error-state correction
-    updated: np.ndarray  # (cap,) bool, a measurement update was made at the row (else P⁺ = P⁻, dx = 0)
+    updates: np.ndarray  # (cap,) int64, the row's measurement updates listed below (0: none, P⁺ = P⁻, dx = 0;
+    #                      −1: an update from outside, ``StreamNavigator.apply_measurement``: the smoother factorises P⁻)
+    gains: np.ndarray  # (cap, N_KINDS, 3, n) the gain Kᵀ of each update, in the order made
+    weights: np.ndarray  # (cap, N_KINDS, 3) S⁻¹ ν of each update (``kalman.innovation_weight``)
+    blocks: np.ndarray  # (cap, N_KINDS, 2) int64, the states each update measures: first, count
 
 
 class FilterModel(NamedTuple):
@@ -231,11 +235,9 @@ def smooth_segments(closed, n, rows, bufs):
     after the oldest one still listed, ``seg[SEG_TAIL]``, and output rows after theirs), so this may run in
     another thread while ``filter_chunk`` goes on."""
     pos, vel, q, ba, bg = rows
-    buf_post, buf_pred, buf_fpar, buf_dx, buf_upd = bufs
     bad = 0
     for i in range(closed.shape[0]):
-        bad += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, buf_upd, closed[i, CL_RING], closed[i, CL_LEN], n,
-                            closed[i, CL_ROW], pos, vel, q, ba, bg)
+        bad += rts_backward(bufs, closed[i, CL_RING], closed[i, CL_LEN], n, closed[i, CL_ROW], pos, vel, q, ba, bg)
     return bad
 
 
@@ -253,7 +255,8 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in ``closed`` for
     ``smooth_segments``) when the next sample shows that it ended: after the last sample of a stance phase, or
     when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one). Its buffers
-    (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx) are a ring of segments:
+    (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx, each update's gain and
+    weighted innovation) are a ring of segments:
     sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel returns after a close
     when the closed segments reach ``book.batch_rows`` buffer rows, when ``closed`` is full, or when the next
     segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest buffer row not
@@ -270,7 +273,7 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     dt_s, acc, gyro, stance, xvar, ric_tau = inp
     ric_u, ric_lam, ric_t = ric
     pos, vel, q, ba, bg = rows
-    buf_post, buf_pred, buf_fpar, buf_dx, buf_upd = bufs
+    buf_post, buf_pred, buf_fpar, buf_dx, buf_upd, buf_gain, buf_w, buf_blk = bufs
     ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
     K = np.zeros((n, 3))
     A = np.empty((n, n))
@@ -345,6 +348,7 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
         for i in range(n):
             dx[i] = 0.0
         updated = False
+        n_upd = 0
         if prm.riccati:
             if stance[k] and dt > 0.0:
                 # paper mode: the constant Riccati gain per step (riccati.gain_into) on the ZUPT's z = −v̂;
@@ -363,9 +367,18 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
                 if active[entry.kind]:
                     mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
                     if mrows > 0:
-                        if prm.smooth and not updated:  # P⁻, for the smoother (before the first update)
-                            _store_prior(buf_pred, j, P, n)
+                        if prm.smooth:
+                            if not updated:  # P⁻ (before the first update): for an update from outside later
+                                _store_prior(buf_pred, j, P, n)
+                            innovation_weight(P, dx, z, mrows, first, rr, buf_w[j, n_upd])
                         sequential_update(P, dx, z, mrows, first, rr, n, K, A)
+                        if prm.smooth:  # what the smoother needs of this update (smoother.rts_backward)
+                            buf_blk[j, n_upd, 0] = first
+                            buf_blk[j, n_upd, 1] = mrows
+                            for c_ in range(mrows):
+                                for i in range(n):
+                                    buf_gain[j, n_upd, c_, i] = K[i, c_]
+                            n_upd += 1
                         applied[entry.kind] += 1
                         updated = True
         if updated:
@@ -391,7 +404,7 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
         for i in range(4):
             q[r, i] = st[iq + i]
         if prm.smooth:
-            buf_upd[j] = updated
+            buf_upd[j] = n_upd if not prm.riccati else -1
             for a_ in range(n):
                 buf_dx[j, a_] = dx[a_]
                 for b_ in range(n):
@@ -493,7 +506,8 @@ def _compile(model: FilterModel) -> None:
         inp = KernelInputs(np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1))
         rows = PathRows(none3, none3.copy(), none4, none3.copy(), none3.copy())
         bufs = SmootherBuffers(np.zeros((1, n, n)), np.zeros((1, n * (n + 1) // 2)), np.zeros((1, 13)), np.zeros((1, n)),
-                               np.zeros(1, dtype=np.bool_))
+                               np.zeros(1, dtype=np.int64), np.zeros((1, N_KINDS, 3, n)), np.zeros((1, N_KINDS, 3)),
+                               np.zeros((1, N_KINDS, 2), dtype=np.int64))
         state = FilterState(np.zeros(N_NOMINAL), np.zeros((n, n)))
         filter_chunk(1, 1, inp, 0, model, state, rows, PathUncertainty(none3.copy(), np.zeros(0)), bufs, book, counts)
         close_segment(book.seg, book.closed, counts.smoother, 0)

@@ -223,12 +223,13 @@ class StreamNavigator:
         self._state = fast.FilterState(self._st, self._P)
         nb = _RING_CAPS * prm.max_segment if prm.smooth else 1
         self._buf_post = np.empty((nb, n, n))
-        self._buf_pred = np.empty((nb, n * (n + 1) // 2))  # lower triangle of P⁻ (all the smoother reads)
+        self._buf_pred = np.empty((nb, n * (n + 1) // 2))  # lower triangle of P⁻ (for apply_measurement's rows)
         self._buf_fpar = np.empty((nb, 13))
         self._buf_dx = np.empty((nb, n))
-        self._buf_updated = np.zeros(nb, dtype=np.bool_)
+        self._buf_updates = np.zeros(nb, dtype=np.int64)
         self._bufs = fast.SmootherBuffers(self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx,
-                                          self._buf_updated)
+                                          self._buf_updates, np.empty((nb, N_KINDS, 3, n)), np.empty((nb, N_KINDS, 3)),
+                                          np.empty((nb, N_KINDS, 2), dtype=np.int64))
         self._seg = np.zeros(fast.N_SEG, dtype=np.int64)
         self._closed = np.zeros((nb // 2 + 1, 3), dtype=np.int64)  # closed segments hold ≥ 2 buffer rows each
         self._book = fast.SegmentBook(self._seg, self._closed, max(1, int(_BATCH_CAPS * prm.max_segment)))
@@ -533,9 +534,9 @@ class StreamNavigator:
             st[BIAS_GYRO] += dx[ERR_BG]
         if self.prm.smooth:
             j = int(self._seg[fast.SEG_RING] + self._seg[fast.SEG_LEN] - 1) % self._buf_post.shape[0]
-            if not self._buf_updated[j]:  # P⁻ of the row is its P⁺ before this update (the smoother reads it)
+            if self._buf_updates[j] == 0:  # P⁻ of the row is its P⁺ before this update (the smoother reads it)
                 self._buf_pred[j] = self._buf_post[j][np.tril_indices(n)]
-                self._buf_updated[j] = True
+            self._buf_updates[j] = -1  # the smoother factorises P⁻ at this row
             self._buf_dx[j] += dx
             self._buf_post[j] = P
         r = self._out_filled - 1
