@@ -161,7 +161,8 @@ class SmootherBuffers(NamedTuple):
     """The ring of the smoother's open and closed segments (``filter_chunk`` docstring)."""
 
     post: np.ndarray  # (cap, n, n) P⁺
-    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle, written at updated rows only
+    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle, written only at the last row a call filters
+    #                   (``StreamNavigator.apply_measurement`` updates the last filtered sample) if it has updates
     fpar: np.ndarray  # (cap, 13) the transition's parameters
     dx: np.ndarray  # (cap, n) the error-state correction
     updates: np.ndarray  # (cap,) int64, the row's measurement updates listed below (0: none, P⁺ = P⁻, dx = 0;
@@ -368,8 +369,8 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
                     mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
                     if mrows > 0:
                         if prm.smooth:
-                            if not updated:  # P⁻ (before the first update): for an update from outside later
-                                _store_prior(buf_pred, j, P, n)
+                            if not updated and k == k1 - 1:  # P⁻ before the first update, at the last sample
+                                _store_prior(buf_pred, j, P, n)  # (where an update from outside may come next)
                             innovation_weight(P, dx, z, mrows, first, rr, buf_w[j, n_upd])
                         sequential_update(P, dx, z, mrows, first, rr, n, K, A)
                         if prm.smooth:  # what the smoother needs of this update (smoother.rts_backward)
