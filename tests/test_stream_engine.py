@@ -436,7 +436,10 @@ def test_smoother_kernel_restarts_where_the_prior_is_not_positive_definite(n):
         post[rows], pred[rows], fp[rows], dxu[rows] = p_post, p_pred[:, low[0], low[1]], fpar, dx_upd
         out = [np.zeros((m + 3, 3)) for _ in range(4)]
         q = np.tile([1.0, 0.0, 0.0, 0.0], (m + 3, 1))
-        bad = rts_backward(post, pred, fp, dxu, first, m, n, 3, out[0], out[1], q, out[2], out[3])
+        upd = np.zeros(capacity, dtype=np.int64)
+        upd[rows] = -1  # every row has a correction, from an update of any H (the smoother factorises P⁻)
+        bufs = _buffers(post, pred, fp, dxu, upd)
+        bad = rts_backward(bufs, first, m, n, 3, out[0], out[1], q, out[2], out[3])
         return bad, out, q
 
     bad, (pos, vel, ba, bg), q = run(b0, cap)
@@ -454,3 +457,49 @@ def test_smoother_kernel_restarts_where_the_prior_is_not_positive_definite(n):
     bad2, out2, q2 = run(0, m)
     assert bad2 == bad and np.array_equal(q2, q)
     assert all(np.array_equal(u, v) for u, v in zip(out2, (pos, vel, ba, bg)))
+
+
+@pytest.mark.parametrize("n", [9, 15])
+def test_smoother_needs_no_prior_at_a_row_without_update(n):
+    """The filter stores P⁻ only at rows with a measurement update (``SmootherBuffers.updates``); at the others
+    P⁻ = P⁺. A segment ending on such rows (closed at its length cap mid-swing, or at the record's end), with a
+    run of them inside too, smooths as the readable ``rts_backward_numpy`` given P⁻ everywhere (1e-12
+    relative), though the unstored P⁻ rows hold NaN."""
+    from bootnav.postproc.ins.smoother import rts_backward, rts_backward_numpy
+
+    rng = np.random.default_rng(11)
+    m = 40
+    no_update = np.zeros(m, bool)
+    no_update[12:18] = no_update[33:] = True
+    a = rng.normal(size=(m, n, n))
+    p_pred = a @ a.transpose(0, 2, 1) + n * np.eye(n)
+    p_post = p_pred - 0.1 * np.eye(n) + 1e-3 * rng.normal(size=(m, n, n))  # not exactly symmetric
+    p_post[no_update] = p_pred[no_update]
+    fpar = np.concatenate([np.full((m, 1), 0.005), rng.normal(size=(m, 3)),
+                           np.array([np.linalg.qr(rng.normal(size=(3, 3)))[0].ravel() for _ in range(m)])], axis=1)
+    dx_upd = 1e-2 * rng.normal(size=(m, n))
+    dx_upd[no_update] = 0.0
+    low = np.tril_indices(n)
+    pred_tri = p_pred[:, low[0], low[1]]
+    pred_tri[no_update] = np.nan  # never written by the filter
+    out = [np.zeros((m, 3)) for _ in range(4)]
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (m, 1))
+    updates = np.where(no_update, 0, -1)  # the others: an update of any H
+    bad = rts_backward(_buffers(p_post, pred_tri, fpar, dx_upd, updates), 0, m, n, 0, out[0], out[1], q, out[2], out[3])
+    assert bad == 0
+    expected = rts_backward_numpy(p_post, p_pred, fpar, dx_upd, m, n)
+    scale = np.abs(expected).max()
+    assert scale > 0 and np.isfinite(out[0]).all()
+    assert np.abs(out[0] - expected[:, 0:3]).max() <= 1e-12 * scale
+    assert np.abs(out[1] - expected[:, 3:6]).max() <= 1e-12 * scale
+
+
+def _buffers(post, pred_tri, fpar, dx_upd, updates):
+    """``fast.SmootherBuffers`` of the given rows, no update of the filter's own listed."""
+    from bootnav.postproc.ins import fast
+    from bootnav.postproc.ins.measurements import N_KINDS
+
+    cap, n = dx_upd.shape
+    return fast.SmootherBuffers(post, np.ascontiguousarray(pred_tri), fpar, dx_upd, np.asarray(updates, np.int64),
+                                np.zeros((cap, N_KINDS, 3, n)), np.zeros((cap, N_KINDS, 3)),
+                                np.zeros((cap, N_KINDS, 2), dtype=np.int64))

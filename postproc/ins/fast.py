@@ -47,8 +47,8 @@ from typing import NamedTuple
 from numba import literal_unroll, njit
 
 from bootnav.postproc.ins.kernels import exp_times_quat, quat_times_exp, rotmat_into
-from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, POS, QUAT, VEL
-from bootnav.postproc.ins.kalman import joseph3, sequential_update
+from bootnav.postproc.ins.layout import BIAS_ACC, BIAS_GYRO, DBA, DBG, DP, DTH, DV, N_NOMINAL, POS, QUAT, VEL
+from bootnav.postproc.ins.kalman import innovation_weight, joseph3, sequential_update
 from bootnav.postproc.ins.measurements import KERNEL_REGISTRY, MAX_ROWS, N_KINDS, ZUPT, measure, zupt
 from bootnav.postproc.ins.riccati import gain_into
 from bootnav.postproc.ins.smoother import rts_backward, tri_index
@@ -120,6 +120,14 @@ def _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, qba, qbg):
             P[DBG + i, DBG + i] += qbg * dt
 
 
+@njit(cache=True, inline="always")
+def _store_prior(buf_pred, j, P, n):
+    """Buffer row j of P⁻ ← the lower triangle of P, packed (``smoother.tri_index``)."""
+    for a_ in range(n):
+        for b_ in range(a_ + 1):
+            buf_pred[j, tri_index(a_, b_)] = P[a_, b_]
+
+
 class KernelInputs(NamedTuple):
     """The input rows of a ``filter_chunk`` call (row 0 is the sample before the chunk)."""
 
@@ -153,9 +161,53 @@ class SmootherBuffers(NamedTuple):
     """The ring of the smoother's open and closed segments (``filter_chunk`` docstring)."""
 
     post: np.ndarray  # (cap, n, n) P⁺
-    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle
+    pred: np.ndarray  # (cap, n(n+1)/2) P⁻, packed lower triangle, written only at the last row a call filters
+    #                   (``StreamNavigator.apply_measurement`` updates the last filtered sample) if it has updates
     fpar: np.ndarray  # (cap, 13) the transition's parameters
     dx: np.ndarray  # (cap, n) the error-state correction
+    updates: np.ndarray  # (cap,) int64, the row's measurement updates listed below (0: none, P⁺ = P⁻, dx = 0;
+    #                      −1: an update from outside, ``StreamNavigator.apply_measurement``: the smoother factorises P⁻)
+    gains: np.ndarray  # (cap, N_KINDS, 3, n) the gain Kᵀ of each update, in the order made
+    weights: np.ndarray  # (cap, N_KINDS, 3) S⁻¹ ν of each update (``kalman.innovation_weight``)
+    blocks: np.ndarray  # (cap, N_KINDS, 2) int64, the states each update measures: first, count
+
+
+class FilterModel(NamedTuple):
+    """What a run's filter computes with, fixed for the run (``StreamNavigator.kernel_model``)."""
+
+    prm: object  # params.KernelParams
+    active: np.ndarray  # (N_KINDS,) bool, which measurement models run (``measurements.active_flags``)
+    n: int  # error states, 9 or 15
+    ric: RiccatiGain  # the paper mode's ZUPT gain
+
+
+class FilterState(NamedTuple):
+    """The filter's state at the last filtered sample, updated in place and carried from call to call."""
+
+    nominal: np.ndarray  # (N_NOMINAL,) the nominal state (``layout.py``)
+    cov: np.ndarray  # (n, n) the error-state covariance P
+
+
+class PathUncertainty(NamedTuple):
+    """The filter's (not smoothed) position uncertainty of each output row."""
+
+    pos_sigma: np.ndarray  # (M, 3) m, 1-σ per axis
+    pos_cov_en: np.ndarray  # (M,) m², the east-north covariance P_EN (the horizontal ellipse, ``strides.ellipse``)
+
+
+class SegmentBook(NamedTuple):
+    """The smoother's bookkeeping of its segments in the ring of ``SmootherBuffers``."""
+
+    seg: np.ndarray  # (N_SEG,) int64, the open segment and the ring's tail (SEG_* indices)
+    closed: np.ndarray  # (c, 3) int64, the closed segments waiting to be smoothed (CL_* columns)
+    batch_rows: int  # hand closed segments on once they hold this many buffer rows; 0: smooth each one in the kernel
+
+
+class RunCounts(NamedTuple):
+    """Counters of a run, incremented in place."""
+
+    applied: np.ndarray  # (N_KINDS,) int64, updates of each measurement model
+    smoother: np.ndarray  # (2,) int64, SMOOTHER_SKIPPED steps and SMOOTHER_SEGMENTS
 
 
 @njit(cache=True, nogil=True)
@@ -184,42 +236,45 @@ def smooth_segments(closed, n, rows, bufs):
     after the oldest one still listed, ``seg[SEG_TAIL]``, and output rows after theirs), so this may run in
     another thread while ``filter_chunk`` goes on."""
     pos, vel, q, ba, bg = rows
-    buf_post, buf_pred, buf_fpar, buf_dx = bufs
     bad = 0
     for i in range(closed.shape[0]):
-        bad += rts_backward(buf_post, buf_pred, buf_fpar, buf_dx, closed[i, CL_RING], closed[i, CL_LEN], n,
-                            closed[i, CL_ROW], pos, vel, q, ba, bg)
+        bad += rts_backward(bufs, closed[i, CL_RING], closed[i, CL_LEN], n, closed[i, CL_ROW], pos, vel, q, ba, bg)
     return bad
 
 
 @njit(cache=True, nogil=True)
-def filter_chunk(k0, k1, inp, o0, prm, active, n, ric, st, P, rows, pos_sig, pos_cen, bufs, seg, closed, batch_rows,
-                 applied,
-                 counters):
-    """Filter input rows k0..k1−1 (k0 ≥ 1); ``st`` = nominal state (layout.py) and ``P`` are updated in place.
+def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
+    """Filter input rows k0..k1−1 (k0 ≥ 1) of ``inp`` (``KernelInputs``, whose ``stance`` is the ZUPT mask) with
+    ``model`` (``FilterModel``); ``state`` (``FilterState``: nominal state, layout.py, and P) is updated in place.
     Returns the input row to resume at: k1, or earlier when the smoother's closed segments are due
-    (``seg``'s SEG_N_CLOSED of them in ``closed``; call again from there after handing them on).
+    (``book.seg``'s SEG_N_CLOSED of them in ``book.closed``; call again from there after handing them on).
 
-    Input row k (``inp``: ``KernelInputs``, whose ``stance`` is the ZUPT mask) writes output row o0 + k of
-    ``rows`` (``PathRows``) and ``pos_sig``; ``ric`` is the paper mode's gain (``RiccatiGain``). Input row k0 − 1 is the sample before (only its ZUPT flag is read: the heading aid's stance
-    onset and the end of a stance phase; a False row before the record's first sample). The smoother's open
-    segment starts at output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in
-    ``closed`` for ``smooth_segments``) when the next sample shows that it ended: after the last sample of a
-    stance phase, or when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one).
-    Its buffers (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx) are
-    a ring of segments: sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel
-    returns after a close when the closed segments reach ``batch_rows`` buffer rows, when ``closed`` is full,
-    or when the next segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest
-    buffer row not smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on.
-    ``pos_sig`` gets the filter's position 1-σ per axis, ``pos_cen`` the east-north covariance P_EN (m²; the
-horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``active``: (N_KINDS,) bool, which measurement models run
-    (``measurements.active_flags``); ``applied[kind]`` counts each model's updates, ``counters`` the
-    smoother's bookkeeping.
+    Input row k writes output row o0 + k of ``rows`` (``PathRows``) and of ``unc`` (``PathUncertainty``: the
+    filter's position 1-σ per axis and the east-north covariance P_EN, m²). Input row k0 − 1 is the sample
+    before (only its ZUPT flag is read: the heading aid's stance onset and the end of a stance phase; a False
+    row before the record's first sample). The smoother's open segment (``book``: ``SegmentBook``) starts at
+    output row ``seg[SEG_ROW]`` and holds ``seg[SEG_LEN]`` samples; it is closed (listed in ``closed`` for
+    ``smooth_segments``) when the next sample shows that it ended: after the last sample of a stance phase, or
+    when it reached ``prm.max_segment`` samples (``close_segment`` ends the record's last one). Its buffers
+    (``bufs``, ``SmootherBuffers``: P⁺ whole, P⁻'s packed lower triangle, fpar, dx, each update's gain and
+    weighted innovation) are a ring of segments:
+    sample j of the open one is buffer row (seg[SEG_RING] + j) mod capacity. The kernel returns after a close
+    when the closed segments reach ``book.batch_rows`` buffer rows, when ``closed`` is full, or when the next
+    segment (at most ``prm.max_segment`` rows) could reach ``seg[SEG_TAIL]``, the oldest buffer row not
+    smoothed yet: the caller smooths (or hands on) the closed ones and moves the tail on. With
+    ``book.batch_rows`` 0 (no smoothing thread) it smooths each segment itself as it closes (``smooth_segments``,
+    the same arithmetic) and never returns early. ``counts``
+    (``RunCounts``) counts each measurement model's updates and the smoother's bookkeeping.
     """
+    prm, active, n, ric = model
+    st, P = state
+    pos_sig, pos_cen = unc
+    seg, closed, batch_rows = book
+    applied, counters = counts
     dt_s, acc, gyro, stance, xvar, ric_tau = inp
     ric_u, ric_lam, ric_t = ric
     pos, vel, q, ba, bg = rows
-    buf_post, buf_pred, buf_fpar, buf_dx = bufs
+    buf_post, buf_pred, buf_fpar, buf_dx, buf_upd, buf_gain, buf_w, buf_blk = bufs
     ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
     K = np.zeros((n, 3))
     A = np.empty((n, n))
@@ -232,7 +287,12 @@ horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``act
         if prm.smooth and seg[SEG_LEN] > 0 and (seg[SEG_LEN] >= prm.max_segment or (stance[k - 1] and not stance[k])):
             close_segment(seg, closed, counters, r)
             nc = seg[SEG_N_CLOSED]
-            if (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
+            if batch_rows == 0:  # no smoothing thread: smooth it now, while its buffers are in the cache
+                if nc > 0:
+                    counters[SMOOTHER_SKIPPED] += smooth_segments(closed[:nc], n, rows, bufs)
+                    seg[SEG_N_CLOSED] = 0
+                seg[SEG_TAIL] = seg[SEG_RING]
+            elif (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
                     or seg[SEG_RING] + prm.max_segment - seg[SEG_TAIL] > cap):
                 return k
         dt = dt_s[k]
@@ -281,9 +341,6 @@ horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``act
                             P[o + i, o + m] += qx_ * dt * c[i, col] * c[m, col]
         j = (seg[SEG_RING] + seg[SEG_LEN]) % cap
         if prm.smooth:
-            for a_ in range(n):
-                for b_ in range(a_ + 1):
-                    buf_pred[j, tri_index(a_, b_)] = P[a_, b_]
             buf_fpar[j, 0] = dt
             buf_fpar[j, 1], buf_fpar[j, 2], buf_fpar[j, 3] = fx, fy, fz
             for a_ in range(3):
@@ -292,10 +349,13 @@ horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``act
         for i in range(n):
             dx[i] = 0.0
         updated = False
+        n_upd = 0
         if prm.riccati:
             if stance[k] and dt > 0.0:
                 # paper mode: the constant Riccati gain per step (riccati.gain_into) on the ZUPT's z = −v̂;
                 # Joseph form with the paper's constant R = σ_zupt² I
+                if prm.smooth:
+                    _store_prior(buf_pred, j, P, n)
                 gain_into(K, n, dt, ric_tau[k], c, ric_u, ric_lam, ric_t)
                 zupt(st, dx, acc, gyro, stance, k, prm, z)
                 for i in range(n):
@@ -308,7 +368,18 @@ horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``act
                 if active[entry.kind]:
                     mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
                     if mrows > 0:
+                        if prm.smooth:
+                            if not updated and k == k1 - 1:  # P⁻ before the first update, at the last sample
+                                _store_prior(buf_pred, j, P, n)  # (where an update from outside may come next)
+                            innovation_weight(P, dx, z, mrows, first, rr, buf_w[j, n_upd])
                         sequential_update(P, dx, z, mrows, first, rr, n, K, A)
+                        if prm.smooth:  # what the smoother needs of this update (smoother.rts_backward)
+                            buf_blk[j, n_upd, 0] = first
+                            buf_blk[j, n_upd, 1] = mrows
+                            for c_ in range(mrows):
+                                for i in range(n):
+                                    buf_gain[j, n_upd, c_, i] = K[i, c_]
+                            n_upd += 1
                         applied[entry.kind] += 1
                         updated = True
         if updated:
@@ -334,6 +405,7 @@ horizontal error ellipse, ``strides.ellipse``). ``prm``: ``KernelParams``; ``act
         for i in range(4):
             q[r, i] = st[iq + i]
         if prm.smooth:
+            buf_upd[j] = n_upd if not prm.riccati else -1
             for a_ in range(n):
                 buf_dx[j, a_] = dx[a_]
                 for b_ in range(n):
@@ -410,30 +482,34 @@ def _needs_compiling() -> bool:
     return not all(cached_on_disk(k) for k in kernels)
 
 
-def ensure_compiled(nav) -> float:
-    """Compile (or load from numba's cache) the kernels with the argument types ``nav`` (a
-    ``stream.StreamNavigator``) passes; returns the seconds spent. The ``compile_notice`` listeners are told
-    first when a real compilation is due."""
+def ensure_compiled(model: FilterModel) -> float:
+    """Compile (or load from numba's cache) the kernels for the argument types a run with ``model`` passes;
+    returns the seconds spent. The ``compile_notice`` listeners are told first when a real compilation is
+    due."""
     t0 = time.perf_counter()
     with _compile_lock:
-        _compile(nav)
+        _compile(model)
     return time.perf_counter() - t0
 
 
-def _compile(nav) -> None:
-    """``ensure_compiled``'s work (called under ``_compile_lock``)."""
+def _compile(model: FilterModel) -> None:
+    """``ensure_compiled``'s work (called under ``_compile_lock``): one call of each kernel on empty arrays of
+    the types a run passes."""
     if _needs_compiling():
         for cb in list(_compile_listeners):
             cb()
     if not all(k.signatures for k in (filter_chunk, close_segment, smooth_segments)):
-        n = nav.n
+        n = model.n
         one3 = np.zeros((1, 3))
         none3, none4 = np.zeros((0, 3)), np.zeros((0, 4))
-        seg, counters = np.zeros(N_SEG, dtype=np.int64), np.zeros(2, dtype=np.int64)
-        closed = np.zeros((1, 3), dtype=np.int64)
+        book = SegmentBook(np.zeros(N_SEG, dtype=np.int64), np.zeros((1, 3), dtype=np.int64), 1)
+        counts = RunCounts(np.zeros(N_KINDS, dtype=np.int64), np.zeros(2, dtype=np.int64))
         inp = KernelInputs(np.zeros(1), one3, one3.copy(), np.zeros(1, dtype=np.bool_), np.zeros((1, 6)), np.zeros(1))
         rows = PathRows(none3, none3.copy(), none4, none3.copy(), none3.copy())
-        filter_chunk(1, 1, inp, 0, nav.prm, nav._active, n, nav._ric, nav._st.copy(), nav._P.copy(), rows,
-                     none3.copy(), np.zeros(0), nav._bufs, seg, closed, 1, np.zeros(N_KINDS, dtype=np.int64), counters)
-        close_segment(seg, closed, counters, 0)
-        smooth_segments(closed[:0], n, rows, nav._bufs)
+        bufs = SmootherBuffers(np.zeros((1, n, n)), np.zeros((1, n * (n + 1) // 2)), np.zeros((1, 13)), np.zeros((1, n)),
+                               np.zeros(1, dtype=np.int64), np.zeros((1, N_KINDS, 3, n)), np.zeros((1, N_KINDS, 3)),
+                               np.zeros((1, N_KINDS, 2), dtype=np.int64))
+        state = FilterState(np.zeros(N_NOMINAL), np.zeros((n, n)))
+        filter_chunk(1, 1, inp, 0, model, state, rows, PathUncertainty(none3.copy(), np.zeros(0)), bufs, book, counts)
+        close_segment(book.seg, book.closed, counts.smoother, 0)
+        smooth_segments(book.closed[:0], n, rows, bufs)

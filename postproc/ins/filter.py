@@ -45,7 +45,8 @@ from bootnav.core.timebase import GAP_FACTOR, time_base
 from bootnav.postproc.ins.measurements import (HEADING_AID, LEVEL_HEIGHT, ZUPT, LevelHeightMeasurement,
                                                ZaruMeasurement)
 from bootnav.postproc.ins.mechanization import validate_imu
-from bootnav.postproc.ins.prepare import FilterSetup, initial_covariance, prepare_filter, saturation_variance
+from bootnav.postproc.ins.prepare import (MAX_LISTED_GAPS, FilterSetup, initial_covariance, prepare_filter,
+                                          saturation_variance)
 from bootnav.postproc.ins.settings import FilterSettings
 
 __all__ = ["FilterSetup", "NavSolution", "delay_zupt_onsets", "initial_covariance", "prepare_filter", "run_filter",
@@ -168,11 +169,42 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
     tb = time_base(t_s)
     extra_var = saturation_variance(saturated, t_s.shape[0], settings)
     prep = prepare_filter(init, gravity, settings, tb.nominal_dt_s, t_s, zupt_mask)
-    zupt_gain, prm = prep.zupt_gain, prep.prm
-    smooth = prm.smooth
-    ric_report = None if zupt_gain is None else zupt_gain.report.to_dict()
+    warnings = run_warnings(prep, stance, tb, extra_var)
+    t0 = time.perf_counter()
+    out, einfo = _engine(settings.engine)(t_s, acc_b, gyro_b, zupt_mask, prep, settings, tb, progress, extra_var,
+                                          heading_gate=heading_gate)
+    einfo = dict(einfo, filter_s=time.perf_counter() - t0)
+    info = _run_info(settings, prep, tb, einfo, stance, zupt_mask, extra_var, warnings)
+    biases = settings.n_states == 15
+    return NavSolution(
+        t_s=t_s,
+        pos_n=out["pos_n"],
+        vel_n=out["vel_n"],
+        q_nb=out["q_nb"],
+        acc_bias_b=out["acc_bias_b"] if biases else None,
+        gyro_bias_b=out["gyro_bias_b"] if biases else None,
+        pos_sigma_n=out["pos_sigma_n"],
+        info=info,
+        pos_cov_en=out.get("pos_cov_en"),
+    )
+
+
+def _engine(name: str):
+    """The whole-record runner of the engine ``FilterSettings.engine`` names (module docstring)."""
+    if name == "fast":
+        from bootnav.postproc.ins.stream import run_fast
+
+        return run_fast
+    from bootnav.postproc.ins.filterpy_engine import run_reference
+
+    return run_reference
+
+
+def run_warnings(prep: FilterSetup, stance, tb, extra_var) -> list[str]:
+    """The warnings of a whole-record run (besides the engine's): the paper mode's saturated samples, the
+    preparation's, no stance at all, timestamp gaps."""
     warnings: list[str] = []
-    if zupt_gain is not None and extra_var is not None:
+    if prep.zupt_gain is not None and extra_var is not None:
         warnings.append(f"riccati (paper) mode: {int((extra_var > 0).any(axis=1).sum())} saturated samples; "
                         "the constant gain cannot widen its uncertainty after a clipped swing (the time-varying "
                         "filter does), so the tilt and height after it are less trustworthy")
@@ -181,27 +213,25 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         warnings.append("no stance sample: the filter ran open loop (pure strapdown) — the path is not usable")
     if tb.gap_mask.any():
         warnings.append(propagated_gaps_warning(int(tb.gap_mask.sum()), float(tb.dt_s.max())))
+    return warnings
 
-    t0 = time.perf_counter()
-    if settings.engine == "fast":
-        from bootnav.postproc.ins.stream import run_fast as run_engine
-    else:
-        from bootnav.postproc.ins.filterpy_engine import run_reference as run_engine
-    out, einfo = run_engine(t_s, acc_b, gyro_b, zupt_mask, prep, settings, tb, progress, extra_var,
-                            heading_gate=heading_gate)
-    elapsed = time.perf_counter() - t0
-    biases = settings.n_states == 15
-    info = {
+
+def _run_info(settings: FilterSettings, prep: FilterSetup, tb, einfo: dict, stance, zupt_mask, extra_var,
+              warnings: list[str]) -> dict:
+    """``NavSolution.info`` of a whole-record run (JSON-serialisable): mode, engine, update counts, smoother,
+    timings, what the onset delay and the saturation did, the gaps (at most ``MAX_LISTED_GAPS``), the final
+    σ of every error state, warnings and the settings."""
+    return {
         "mode": settings.mode,
         "engine": settings.engine,
         "n_states": settings.n_states,
-        "smoother": "rts" if smooth else "none",
-        "riccati": ric_report,
+        "smoother": "rts" if prep.prm.smooth else "none",
+        "riccati": None if prep.zupt_gain is None else prep.zupt_gain.report.to_dict(),
         "nominal_dt_s": tb.nominal_dt_s,
         "n_duplicates": tb.n_duplicates,
-        "gaps": tb.gaps,
+        "gaps": tb.gaps[:MAX_LISTED_GAPS],
         "n_updates": int(einfo["applied"][ZUPT]),
-        "timings": {"filter_s": elapsed, "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
+        "timings": {"filter_s": einfo["filter_s"], "kernel_s": einfo["run_s"], "compile_s": einfo.get("compile_s", 0.0)},
         "smoother_segments": einfo.get("smoother_segments", 0),
         "smoother_skipped_steps": einfo.get("smoother_skipped_steps", 0),
         "zupt_onset_samples_skipped": int(stance.sum() - zupt_mask.sum()),
@@ -216,17 +246,6 @@ def run_filter(t_s, acc_b, gyro_b, stance, init, gravity: float, settings: Filte
         "warnings": warnings,
         "settings": settings.to_dict(),
     }
-    return NavSolution(
-        t_s=t_s,
-        pos_n=out["pos_n"],
-        vel_n=out["vel_n"],
-        q_nb=out["q_nb"],
-        acc_bias_b=out["acc_bias_b"] if biases else None,
-        gyro_bias_b=out["gyro_bias_b"] if biases else None,
-        pos_sigma_n=out["pos_sigma_n"],
-        info=info,
-        pos_cov_en=out.get("pos_cov_en"),
-    )
 
 
 _WARM = False

@@ -91,3 +91,26 @@ def sequential_update(P, dx, z, m, first, r, n, K, A):
             dx[i] += K[i, 0] * zi
     else:
         raise ValueError("fast engine: a measurement model must have 1 or 3 rows")
+
+
+@njit(cache=True, inline="always")
+def innovation_weight(P, dx, z, m, first, r, out):
+    """out[:m] ← S⁻¹ ν, the innovation ν = z − H dx weighted by the inverse of its covariance S = H P Hᵀ + r I
+    (H selecting states first..first+m−1; P and dx before the update). With K = P Hᵀ S⁻¹ it is what the
+    smoother needs of the update besides K: P⁻⁻¹ K ν = Hᵀ S⁻¹ ν (``smoother.rts_backward``)."""
+    if m == 3:
+        off = first
+        a, b, c = P[off, off] + r, P[off, off + 1], P[off, off + 2]
+        d, e = P[off + 1, off + 1] + r, P[off + 1, off + 2]
+        f = P[off + 2, off + 2] + r
+        b2, c2, e2 = P[off + 1, off], P[off + 2, off], P[off + 2, off + 1]
+        m00, m01, m02 = d * f - e * e2, c * e2 - b * f, b * e - c * d
+        m10, m11, m12 = e * c2 - b2 * f, a * f - c * c2, c * b2 - a * e
+        m20, m21, m22 = b2 * e2 - d * c2, b * c2 - a * e2, a * d - b * b2
+        det = a * m00 + b * m10 + c * m20
+        v0, v1, v2 = z[0] - dx[off], z[1] - dx[off + 1], z[2] - dx[off + 2]
+        out[0] = (m00 * v0 + m01 * v1 + m02 * v2) / det
+        out[1] = (m10 * v0 + m11 * v1 + m12 * v2) / det
+        out[2] = (m20 * v0 + m21 * v1 + m22 * v2) / det
+    else:
+        out[0] = (z[0] - dx[first]) / (P[first, first] + r)

@@ -17,6 +17,11 @@ from bootnav.postproc.ins.params import kernel_params
 from bootnav.postproc.ins.settings import FilterSettings
 
 
+# a run's info lists its timestamp gaps (sample index, Δt) up to this many (bounded memory and summary.json;
+# ``n_gaps`` of a stream counts them all)
+MAX_LISTED_GAPS = 1000
+
+
 def initial_covariance(settings: FilterSettings) -> np.ndarray:
     """P₀ = diag of the initial error sigmas (yaw separately: alignment cannot see it)."""
     s = [settings.init_pos_sigma_m] * 3 + [settings.init_vel_sigma_mps] * 3

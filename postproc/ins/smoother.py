@@ -21,9 +21,13 @@ Händel, "Smoothing for ZUPT-aided INSs", IPIN 2012). For the buffered samples j
 and the nominal state at sample j is corrected like a filter update (p, v, biases additive; q ← exp(δθ/2) ⊗ q).
 The smoothed covariance P_s is not computed (it would cost two n×n×n products per sample):
 ``NavSolution.pos_sigma_n`` stays the filter's sigma, an upper bound of the smoothed one.
-``F_{j+1}`` is rebuilt from the stored (Δt, f_n, C_nb) of the step into j+1 (13 numbers, not n² numbers), and
-of P⁻ only the lower triangle is stored (the Cholesky factor reads nothing else; P is not exactly symmetric
-in floating point, so P⁺, used whole, is stored whole).
+``F_{j+1}`` is rebuilt from the stored (Δt, f_n, C_nb) of the step into j+1 (13 numbers, not n² numbers).
+The numba kernel computes P⁻(j+1)⁻¹ (…) without factorising P⁻: from the gain K and the weighted innovation
+S⁻¹ν of each measurement update the filter made at j+1 (the modified Bryson–Frazier form, ``rts_backward``;
+the same path as the Cholesky solve it replaced to ~1e-15 relative, docs/tuning-log.md). Only a sample with an
+update from outside (``StreamNavigator.apply_measurement``, any H) is solved with the Cholesky factor of its
+stored P⁻ (the lower triangle only: the factor reads nothing else; P is not exactly symmetric in floating
+point, so P⁺, used whole, is stored whole).
 
 ``rts_backward`` is the numba kernel used by ``fast.py``; ``rts_backward_numpy`` is the same algorithm in
 readable NumPy used by ``filterpy_engine.py``, which also takes its error dynamics A from ``error_dynamics`` here.
@@ -170,39 +174,32 @@ def _transition_t_times(fpar, y, n, out):
 
 
 @njit(cache=True)
-def _not_updated(p_post, p_pred_tri, dx_upd, jb, n):
-    """Whether the filter left buffer row ``jb`` as it predicted it: no correction (δx_upd = 0) and P⁺ = P⁻
-    bit for bit (on P⁻'s stored lower triangle), i.e. no measurement update at that sample."""
-    for i in range(n):
-        if dx_upd[jb, i] != 0.0:
-            return False
-    for i in range(n):
-        for c in range(i + 1):
-            if p_post[jb, i, c] != p_pred_tri[jb, tri_index(i, c)]:
-                return False
-    return True
-
-
-@njit(cache=True)
-def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q, ba, bg):
+def rts_backward(bufs, b0, m, n, start, pos, vel, q, ba, bg):
     """Numba backward pass over one segment; corrects its output rows start..start+m−1 in place.
 
-    The segment's m samples are the buffer rows (b0 + j) mod len(p_post), j = 0..m−1 (a ring: ``fast.py``).
-    ``p_post`` (n×n per row) is the filter's posterior covariance; ``p_pred_tri`` the lower triangle of the
-    prior, packed (``tri_index``), the only part the Cholesky factor reads. Only the vector recursion is
-    needed: δx_s(j) = P⁺(j) Fᵀ y with P⁻(j+1) y = δx_s(j+1) + δx_upd(j+1) (one Cholesky solve per sample,
-    no n×n gain matrix). Where the filter made no update at sample j+1 (``_not_updated``: a swing sample),
-    P⁺(j+1) = P⁻(j+1) and δx_upd(j+1) = 0, so the right-hand side is P⁻(j+1) Fᵀ y' of the step before (y' its
-    solution) and y = Fᵀ y' exactly: no factorisation (the modified Bryson–Frazier form of the same recursion
-    [Bierman1977]); the result differs from the solve only at its rounding. Returns the number of steps where
-    P⁻ was not positive definite (the recursion restarts from zero there).
+    ``bufs`` (``fast.SmootherBuffers``): the segment's m samples are the buffer rows (b0 + j) mod capacity,
+    j = 0..m−1 (a ring: ``fast.py``), with the filter's posterior covariance P⁺ (n×n), the transition's
+    parameters, the correction δx_upd and each measurement update the filter made there (its gain K, its
+    weighted innovation S⁻¹ν and the states it measures). The vector recursion [RTS1965] in its modified
+    Bryson–Frazier form [Bierman1977]: δx_s(j) = P⁺(j) Fᵀ y_j with y_j = P⁻(j+1)⁻¹ (δx_s(j+1) + δx_upd(j+1)),
+    and with δx_s(j+1) = P⁺(j+1) w (w = Fᵀ y_{j+1} of the step before; 0 at the segment's end) and
+    P⁺ = (I − K_r H_r) … (I − K_1 H_1) P⁻ for the sequential updates 1..r of that sample:
+
+        y_j = (I − K_1 H_1)ᵀ ( … ((I − K_r H_r)ᵀ w + H_rᵀ S_r⁻¹ ν_r) … ) + H_1ᵀ S_1⁻¹ ν_1
+
+    (a sample without update: y_j = w): no factorisation, a few dot products per update. At a sample with an
+    update from outside (``updates`` −1, any H) y_j is solved with the Cholesky factor of P⁻(j+1), stored for
+    it (packed lower triangle, ``tri_index``). Returns the number of steps where that P⁻ was not positive
+    definite (the recursion restarts from zero there).
     """
+    p_post, p_pred_tri, fpar, dx_upd, updates, gains, weights, blocks = bufs
     cap = p_post.shape[0]
     lf = np.empty((n, n))
     lg = np.empty((n, n))
     y = np.empty(n)
-    fty = np.empty(n)
+    fty = np.zeros(n)
     dxs = np.zeros(n)
+    t = np.empty(3)
     bad = 0
     have_fty = False  # fty holds Fᵀ y of the step before, which δx_s(j+1) = P⁺(j+1) fty came from
     have_lg = False  # lg holds the factor of P⁻(j+1) (made with the step before's)
@@ -210,16 +207,26 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q,
     j = m - 2
     while j >= 0:
         jn = (b0 + j + 1) % cap
-        if have_fty and _not_updated(p_post, p_pred_tri, dx_upd, jn, n):
+        r = updates[jn]
+        if r >= 0:
             for i in range(n):
-                y[i] = fty[i]
+                y[i] = fty[i] if have_fty else 0.0
+            for u in range(r - 1, -1, -1):  # the updates in reverse order
+                first, mu = blocks[jn, u, 0], blocks[jn, u, 1]
+                for c in range(mu):
+                    s = 0.0
+                    for i in range(n):
+                        s += gains[jn, u, c, i] * y[i]
+                    t[c] = s
+                for c in range(mu):
+                    y[first + c] += weights[jn, u, c] - t[c]
             have_lg = False
         else:
             if have_lg:
                 lf, lg = lg, lf
                 ok = ok_lg
                 have_lg = False
-            elif j > 0 and not _not_updated(p_post, p_pred_tri, dx_upd, (b0 + j) % cap, n):
+            elif j > 0 and updates[(b0 + j) % cap] < 0:
                 # the next step will need P⁻(j)'s factor too: both together (``_cholesky_pair``)
                 ok, ok_lg = _cholesky_pair(p_pred_tri[jn], p_pred_tri[(b0 + j) % cap], lf, lg, n)
                 have_lg = True
@@ -233,7 +240,7 @@ def rts_backward(p_post, p_pred_tri, fpar, dx_upd, b0, m, n, start, pos, vel, q,
                 j -= 1
                 continue
             for i in range(n):
-                y[i] = dxs[i] + dx_upd[jn, i]
+                y[i] = (dxs[i] if have_fty else 0.0) + dx_upd[jn, i]
             _chol_solve(lf, y, n)
         _backward_step(p_post, fpar, b0, cap, j, n, start, pos, vel, q, ba, bg, y, fty, dxs)
         have_fty = True

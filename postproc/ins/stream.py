@@ -43,8 +43,9 @@ Each push costs ~0.1 ms of Python besides the samples' own time: push chunks of 
 Within a long push the smoother runs beside the filter when a core is free (``SMOOTHING_THREAD``): closed
 segments go in batches to a smoothing thread (``fast.smooth_segments``, GIL released) while the filter fills
 the other half of a fixed ring of buffers (the filter waits when the ring is full); at the end of the push the
-rest is smoothed and the thread ends, so the rows returned are final and no thread outlives a push. The
-arithmetic is the same in either thread: so is the result.
+rest is smoothed and the thread ends, so the rows returned are final and no thread outlives a push. Without
+the thread the kernel smooths each segment as soon as it closes. The arithmetic is the same in either thread:
+so is the result.
 
 API-STABLE
 
@@ -85,7 +86,8 @@ from bootnav.postproc.ins import fast
 from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ERR_P, ERR_TH, ERR_V, HDE_GATE,
                                          HDE_HAVE_PREV, HDE_REF_HEADING, POS, QUAT, VEL, initial_nominal_state)
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, active_flags
-from bootnav.postproc.ins.prepare import FilterSetup, gated_chunks, prepare_filter, saturation_variance
+from bootnav.postproc.ins.prepare import (MAX_LISTED_GAPS, FilterSetup, gated_chunks, prepare_filter,
+                                          saturation_variance)
 from bootnav.postproc.ins.settings import FilterSettings
 
 _ROWS3 = ("pos_n", "vel_n", "acc_bias_b", "gyro_bias_b", "pos_sigma_n")
@@ -96,10 +98,11 @@ _PUSH_MAX = 65_536  # samples per push in run_fast (bounded temporaries)
 # ring spreads the buffers over more cache, smaller batches cost more Python (docs/tuning-log.md)
 _RING_CAPS = 2
 _BATCH_CAPS = 0.5
-# smooth in a thread beside the filter? None: when a core is free at the push's first hand-over (runnable
+# smooth in a thread beside the filter? None: when a core is free as the push starts (runnable
 # tasks, this one included, ≤ usable cores − 1; on a busy machine, or in one of eval's worker processes, a
 # second thread gains no time and costs the cache traffic of handing the buffers over); True / False: always /
-# never. The result is the same either way.
+# never. Without the thread the kernel smooths each segment as it closes (its buffers still in the cache). The
+# result is the same either way.
 SMOOTHING_THREAD: bool | None = None
 
 
@@ -164,6 +167,14 @@ class NavRows:
                                      for f in fields(cls) if f.name != "start"))
 
 
+def _riccati_gain(zupt_gain) -> fast.RiccatiGain:
+    """The kernel's form of the paper mode's gain (``riccati.ZuptGain``; identity and zeros without it)."""
+    if zupt_gain is None:
+        return fast.RiccatiGain(np.eye(3), np.zeros(3), np.zeros((6, 3)))
+    return fast.RiccatiGain(*(np.ascontiguousarray(a, dtype=np.float64) for a in (zupt_gain.U, zupt_gain.lam,
+                                                                                     zupt_gain.T)))
+
+
 def _empty_rows(start: int) -> NavRows:
     z3 = np.zeros((0, 3))
     return NavRows(start, np.zeros(0), z3, z3.copy(), np.zeros((0, 4)), z3.copy(), z3.copy(), z3.copy(),
@@ -176,6 +187,8 @@ class StreamNavigator:
     Build it with ``from_still`` (a stream user: settings, rate and the first still seconds) or
     ``from_initial_state`` (an initial state and gravity you already have); the constructor itself takes what
     ``prepare.prepare_filter`` prepares.
+    ``kernel_model`` (``fast.FilterModel``) is what the kernel computes with: the kernel parameters, the active
+    measurement models, the number of error states and the paper mode's gain.
 
     Parameters
     ----------
@@ -203,30 +216,30 @@ class StreamNavigator:
         self._onset = apply_onset_delay and settings.zupt_onset_delay_s > 0 and settings.zupt_onset_max_fraction > 0
         self._acc_cal = acc_calibration
         self._active = active_flags(settings)
-        zg = setup.zupt_gain
-        if zg is not None:
-            self._ric = fast.RiccatiGain(np.ascontiguousarray(zg.U, dtype=np.float64),
-                                         np.ascontiguousarray(zg.lam, dtype=np.float64),
-                         np.ascontiguousarray(zg.T, dtype=np.float64))
-        else:
-            self._ric = fast.RiccatiGain(np.eye(3), np.zeros(3), np.zeros((6, 3)))
+        self.kernel_model = fast.FilterModel(prm, self._active, n, _riccati_gain(setup.zupt_gain))
         self._st = initial_nominal_state(setup.q0_nb, setup.acc_bias0_b, setup.gyro_bias0_b,
                                          settings.heading_aid_reference_rad)
         self._P = np.array(setup.P0, dtype=np.float64, order="C", copy=True)
+        self._state = fast.FilterState(self._st, self._P)
         nb = _RING_CAPS * prm.max_segment if prm.smooth else 1
         self._buf_post = np.empty((nb, n, n))
-        self._buf_pred = np.empty((nb, n * (n + 1) // 2))  # lower triangle of P⁻ (all the smoother reads)
+        self._buf_pred = np.empty((nb, n * (n + 1) // 2))  # lower triangle of P⁻ (for apply_measurement's rows)
         self._buf_fpar = np.empty((nb, 13))
         self._buf_dx = np.empty((nb, n))
-        self._bufs = fast.SmootherBuffers(self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx)
+        self._buf_updates = np.zeros(nb, dtype=np.int64)
+        self._bufs = fast.SmootherBuffers(self._buf_post, self._buf_pred, self._buf_fpar, self._buf_dx,
+                                          self._buf_updates, np.empty((nb, N_KINDS, 3, n)), np.empty((nb, N_KINDS, 3)),
+                                          np.empty((nb, N_KINDS, 2), dtype=np.int64))
         self._seg = np.zeros(fast.N_SEG, dtype=np.int64)
         self._closed = np.zeros((nb // 2 + 1, 3), dtype=np.int64)  # closed segments hold ≥ 2 buffer rows each
-        self._batch_rows = max(1, int(_BATCH_CAPS * prm.max_segment))
+        self._book = fast.SegmentBook(self._seg, self._closed, max(1, int(_BATCH_CAPS * prm.max_segment)))
+        self._book_inline = fast.SegmentBook(self._seg, self._closed, 0)  # no thread: the kernel smooths
         self._in_flight: deque = deque()  # (future, first buffer row) of the batches being smoothed, oldest first
         self._pool = None
-        self._workers = None  # smoothing threads of this push (_smoothing_workers), decided at its first hand-over
+        self._workers = None  # smoothing threads of this push (_smoothing_workers), decided as it starts
         self._applied = np.zeros(N_KINDS, dtype=np.int64)
         self._counters = np.zeros(2, dtype=np.int64)
+        self._counts = fast.RunCounts(self._applied, self._counters)
         # queue of pushed samples not filtered yet (their ZUPT decision waits for the onset delay)
         self._q_t = np.zeros(0)
         self._q_acc = np.zeros((0, 3))
@@ -258,9 +271,12 @@ class StreamNavigator:
         self._n_external = 0
         self._n_duplicates = 0
         self._n_gaps = 0
+        self._gaps: list[tuple[int, float]] = []  # (sample index, Δt) of the first MAX_LISTED_GAPS gaps
         self._max_dt = 0.0
+        self._n_onset_skipped = 0  # stance samples the onset delay kept from the ZUPT
+        self._n_inflated = 0  # saturated samples given extra process noise
         self.init_state = None  # the alignment, when built by from_still
-        self.compile_s = fast.ensure_compiled(self)
+        self.compile_s = fast.ensure_compiled(self.kernel_model)
         self.run_s = 0.0
 
     # ------------------------------------------------------------------------------------------ construction
@@ -371,7 +387,9 @@ class StreamNavigator:
 
     @property
     def info(self) -> dict:
-        """Counters of the run so far (JSON-serialisable)."""
+        """Counters of the run so far (JSON-serialisable); ``zupt_onset_samples_skipped``,
+        ``saturated_samples_inflated`` and ``gaps`` (sample index, Δt s; the first ``prepare.MAX_LISTED_GAPS``,
+        ``n_gaps`` counts all) as ``run_filter``'s info has them for the whole record."""
         return {
             "n_pushed": self._n_pushed,
             "n_filtered": self._n_done,
@@ -384,7 +402,10 @@ class StreamNavigator:
             "smoother_max_segment_samples": self.prm.max_segment,
             "n_duplicates": self._n_duplicates,
             "n_gaps": self._n_gaps,
+            "gaps": list(self._gaps),
             "max_dt_s": self._max_dt,
+            "zupt_onset_samples_skipped": self._n_onset_skipped,
+            "saturated_samples_inflated": self._n_inflated,
             "compile_s": self.compile_s,
             "run_s": self.run_s,
         }
@@ -513,6 +534,9 @@ class StreamNavigator:
             st[BIAS_GYRO] += dx[ERR_BG]
         if self.prm.smooth:
             j = int(self._seg[fast.SEG_RING] + self._seg[fast.SEG_LEN] - 1) % self._buf_post.shape[0]
+            if self._buf_updates[j] == 0:  # P⁻ of the row is its P⁺ before this update (the smoother reads it)
+                self._buf_pred[j] = self._buf_post[j][np.tril_indices(n)]
+            self._buf_updates[j] = -1  # the smoother factorises P⁻ at this row
             self._buf_dx[j] += dx
             self._buf_post[j] = P
         r = self._out_filled - 1
@@ -615,6 +639,8 @@ class StreamNavigator:
             else:
                 self._q_t, self._q_acc, self._q_gyro, self._q_stance = t_s, acc_b, gyro_b, stance
                 self._q_xvar = np.zeros((m, 6)) if xvar is None else np.ascontiguousarray(xvar, dtype=np.float64)
+            if xvar is not None:
+                self._n_inflated += int(np.count_nonzero((xvar > 0).any(axis=1)))
             self._n_pushed += m
         return self._advance(final=False)
 
@@ -669,7 +695,13 @@ class StreamNavigator:
             np.subtract(t[1:], t[:-1], out=dt[2:])
             step = dt[1:]
             self._n_duplicates += int((step == 0).sum()) - (1 if self._n_done == 0 else 0)
-            self._n_gaps += int((step > GAP_FACTOR * self.nominal_dt_s).sum())
+            gap = step > GAP_FACTOR * self.nominal_dt_s
+            n_gap = int(gap.sum())
+            if n_gap and len(self._gaps) < MAX_LISTED_GAPS:
+                idx = np.flatnonzero(gap)[:MAX_LISTED_GAPS - len(self._gaps)]
+                self._gaps += [(self._n_done + int(i), float(step[i])) for i in idx]
+            self._n_gaps += n_gap
+            self._n_onset_skipped += int(np.count_nonzero(s[:L])) - int(np.count_nonzero(zupt))
             self._max_dt = max(self._max_dt, float(step.max()))
         acc = np.empty((L + 1, 3))
         acc[0] = 0.0
@@ -717,6 +749,7 @@ class StreamNavigator:
         tc = time.perf_counter()
         rows_out = fast.PathRows(out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"])
         inp = fast.KernelInputs(dt, acc, gyr, zm, xvar, tau)
+        unc = fast.PathUncertainty(out["pos_sigma_n"], out["pos_cov_en"])
         filled = n_open + L
         if self._q_gate is None or not L:
             pieces = [(1, L + 1, None)]
@@ -725,15 +758,16 @@ class StreamNavigator:
             cut = np.flatnonzero(np.diff(g)) + 1
             edges = np.concatenate(([0], cut, [L]))
             pieces = [(int(a) + 1, int(b) + 1, float(g[a])) for a, b in zip(edges[:-1], edges[1:])]
+        if self._workers is None and self.prm.smooth:
+            self._workers = _smoothing_workers()
+        book = self._book if self._workers else self._book_inline
         try:
             for k, stop, flag in pieces:
                 if flag is not None:
                     self._st[HDE_GATE] = flag
                 while k < stop:
-                    k = fast.filter_chunk(k, stop, inp, n_open - 1, self.prm, self._active, self.n, self._ric,
-                                          self._st, self._P, rows_out, out["pos_sigma_n"], out["pos_cov_en"],
-                                          self._bufs, self._seg, self._closed, self._batch_rows, self._applied,
-                                          self._counters)
+                    k = fast.filter_chunk(k, stop, inp, n_open - 1, self.kernel_model, self._state, rows_out, unc,
+                                          self._bufs, book, self._counts)
                     if k < stop:  # closed segments due: smooth them in another thread while the filter goes on
                         self._hand_on(rows_out)
             if final and self.prm.smooth and filled:
