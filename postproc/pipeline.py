@@ -83,6 +83,7 @@ The whole-array functions of some stages remain as the definitions the passes ar
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -220,7 +221,7 @@ def process(source: str | Path | Recording, settings: ProcessSettings | None = N
         ref = truth_reference(src.recording, src.path if src.is_hdf5 else None)
     window = crop_window(MemoryReader(src.recording), settings.crop_s, src.name)
     run = _Input(window, src.name, src.path, src.is_hdf5, src.recording, False, ref, calibration, _Collected())
-    summary, _ = _block_passes(run, settings, None, [], lap, None, progress)
+    summary, _ = BlockPasses(run, settings, None, [], lap, None, progress).run()
     lap.timings["total_process"] = float(sum(lap.timings.values()))
     return _result_of(run, summary, settings, src)
 
@@ -311,7 +312,7 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
             run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording, ref)
-            summary, files = _block_passes(run, settings, out, warnings, _StageClock(progress), worker, progress)
+            summary, files = BlockPasses(run, settings, out, warnings, _StageClock(progress), worker, progress).run()
             files["summary"] = str(out / "summary.json")
             summary["files"] = files
             atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")
@@ -361,6 +362,13 @@ class _Collected:
         if statistic is not None:
             self._rows["statistic"].append(np.asarray(statistic, np.float64))
 
+    def push(self, rows) -> None:
+        """The final pass's rows (``_FinalRows``), as a sink of ``_FinalSinks``."""
+        self.push_rows(rows.r, rows.pos_filter, rows.statistic)
+
+    def close(self) -> None:
+        """Nothing: the rows stay for ``arrays``."""
+
     def push_samples(self, ch, acc_used) -> None:
         self._samples["acc_b"].append(ch.acc_b)
         self._samples["gyro_b"].append(ch.gyro_b)
@@ -397,640 +405,988 @@ def _needs_whole_record(settings: ProcessSettings) -> str | None:
     return None
 
 
-def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: list[str], lap,
-                  worker, progress: Progress | None) -> tuple[dict, dict[str, str]]:
-    """``process_to``'s passes over the blocks of a recording (module docstring) and its outputs but
-    summary.json; (summary, files)."""
-    import json
+class BlockPasses:
+    """The passes over the blocks of one input window (module docstring): what ``process_to`` and ``process`` run.
 
-    from bootnav.core.conventions import CONVENTIONS, SOFTWARE, __version__
-    from bootnav.core.jsonio import to_jsonable
-    import contextlib
-    import tempfile
+    One method per pass, named for what it decides, in the order ``run`` calls them; the state they share (the
+    input, the settings, the blocks and their spills, Δt₀, the clipping rails, the initial alignment, the noise
+    floor, the chosen stance, the decisions of each pass) is held here.
 
-    from bootnav.logger.recording import attach_dimension_scales, write_group
+    Parameters
+    ----------
+    run : _Input
+        What the passes read and where their results go.
+    settings : ProcessSettings
+        Validated settings.
+    out : Path or None
+        The output folder; None: the final pass keeps its rows in ``run.rows`` (``_Collected``), writing nothing.
+    warnings : list of str
+        The run's warnings so far; the passes add theirs to this list (the summary's ``warnings``).
+    lap : _StageClock
+        Called at the end of each pass (``summary["timings_s"]``).
+    worker : outputs.ChartWorker or None
+        The chart process (None: the charts, if any, are drawn here).
+    progress : callable or None
+        ``progress(stage, fraction)``.
+    """
 
-    from . import selftune
-    from .calibration import apply_calibration, initial_alignment, resolve_calibration, stance_reference
-    from .detectors.stream import StreamStance, stance_detector
-    from .ins.filter import propagated_gaps_warning
-    from .ins.measurements import LevelHeightMeasurement, ZaruMeasurement
-    from .ins.stream import StreamNavigator
-    from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
-                          start_results, append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
-    from .reference_path import compute_metrics
-    from .summary import is_closed_loop
-    from .floors import storey_offsets
-    from .building.revisits import revisit_corrections
-    from .building.directions import aided_settings, gate_intervals, gate_of, heading_plan
-    from bootnav.core.rotations import euler_zyx_from_quat
+    def __init__(self, run: _Input, settings: ProcessSettings, out: Path | None, warnings: list[str], lap,
+                 worker, progress: Progress | None):
+        self.input, self.settings, self.out, self.warnings = run, settings, out, warnings
+        self.lap, self.worker, self.progress = lap, worker, progress
+        self.name, self.rec = run.name, run.rec
+        self.chosen: dict = {}  # the fallback's stance: "detector" (settings, floor) or "cycle" (the mask); {}: configured
+        self.fallback = None  # the fallback chosen when the configured detector failed (``select_fallback``)
+        self.rails = None
+        self._last_read: dict = {}  # one block: its rows, calibrated, decoded once for all the passes
 
-    from .ellipses import scale_error_covariance, scale_sigmas, unwrapped_yaw
-    from .strides import FootprintAccumulator, footprint_strides, footprint_summary
-    from .summary import HEADLINE_KEYS, PATH_CONVENTIONS, alignment_summary, final_uncertainty, mount_check_of
-    from bootnav.core.arrays import row_norm
-    from .checks import stance_findings_of
+    def run(self) -> tuple[dict, dict[str, str]]:
+        """Every pass in order; (summary, files: {} when ``out`` is None)."""
+        import tempfile
 
-    name = run.name
-    timings = lap.timings
-    with contextlib.nullcontext(run.rec) as rec:
-        device = rec.meta.get("device")
-        sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"), run.calibration)
-        warnings += sensor_cal.warnings
-        n = rec.n
-        t_first, t_last = (float(rec.times(i, i + 1)[0]) for i in (0, n - 1)) if n else (0.0, 0.0)
+        from . import selftune
+
+        self.open_window()
+        self.clipping_rails()
+        self.check_samples_pass()
+        self.initial_alignment()
+        self.lap("load")
+        self.floor = None
+        if self.settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
+            self.floor = self.noise_floor(self.settings.detector)
+        self.lap("stance_floor")
+        self.rate_rows = tempfile.TemporaryFile(prefix="bootnav-rate-")  # ‖ω‖ per sample (8 B each), from pass 2
+        st = self.settings.selftune
+        for attempt in range(2):  # the passes again with the fallback's stance when the configured one failed
+            self.timing_pass(attempt)
+            if attempt == 0:
+                self.configured_stance_findings()
+            self.lap("timing")
+            if attempt == 0 and self.failed is not None:  # a fatal stance finding: the fallback's passes
+                self.fallback = self.select_fallback(self.failed, self.period)
+                self.warnings += self.fallback["warnings"]
+                self.lap("fallback")
+                continue
+            self.path_decisions()
+            sinks = _FinalSinks(self)
+            try:
+                path = self.final_pass(sinks)
+                self.strides_pass(path)
+                if attempt == 0 and self.failed is None and self.quality.bad_fraction > st.max_bad_fraction:
+                    self.failed = selftune.implausible_strides(self.quality)
+                    if st.fallback:  # the configured path's strides fail: the fallback's passes
+                        del self.warnings[self.n_warn:]
+                        self.fallback = self.select_fallback(self.failed, self.period)
+                        self.warnings[self.n_warn:self.n_warn] = self.fallback["warnings"]
+                        self.lap("fallback")
+                        continue
+                    self.warnings.insert(self.n_warn, f"stance detector '{self.settings.detector.method}': "
+                                                      f"{self.failed}")
+                self.stride_checks(path)
+                summary = self.summary(path)
+                if self.input.rows is not None:  # ``process``: the run's figures beside its rows
+                    self.input.rows.extra.update(
+                        init=self.init, gravity=float(self.gravity), sensor_cal=self.sensor_cal,
+                        saturation_intervals=self.sat_iv, steps=self.steps, metrics=self.metrics,
+                        period=float(self.period), quality=self.quality, timing=self.timing,
+                        confidence=float(self.confidence), choice=self.choice, failed=self.failed,
+                        candidates=self.fallback["candidates"] if self.fallback else [], threshold=self.threshold,
+                        stance_info=summary["stance"]["info"], filter_info=summary["filter"])
+                    break
+                files = self.write_files(path, sinks, summary)
+            finally:
+                sinks.close()
+            break
+        self.rate_rows.close()
+        return summary, ({} if self.out is None else files)
+
+    # -- load: the window, Δt₀, the blocks, the clipping rails, the sample checks, the initial alignment ---------
+
+    def open_window(self) -> None:
+        """The window's extent, its sensor calibration, Δt₀ and its blocks; refuses fewer than 3 samples."""
+        from .calibration import resolve_calibration
+
+        rec, settings = self.rec, self.settings
+        self.device = rec.meta.get("device")
+        self.sensor_cal = resolve_calibration(settings.calibration, rec.meta.get("device_id"), self.input.calibration)
+        self.warnings += self.sensor_cal.warnings
+        n = self.n = rec.n
+        self.t_first, self.t_last = (float(rec.times(i, i + 1)[0]) for i in (0, n - 1)) if n else (0.0, 0.0)
         if n < 3:
-            raise InputError(f"{name}: only {n} samples; nothing to process")
+            raise InputError(f"{self.name}: only {n} samples; nothing to process")
         rec.check_units()
         cal = settings.calibration
-        gravity = cal.gravity()
+        self.gravity = cal.gravity()
         t_head = rec.times(0, min(n, 1 << 16))
         try:
-            dt0 = _nominal_period(rec)  # the whole record's, as ``process`` takes it (``timebase.sample_period``)
+            self.dt0 = _nominal_period(rec)  # the whole record's, as ``process`` takes it (``timebase.sample_period``)
         except ValueError:  # no positive step: the checks below refuse the record
-            dt0 = float(np.median(np.diff(t_head)))
+            self.dt0 = float(np.median(np.diff(t_head)))
         rows = block_rows(t_head, settings.block_s)
-        chunk_s = settings.block_s
-        n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s + 1.0)
-                                + 1)))
-        blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
+        self.n_init = int(min(n, max(rows, np.searchsorted(t_head, t_head[0] + cal.still_search_s + cal.max_still_s
+                                                               + 1.0) + 1)))
+        self.blocks = [(i, min(n, i + rows)) for i in range(0, n, rows)]
+        self.spills = PassSpills(self.blocks)  # many blocks: decoded, stance and filter rows computed once (``passcache``)
 
-        last_read: dict = {}  # one block: its rows, calibrated, decoded once for all the passes
-        spills = PassSpills(blocks)  # many blocks: decoded, stance and filter rows computed once (``passcache``)
+    def read(self, i0: int, i1: int):
+        """Rows i0..i1-1 of the window: (t, acc, gyro, saturation bits), calibrated, the clipping rails' bits added."""
+        from .calibration import apply_calibration
 
-        def read(i0: int, i1: int):
-            if last_read.get("rows") == (i0, i1):
-                t, acc, gyro, sat = last_read["block"]
-            elif (kept := spills.samples.get(i0, i1)) is not None:  # decoded and calibrated by an earlier pass
-                t, acc, gyro, sat = kept
-            else:
-                t, acc, gyro, sat = rec.block(i0, i1)
-                if sensor_cal.calibration is not None:
-                    acc, gyro = apply_calibration(sensor_cal, acc, gyro, rec.temp_degc(i0, i1))
-                    warnings.extend(w for w in sensor_cal.warnings if w not in warnings)
-                if len(blocks) == 1:  # more blocks: none is read twice in a row, and keeping one adds to the peak
-                    for a in (t, acc, gyro, sat):  # shared by the passes: a stage that wrote into them fails here
-                        a.flags.writeable = False
-                    last_read.update(rows=(i0, i1), block=(t, acc, gyro, sat))
-                spills.samples.put(i0, i1, (t, acc, gyro, sat))
-            if rails is not None and rails.rail_pos is not None:
-                sat = spills.samples.railed(i0, i1, lambda: sat | rails.bits(acc, gyro))
-            return t, acc, gyro, sat
+        last_read, spills, rails = self._last_read, self.spills, self.rails
+        if last_read.get("rows") == (i0, i1):
+            t, acc, gyro, sat = last_read["block"]
+        elif (kept := spills.samples.get(i0, i1)) is not None:  # decoded and calibrated by an earlier pass
+            t, acc, gyro, sat = kept
+        else:
+            t, acc, gyro, sat = self.rec.block(i0, i1)
+            if self.sensor_cal.calibration is not None:
+                acc, gyro = apply_calibration(self.sensor_cal, acc, gyro, self.rec.temp_degc(i0, i1))
+                self.warnings.extend(w for w in self.sensor_cal.warnings if w not in self.warnings)
+            if len(self.blocks) == 1:  # more blocks: none is read twice in a row, and keeping one adds to the peak
+                for a in (t, acc, gyro, sat):  # shared by the passes: a stage that wrote into them fails here
+                    a.flags.writeable = False
+                last_read.update(rows=(i0, i1), block=(t, acc, gyro, sat))
+            spills.samples.put(i0, i1, (t, acc, gyro, sat))
+        if rails is not None and rails.rail_pos is not None:
+            sat = spills.samples.railed(i0, i1, lambda: sat | rails.bits(acc, gyro))
+        return t, acc, gyro, sat
 
-        rails = None
-        if settings.detector.detect_clipping:  # the extremes of the whole record, then the samples at them
-            rails = ClipRails(settings.filter.sloping_rails)
-            for i0, i1 in blocks:
-                rails.add_peaks(*read(i0, i1)[1:3])
-            for i0, i1 in blocks:
-                rails.add_counts(*read(i0, i1)[1:3])
-            rails.finish()
+    def clipping_rails(self) -> None:
+        """The extremes of the whole record, then the samples at them (``checks.ClipRails``)."""
+        if self.settings.detector.detect_clipping:
+            self.rails = ClipRails(self.settings.filter.sloping_rails)
+            for i0, i1 in self.blocks:
+                self.rails.add_peaks(*self.read(i0, i1)[1:3])
+            for i0, i1 in self.blocks:
+                self.rails.add_counts(*self.read(i0, i1)[1:3])
+            self.rails.finish()
+
+    def check_samples_pass(self) -> None:
+        """The checks of ``process`` (refusals per block; the warnings of the whole record's steps, first) and the
+        saturated bursts joined across blocks (``sat_iv``)."""
+        settings, name, t_first, t_last = self.settings, self.name, self.t_first, self.t_last
         duration = t_last - t_first
         if duration < settings.checks.min_duration_s:  # as check_samples refuses it
             raise InputError(f"{name}: too short: {duration:.2f} s of data (need >= {settings.checks.min_duration_s:g}"
                              " s: a still period plus a few strides)")
-        step_checks = StepWarnings(dt0)  # the warnings of ``check_samples`` on the whole record's steps
+        step_checks = StepWarnings(self.dt0)  # the warnings of ``check_samples`` on the whole record's steps
         sat_iv: list[dict] = []
-        for i0, i1 in blocks:  # the checks of ``process`` (each block with the last samples of the one before)
+        start = self.rec.start
+        for i0, i1 in self.blocks:  # the checks of ``process`` (each block with the last samples of the one before)
             a = max(i0 - 2, 0)
-            t, acc, gyro, sat = read(a, i1)
-            check_samples(name, t, acc, gyro, rec.start + a, settings.checks, (t_first, t_last))  # refusals; warnings
+            t, acc, gyro, sat = self.read(a, i1)
+            check_samples(name, t, acc, gyro, start + a, settings.checks, (t_first, t_last))  # refusals; warnings
             # of the whole record below
             k = max(i0 - a - 1, 0)  # the steps that end in this block
             step_checks.push(t[k:-1], np.diff(t[k:]))
-            sat_iv = join_saturation_intervals(sat_iv, saturation_intervals(t[i0 - a:], sat[i0 - a:], rec.start + i0))
-        warnings[:0] = step_checks.warnings() + saturation_warnings(sat_iv)  # first, as ``process`` orders them
+            sat_iv = join_saturation_intervals(sat_iv, saturation_intervals(t[i0 - a:], sat[i0 - a:], start + i0))
+        self.warnings[:0] = step_checks.warnings() + saturation_warnings(sat_iv)  # first, as ``process`` orders them
+        self.sat_iv = sat_iv
 
-        t0_, a0_, g0_, _ = read(0, n_init)
-        init = initial_alignment(t0_, a0_, g0_, cal, gravity, dt_s=dt0)
-        warnings += list(init.warnings)
-        alignment = alignment_summary(init, gravity, t0_)
-        del t0_, a0_, g0_
-        lap("load")
-        rate = 1.0 / dt0
-        bias_det, gravity_det = stance_reference(init, gravity)  # as ``navigate`` gives the detector
-        probe_detector = settings.detector.build(gravity_det)
+    def initial_alignment(self) -> None:
+        """Roll, pitch and gyro bias from the first seconds (with Δt₀), and the stance detector's references."""
+        from .calibration import initial_alignment, stance_reference
+        from .summary import alignment_summary
 
-        chosen: dict = {}  # the fallback's stance: "detector" (settings, floor) or "cycle" (the mask); {}: configured
+        t0_, a0_, g0_, _ = self.read(0, self.n_init)
+        self.init = initial_alignment(t0_, a0_, g0_, self.settings.calibration, self.gravity, dt_s=self.dt0)
+        self.warnings += list(self.init.warnings)
+        self.alignment = alignment_summary(self.init, self.gravity, t0_)
+        self.rate = 1.0 / self.dt0
+        self.bias_det, self.gravity_det = stance_reference(self.init, self.gravity)  # as ``navigate`` gives the detector
+        self.probe_detector = self.settings.detector.build(self.gravity_det)
 
-        def detector_stream(det_settings, det_floor):
-            replayed = spills.stance.replay(det_settings, det_floor)  # the chunks an earlier pass spilled
-            if replayed is not None:
-                yield from replayed
-                return
-            det = stance_detector(det_settings, rate, gravity_det, noise_floor_log10=det_floor, gyro_bias_b=bias_det)
-            keep = spills.stance.recorder(det_settings, det_floor).keep
-            for i0, i1 in blocks:
-                yield from keep(det.push(*read(i0, i1)))
-            yield from keep(det.finish(), last=True)
+    # -- the stance: the detector's chunks, the noise floor, the fallback ----------------------------------------
 
-        def stance_stream():
-            """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking): the configured
-            detector's, their stance the fallback's when one was chosen (the statistic stays the configured one's,
-            as ``process`` keeps it)."""
-            if "cycle" in chosen:
-                for ch in detector_stream(settings.detector, floor):
-                    ch.stance = ch.stance | chosen["cycle"][ch.start:ch.start + len(ch)]
-                    yield ch
-            elif "detector" in chosen:
-                yield from _with_stance_of(detector_stream(settings.detector, floor),
-                                           detector_stream(*chosen["detector"]))
-            else:
-                yield from detector_stream(settings.detector, floor)
+    def detector_stream(self, det_settings, det_floor):
+        """StanceChunks of a detector over the blocks (replayed when an earlier pass spilled them)."""
+        from .detectors.stream import stance_detector
 
-        def noise_floor(det_settings):
-            """The adaptive detector's noise floor F over the whole recording (pass 1)."""
-            det = det_settings.build(gravity_det)
-            probe = StreamStance(det_settings, rate, gravity_det, gyro_bias_b=bias_det)
-            lowest = _LowestValues(det.noise_quantile, n)
-            for i0, i1 in blocks:
-                for ch in probe.push(*read(i0, i1)):
-                    lowest.add_chunk(ch, det.rest_floor())
-            for ch in probe.finish():
+        replayed = self.spills.stance.replay(det_settings, det_floor)  # the chunks an earlier pass spilled
+        if replayed is not None:
+            yield from replayed
+            return
+        det = stance_detector(det_settings, self.rate, self.gravity_det, noise_floor_log10=det_floor,
+                              gyro_bias_b=self.bias_det)
+        keep = self.spills.stance.recorder(det_settings, det_floor).keep
+        for i0, i1 in self.blocks:
+            yield from keep(det.push(*self.read(i0, i1)))
+        yield from keep(det.finish(), last=True)
+
+    def stance_stream(self):
+        """Yield StanceChunks of the whole recording (fixed floor: the same for every chunking): the configured
+        detector's, their stance the fallback's when one was chosen (the statistic stays the configured one's,
+        as ``process`` keeps it)."""
+        configured = self.settings.detector
+        if "cycle" in self.chosen:
+            for ch in self.detector_stream(configured, self.floor):
+                ch.stance = ch.stance | self.chosen["cycle"][ch.start:ch.start + len(ch)]
+                yield ch
+        elif "detector" in self.chosen:
+            yield from _with_stance_of(self.detector_stream(configured, self.floor),
+                                       self.detector_stream(*self.chosen["detector"]))
+        else:
+            yield from self.detector_stream(configured, self.floor)
+
+    def noise_floor(self, det_settings) -> float:
+        """The adaptive detector's noise floor F over the whole recording (pass 1)."""
+        from .detectors.stream import StreamStance
+
+        det = det_settings.build(self.gravity_det)
+        probe = StreamStance(det_settings, self.rate, self.gravity_det, gyro_bias_b=self.bias_det)
+        lowest = _LowestValues(det.noise_quantile, self.n)
+        for i0, i1 in self.blocks:
+            for ch in probe.push(*self.read(i0, i1)):
                 lowest.add_chunk(ch, det.rest_floor())
-            low = lowest.quantile()
-            return probe.noise_floor_log10 if low is None else low  # all excluded (saturated): the stream's
+        for ch in probe.finish():
+            lowest.add_chunk(ch, det.rest_floor())
+        low = lowest.quantile()
+        return probe.noise_floor_log10 if low is None else low  # all excluded (saturated): the stream's
 
-        def select_fallback(failed: str, period: float) -> dict:
-            """The stance fallback in passes: ``selftune``'s candidates scored by forward runs
-            over the blocks, the no-rest and mount rules; sets ``chosen``; returns choice, candidates, no_rest
-            and the warnings."""
-            st_ = settings.selftune
-            name0 = f"configured ({settings.detector.method})"
-            specs = [(name0, settings.detector, floor)]
-            for a in st_.alphas:
-                ds = settings.detector.with_method("adaptive", alpha=a)
-                specs.append((f"adaptive alpha={a:g}", ds, noise_floor(ds)))
-            if st_.shoe_threshold:
-                specs.append((f"shoe {st_.shoe_threshold:g}", settings.detector.with_method(
-                    "shoe", threshold=st_.shoe_threshold), None))
-            rows = [_CandidateScore(nm, init, gravity, dt0, settings.filter).run(
-                ((ch, ch.stance) for ch in detector_stream(ds, fl)), period, st_, n) for nm, ds, fl in specs]
-            cyc = _cycle_minimum(detector_stream(settings.detector, floor), n, bias_det, gravity_det, period,
-                                 settings)
-            if cyc is not None:
-                rows.append(_CandidateScore("cycle minimum", init, gravity, dt0, settings.filter).run(
-                    ((ch, ch.stance | cyc[ch.start:ch.start + len(ch)])
-                     for ch in detector_stream(settings.detector, floor)), period, st_, n))
-            best = int(np.argmin([r["J"] for r in rows]))
-            chosen_row = rows[best]
-            sel_warnings = ["no periodic gait found (autocorrelation of |ω| below 0.2 at 0.4-3 s)"] \
-                if not np.isfinite(period) else []
-            sel_warnings.append(f"stance detection: the configured detector fails ({failed}); fallback "
-                                f"'{chosen_row['name']}' chosen (criterion {chosen_row['J']:.3f} m/s vs "
-                                f"{rows[0]['J']:.3f} m/s)")
-            for r in rows:
-                r.pop("_q", None)
-            pick = {}
-            if chosen_row["name"] == "cycle minimum":
-                pick["cycle"] = cyc
-            elif best > 0:
-                pick["detector"] = specs[best][1:]
-            chosen.clear()
-            chosen.update(pick)
-            # the median turning rate at rest of the chosen mask (exact, ``_order_statistics``)
-            g0 = np.asarray(init.gyro_bias_b)
-            rates = lambda: (row_norm(ch.gyro_b[ch.stance] - g0) for ch in stance_stream())  # noqa: E731
-            m = sum(len(v) for v in rates())
-            rate_ = float(np.mean(_order_statistics(rates, ((m - 1) // 2, m // 2)))) if m else np.inf
-            gait_txt = ("no periodic gait" if not np.isfinite(period)
-                        else f"a gait period of {period:.2f} s but no moment the foot rests")
-            if not any(np.isfinite(r["J"]) for r in rows) or rate_ > st_.fail_stance_rate_radps:
-                p99_ = rate_p99()
-                mount_ = mount_check_of(p99_, t_last - t_first, period, 0.0)
-                if not mount_["looks_like_foot"] or not np.isfinite(period):
-                    why = (mount_["message"] if not mount_["looks_like_foot"] else
-                           "a moving foot rests once per stride and repeats its stride: this signal does neither")
-                    raise InputError(f"{name}: not a walking foot: {failed}; no other stance detection finds a "
-                                     f"zero-velocity phase either ({gait_txt}), and {why}")
-                chosen.clear()
-                return {"choice": name0, "candidates": rows, "no_rest": True, "warnings": [
-                    f"no stance detection finds a zero-velocity phase ({failed}; {gait_txt}): the path is mostly "
-                    "unaided inertial integration and its confidence is 0; check that the sensor is on the foot"]}
-            return {"choice": chosen_row["name"], "candidates": rows, "no_rest": False, "warnings": sel_warnings}
+    def rate_p99(self) -> float:
+        """‖ω‖'s 99th percentile over the record (``summary.mount_check``'s), exact from the spilled rows."""
+        return _percentile(lambda: _spilled(self.rate_rows, self.n), 99)
 
-        floor = None
-        if settings.detector.method == "adaptive":  # pass 1: the noise floor F over the whole recording
-            floor = noise_floor(settings.detector)
-        lap("stance_floor")
+    def select_fallback(self, failed: str, period: float) -> dict:
+        """The stance fallback in passes: ``selftune``'s candidates scored by forward runs
+        over the blocks, the no-rest and mount rules; sets ``chosen``; returns choice, candidates, no_rest
+        and the warnings."""
+        from bootnav.core.arrays import row_norm
 
+        from .summary import mount_check_of
 
-        rate_rows = tempfile.TemporaryFile(prefix="bootnav-rate-")  # ‖ω‖ per sample (8 B each), from pass 2
+        settings, init, n, floor = self.settings, self.init, self.n, self.floor
+        st_ = settings.selftune
+        name0 = f"configured ({settings.detector.method})"
+        specs = [(name0, settings.detector, floor)]
+        for a in st_.alphas:
+            ds = settings.detector.with_method("adaptive", alpha=a)
+            specs.append((f"adaptive alpha={a:g}", ds, self.noise_floor(ds)))
+        if st_.shoe_threshold:
+            specs.append((f"shoe {st_.shoe_threshold:g}", settings.detector.with_method(
+                "shoe", threshold=st_.shoe_threshold), None))
+        rows = [_CandidateScore(nm, init, self.gravity, self.dt0, settings.filter).run(
+            ((ch, ch.stance) for ch in self.detector_stream(ds, fl)), period, st_, n) for nm, ds, fl in specs]
+        cyc = _cycle_minimum(self.detector_stream(settings.detector, floor), n, self.bias_det, self.gravity_det,
+                             period, settings)
+        if cyc is not None:
+            rows.append(_CandidateScore("cycle minimum", init, self.gravity, self.dt0, settings.filter).run(
+                ((ch, ch.stance | cyc[ch.start:ch.start + len(ch)])
+                 for ch in self.detector_stream(settings.detector, floor)), period, st_, n))
+        best = int(np.argmin([r["J"] for r in rows]))
+        chosen_row = rows[best]
+        sel_warnings = ["no periodic gait found (autocorrelation of |ω| below 0.2 at 0.4-3 s)"] \
+            if not np.isfinite(period) else []
+        sel_warnings.append(f"stance detection: the configured detector fails ({failed}); fallback "
+                            f"'{chosen_row['name']}' chosen (criterion {chosen_row['J']:.3f} m/s vs "
+                            f"{rows[0]['J']:.3f} m/s)")
+        for r in rows:
+            r.pop("_q", None)
+        pick = {}
+        if chosen_row["name"] == "cycle minimum":
+            pick["cycle"] = cyc
+        elif best > 0:
+            pick["detector"] = specs[best][1:]
+        self.chosen.clear()
+        self.chosen.update(pick)
+        # the median turning rate at rest of the chosen mask (exact, ``_order_statistics``)
+        g0 = np.asarray(init.gyro_bias_b)
+        rates = lambda: (row_norm(ch.gyro_b[ch.stance] - g0) for ch in self.stance_stream())  # noqa: E731
+        m = sum(len(v) for v in rates())
+        rate_ = float(np.mean(_order_statistics(rates, ((m - 1) // 2, m // 2)))) if m else np.inf
+        gait_txt = ("no periodic gait" if not np.isfinite(period)
+                    else f"a gait period of {period:.2f} s but no moment the foot rests")
+        if not any(np.isfinite(r["J"]) for r in rows) or rate_ > st_.fail_stance_rate_radps:
+            p99_ = self.rate_p99()
+            mount_ = mount_check_of(p99_, self.t_last - self.t_first, period, 0.0)
+            if not mount_["looks_like_foot"] or not np.isfinite(period):
+                why = (mount_["message"] if not mount_["looks_like_foot"] else
+                       "a moving foot rests once per stride and repeats its stride: this signal does neither")
+                raise InputError(f"{self.name}: not a walking foot: {failed}; no other stance detection finds a "
+                                 f"zero-velocity phase either ({gait_txt}), and {why}")
+            self.chosen.clear()
+            return {"choice": name0, "candidates": rows, "no_rest": True, "warnings": [
+                f"no stance detection finds a zero-velocity phase ({failed}; {gait_txt}): the path is mostly "
+                "unaided inertial integration and its confidence is 0; check that the sensor is on the foot"]}
+        return {"choice": chosen_row["name"], "candidates": rows, "no_rest": False, "warnings": sel_warnings}
 
-        def rate_p99() -> float:
-            """‖ω‖'s 99th percentile over the record (``summary.mount_check``'s), exact from the spilled rows."""
-            return _percentile(lambda: _spilled(rate_rows, n), 99)
+    # -- pass 2: the gait period, the timing calibration, the stance findings -------------------------------------
 
+    def timing_pass(self, attempt: int) -> None:
+        """The gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with it off,
+        the one forward run that scores the path (the RMS of its ZUPT-onset innovations,
+        ``selftune.onset_innovations``); the stance phases and ‖ω‖ at rest for the stance findings."""
+        from bootnav.core.arrays import row_norm
+
+        from . import selftune
+        from .ins.stream import StreamNavigator
+
+        settings, init, gravity, dt0, n = self.settings, self.init, self.gravity, self.dt0, self.n
         st = settings.selftune
-        fallback = None  # the fallback chosen when the configured detector failed (``select_fallback``)
-        for attempt in range(2):  # the passes again with the fallback's stance when the configured one failed
-            timing: dict = {}
-            tau = 0.0
-            # pass 2: the gait period, and the forward filters of the timing calibration (two probes at ±δ) or, with
-            # it off, the one forward run that scores the path (the RMS of its ZUPT-onset innovations, ``selftune.onset_innovations``)
-            signs = (-1, 1) if st.timing_calibration else (0,)
-            probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
-            forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
-            probes = _ForwardProbes({s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs},
-                                    st.timing_probe_s, st.timing_max_level_strides if st.timing_calibration else None)
-            gait = selftune.GaitPeriodAccumulator(dt0)
-            phase_starts = _Runs()  # the stance phases
-            stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
-            n_stance_all = 0
-            for ch in stance_stream():
-                gait.push(ch.gyro_b)
-                if attempt == 0:  # ‖ω‖ of every sample, for the mount check's percentile
-                    np.linalg.norm(ch.gyro_b, axis=1).tofile(rate_rows)
-                phase_starts.push(ch.start, ch.stance)
-                stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
-                n_stance_all += int(np.count_nonzero(ch.stance))
-                probes.push(ch, phase_starts.starts)
-            period = gait.finish()
-            fp_probe, cut, onsets = probes.finish(phase_starts.starts, n)
-            if st.timing_calibration:
-                cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
-                timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
-                timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
-                timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
-                timing["probe_s"] = float(rec.times(cut - 1, cut)[0] - t_first)
-                timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
-                                                     st.timing_min_level_strides)
-                tau = timing["tau_s"]
-                innovation = timing["innovation_rms_mps"]
-            else:
-                innovation = float(np.sqrt(onsets[0].mean_square(n)))
-            del probes, fp_probe, onsets
-            method = settings.detector.method
-            if attempt == 0:  # the configured detector's mask (``checks.stance_findings_of``)
-                findings = stance_findings_of(len(phase_starts.starts), n_stance_all / n, t_last - t_first,
-                                              stance_rate.median() if n_stance_all else None, settings.checks, method)
-                warnings += [f.message for f in findings if not f.fatal]
-                fatal = [f.message for f in findings if f.fatal]
-                failed = fatal[0] if fatal else None
-                if failed and not st.fallback:
-                    raise InputError(f"{name}: {failed}")
-                n_warn = len(warnings)  # the warnings of the configured path start here
-            lap("timing")
-            if attempt == 0 and failed is not None:  # a fatal stance finding: the fallback's passes
-                fallback = select_fallback(failed, period)
-                warnings += fallback["warnings"]
-                lap("fallback")
-                continue
+        timing: dict = {}
+        tau = 0.0
+        signs = (-1, 1) if st.timing_calibration else (0,)
+        probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
+        forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
+        probes = _ForwardProbes({s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs},
+                                st.timing_probe_s, st.timing_max_level_strides if st.timing_calibration else None)
+        gait = selftune.GaitPeriodAccumulator(dt0)
+        phase_starts = _Runs()  # the stance phases
+        stance_rate = _LogHistogram()  # ‖ω‖ over the stance samples (``checks.stance_findings``)
+        n_stance_all = 0
+        for ch in self.stance_stream():
+            gait.push(ch.gyro_b)
+            if attempt == 0:  # ‖ω‖ of every sample, for the mount check's percentile
+                np.linalg.norm(ch.gyro_b, axis=1).tofile(self.rate_rows)
+            phase_starts.push(ch.start, ch.stance)
+            stance_rate.add(row_norm(ch.gyro_b[ch.stance]))
+            n_stance_all += int(np.count_nonzero(ch.stance))
+            probes.push(ch, phase_starts.starts)
+        self.period = gait.finish()
+        fp_probe, cut, onsets = probes.finish(phase_starts.starts, n)
+        if st.timing_calibration:
+            cap = {"max_level_strides": st.timing_max_level_strides}  # the whole run's rule (level_timing_offset)
+            timing["m_minus"], n_level = selftune.footprint_level_dz(*fp_probe[-1], **cap)
+            timing["m_plus"], timing["n_level"] = selftune.footprint_level_dz(*fp_probe[1], **cap)
+            timing["innovation_rms_mps"] = float(np.sqrt(np.mean([onsets[s].mean_square(cut) for s in signs])))
+            timing["probe_s"] = float(self.rec.times(cut - 1, cut)[0] - self.t_first)
+            timing = selftune.timing_from_probes(timing, st.timing_probe_s, st.timing_max_abs_s,
+                                                 st.timing_min_level_strides)
+            tau = timing["tau_s"]
+            self.innovation = timing["innovation_rms_mps"]
+        else:
+            self.innovation = float(np.sqrt(onsets[0].mean_square(n)))
+        del probes, fp_probe, onsets
+        self.timing, self.tau, self.phase_starts = timing, tau, phase_starts
+        self._stance_rates = (n_stance_all, stance_rate)
 
-            def acc_used(ch):
-                return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, tau) if tau else ch.acc_b
+    def configured_stance_findings(self) -> None:
+        """The configured detector's mask judged (``checks.stance_findings_of``): ``failed`` (None: it is kept);
+        refused when it fails and the fallback is off."""
+        from .checks import stance_findings_of
 
-            def gate(ch):
-                """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
-                return None if gate_iv is None else gate_of(gate_iv, ch.start, ch.start + len(ch.t_s))
+        settings, n = self.settings, self.n
+        n_stance_all, stance_rate = self._stance_rates
+        findings = stance_findings_of(len(self.phase_starts.starts), n_stance_all / n, self.t_last - self.t_first,
+                                      stance_rate.median() if n_stance_all else None, settings.checks,
+                                      settings.detector.method)
+        self.warnings += [f.message for f in findings if not f.fatal]
+        fatal = [f.message for f in findings if f.fatal]
+        self.failed = fatal[0] if fatal else None
+        if self.failed and not settings.selftune.fallback:
+            raise InputError(f"{self.name}: {self.failed}")
+        self.n_warn = len(self.warnings)  # the warnings of the configured path start here
 
-            def corrected(r):
-                """The revisits' horizontal correction of the rows (``building.revisits.apply_revisits``' rule:
-                the footprints' corrections interpolated in time), in place."""
-                if revisit is not None:
-                    r.pos_n = r.pos_n.copy()
-                    for ax in range(2):
-                        r.pos_n[:, ax] += np.interp(r.t_s, revisit[0], revisit[1][:, ax])
-                return r
+    # -- pass 3: the heading decision, the revisits, the storeys -----------------------------------------------
 
-            # no revisit correction: the navigator of the last filter pass and the rows of each of its pushes (in
-            # memory over one block, spilled over more: ``passcache.NavRowSpill``), which the final pass replays when
-            # it runs the same filter with the same gate (the heading decision off: the unaided path is the final
-            # one, as ``navigate`` runs it once)
-            replay: dict = {}
+    def acc_used(self, ch):
+        """The specific force the filter gets: rotated by the timing offset τ."""
+        from . import selftune
 
-            def path_footprints(filter_settings, with_var=False):
-                """A pass of the filter + smoother (its rows corrected by the revisits found): its footprints (mid
-                times, (K,); (K, 3)) and, ``with_var``, the horizontal variance at their times (K,)."""
-                path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
-                path_fp = FootprintAccumulator()
-                var = _PhaseInterpolation() if with_var else None
-                pieces = spills.nav_rows() if revisit is None else None  # one block: in memory; more: spilled
-                replay.clear()
-                for ch in stance_stream():
-                    r = path_nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch))
-                    if pieces is not None:
-                        pieces.append(r)
-                    r = corrected(r)
-                    path_fp.push(r.t_s, r.pos_n, r.stance)
-                    if var is not None:
-                        var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
-                r = path_nav.finish()
-                if pieces is not None:
-                    pieces.append(r)
-                    if pieces.kept:
-                        replay.update(filter=filter_settings, gate=gate_iv, nav=path_nav, rows=pieces)
-                r = corrected(r)
-                path_fp.push(r.t_s, r.pos_n, r.stance)
-                if var is not None:
-                    var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
-                    return (*path_fp.finish(), var.finish())
-                return path_fp.finish()
+        return selftune.rotate_specific_force(ch.acc_b, ch.gyro_b, self.tau) if self.tau else ch.acc_b
 
-            floors = settings.floor_settings()
-            storeys = None
-            revisit, revisit_report = None, None  # the pose graph's (footprint times, corrections (K, 2))
-            final_filter, gate_iv, heading_decision, path_fp = settings.filter, None, None, None
-            if settings.filter.heading_aid == "auto":  # pass 3a: decided on the unaided path (after τ)
-                path_fp = path_footprints(settings.filter)
-                dec, ends, aided = heading_plan(path_fp[1][:, :2], settings.filter)
-                heading_decision = dec.as_dict()
-                if dec.on:
-                    final_filter = aided_settings(settings.filter, dec)
-                    gate_iv = None if aided is None else gate_intervals(phase_starts.stops(n), ends, aided)
-                    path_fp = None  # the storeys are on the aided path
-                lap("heading")
-            if settings.filter.revisits != "none":  # pass 3b: the pose graph over the final filter's strides
-                rt, rfp, rvar = path_footprints(final_filter, with_var=True)
-                t_k, delta, revisit_report = revisit_corrections(rt, rfp, rvar, settings.filter)
-                if delta is not None:
-                    revisit = (t_k, delta)
-                    path_fp = None  # the storeys are on the corrected path
-                else:
-                    path_fp = (rt, rfp)
-                lap("revisits")
-            if floors.storeys:  # pass 3: the final filter's footprints, for the storeys' height offsets
-                storey_t, storey_fp = path_fp if path_fp is not None else path_footprints(final_filter)
-                storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
-                                         floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
-                                         floors.floor_height_m)
-                lap("storeys")
-            del path_fp
-            snap = storeys is not None and len(storey_t) > 0 and bool(np.any(storeys.offset_fp))
+    def gate(self, ch):
+        """The heading aid's per-sample gate of a chunk (None: the aid, if on, acts everywhere)."""
+        from .building.directions import gate_of
 
-            # the final pass: the filter + smoother, outputs appended as rows become final (``out`` None: kept in
-            # ``run.rows``, no file written)
-            collect = run.rows
-            if collect is not None:
-                collect.reset()  # the fallback's passes run the final pass again: the rows of the last one
-            opts = settings.output
-            group = f"/results/{opts.results_name}"
-            tmp = None
+        return None if self.gate_iv is None else gate_of(self.gate_iv, ch.start, ch.start + len(ch.t_s))
+
+    def corrected(self, r):
+        """The revisits' horizontal correction of the rows (``building.revisits.apply_revisits``' rule:
+        the footprints' corrections interpolated in time), in place."""
+        revisit = self.revisit
+        if revisit is not None:
+            r.pos_n = r.pos_n.copy()
+            for ax in range(2):
+                r.pos_n[:, ax] += np.interp(r.t_s, revisit[0], revisit[1][:, ax])
+        return r
+
+    def path_footprints(self, filter_settings, with_var=False):
+        """A pass of the filter + smoother (its rows corrected by the revisits found): its footprints (mid
+        times, (K,); (K, 3)) and, ``with_var``, the horizontal variance at their times (K,).
+
+        With no revisit correction, the navigator of the pass and the rows of each of its pushes (in memory over
+        one block, spilled over more: ``passcache.NavRowSpill``) are kept in ``replay``, which the final pass
+        replays when it runs the same filter with the same gate (the heading decision off: the unaided path is
+        the final one, as ``navigate`` runs it once)."""
+        from .ins.stream import StreamNavigator
+        from .strides import FootprintAccumulator
+
+        path_nav = StreamNavigator.from_initial_state(self.init, self.gravity, self.dt0, filter_settings)
+        path_fp = FootprintAccumulator()
+        var = _PhaseInterpolation() if with_var else None
+        pieces = self.spills.nav_rows() if self.revisit is None else None  # one block: in memory; more: spilled
+        self.replay.clear()
+
+        def keep(r) -> None:
+            r = self.corrected(r)
+            path_fp.push(r.t_s, r.pos_n, r.stance)
+            if var is not None:
+                var.push(r.t_s, r.pos_sigma_n[:, 0] ** 2 + r.pos_sigma_n[:, 1] ** 2, r.stance)
+
+        for ch in self.stance_stream():
+            r = path_nav.push(ch.t_s, self.acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=self.gate(ch))
+            if pieces is not None:
+                pieces.append(r)
+            keep(r)
+        r = path_nav.finish()
+        if pieces is not None:
+            pieces.append(r)
+            if pieces.kept:
+                self.replay.update(filter=filter_settings, gate=self.gate_iv, nav=path_nav, rows=pieces)
+        keep(r)
+        if var is not None:
+            return (*path_fp.finish(), var.finish())
+        return path_fp.finish()
+
+    def path_decisions(self) -> None:
+        """Pass 3: the heading decision, the revisits and the storeys, each a pass of a filter when it is on."""
+        self.replay: dict = {}
+        self.revisit, self.revisit_report = None, None  # the pose graph's (footprint times, corrections (K, 2))
+        self.final_filter, self.gate_iv, self.heading_decision = self.settings.filter, None, None
+        path_fp = self.heading_pass()
+        path_fp = self.revisits_pass(path_fp)
+        self.storeys_pass(path_fp)
+
+    def heading_pass(self):
+        """With ``heading_aid="auto"``, pass 3a: the decision on the unaided path (after τ); the footprints of that
+        path when it is the final one (the storeys' input), else None."""
+        from .building.directions import aided_settings, gate_intervals, heading_plan
+
+        if self.settings.filter.heading_aid != "auto":
+            return None
+        path_fp = self.path_footprints(self.settings.filter)
+        dec, ends, aided = heading_plan(path_fp[1][:, :2], self.settings.filter)
+        self.heading_decision = dec.as_dict()
+        if dec.on:
+            self.final_filter = aided_settings(self.settings.filter, dec)
+            self.gate_iv = None if aided is None else gate_intervals(self.phase_starts.stops(self.n), ends, aided)
+            path_fp = None  # the storeys are on the aided path
+        self.lap("heading")
+        return path_fp
+
+    def revisits_pass(self, path_fp):
+        """With ``filter.revisits``, pass 3b: the pose graph over the final filter's strides; the footprints of
+        the final path when no correction was found (the storeys' input), else None."""
+        from .building.revisits import revisit_corrections
+
+        if self.settings.filter.revisits == "none":
+            return path_fp
+        rt, rfp, rvar = self.path_footprints(self.final_filter, with_var=True)
+        t_k, delta, self.revisit_report = revisit_corrections(rt, rfp, rvar, self.settings.filter)
+        if delta is not None:
+            self.revisit = (t_k, delta)
+            path_fp = None  # the storeys are on the corrected path
+        else:
+            path_fp = (rt, rfp)
+        self.lap("revisits")
+        return path_fp
+
+    def storeys_pass(self, path_fp) -> None:
+        """The final filter's footprints (``path_fp`` when a pass before gave them), for the storeys' height
+        offsets (``floors.storey_offsets``); ``snap``: the final pass corrects its heights."""
+        from .floors import storey_offsets
+
+        settings = self.settings
+        floors = settings.floor_settings()
+        self.storeys, self.storey_t = None, None
+        if floors.storeys:
+            self.storey_t, storey_fp = path_fp if path_fp is not None else self.path_footprints(self.final_filter)
+            self.storeys = storey_offsets(storey_fp, settings.filter.level_max_dz_m, floors.riser_min_m,
+                                          floors.riser_max_m, settings.filter.level_min_stride_m, floors.hysteresis_m,
+                                          floors.floor_height_m)
+            self.lap("storeys")
+        self.snap = self.storeys is not None and len(self.storey_t) > 0 and bool(np.any(self.storeys.offset_fp))
+
+    # -- the final pass, the strides, the summary, the files ---------------------------------------------------
+
+    def final_pass(self, sinks: _FinalSinks) -> _FinalPath:
+        """The final filter + smoother; each row pushed to the sinks when final (``_FinalPath.emit``)."""
+        from .ins.stream import StreamNavigator
+
+        replay, final_filter = self.replay, self.final_filter
+        reuse = (bool(replay) and replay["filter"] is final_filter and replay["gate"] is self.gate_iv
+                 and self.revisit is None)
+        nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(self.init, self.gravity, self.dt0,
+                                                                             final_filter)
+        replayed = iter(replay.pop("rows")) if reuse else None
+        path = _FinalPath(self, sinks, nav)
+        with contextlib.ExitStack() as stack:
+            if self.out is not None:  # trajectory.csv appears complete or not at all
+                sinks.open_trajectory(stack.enter_context(atomic.replacing(self.out / "trajectory.csv")))
+            for ch in self.stance_stream():
+                path.push_samples(ch)
+                path.emit(next(replayed) if replayed is not None else
+                          nav.push(ch.t_s, self.acc_used(ch), ch.gyro_b, ch.stance, ch.saturated,
+                                   heading_gate=self.gate(ch)))
+                _call_progress(self.progress, "navigation", min(0.99, (ch.start + len(ch)) / self.n))
+            path.emit(next(replayed) if replayed is not None else nav.finish())
+        self.lap("navigation")
+        return path
+
+    def strides_pass(self, path: _FinalPath) -> None:
+        """The footprints' strides with their flags and ellipses, the confidence; refuses a path with no motion."""
+        from . import selftune
+        from .ellipses import scale_error_covariance, scale_sigmas
+        from .strides import footprint_strides
+
+        settings, st, period = self.settings, self.settings.selftune, self.period
+        floors = settings.floor_settings()
+        self.t_mid, fp = path.fp_acc.finish()
+        self.fp = fp
+        min_stride = st.min_stride_m
+        quality = self.quality = path.quality_acc.finish(period, st)
+        self.confidence = selftune.confidence(self.innovation, quality.bad_fraction, period, st)
+        split = selftune.split_strides(quality, period, st)
+        if split:
+            self.warnings.append(split)
+        if not np.isfinite(period):
+            self.warnings.append("no periodic gait found: the confidence of this path is 0")
+        cov_h = path.fp_acc.cov.copy() if len(path.fp_acc.cov) == len(fp) else None
+        path.yaw_acc.finish()
+        if cov_h is not None and len(path.yaw_acc.cov) == len(fp):  # the sensor errors the filter does not model
+            cov_h = cov_h + scale_error_covariance(fp, path.yaw_acc.cov[:, 0], *scale_sigmas(
+                settings, self.sensor_cal.provenance.get("status") == "applied"))
+        # the floor number: the storeys found as heights of whole nominal storeys (as ``process``)
+        self.floor_z = self.storeys.storey_fp * floors.floor_height_m if self.storeys is not None else None
+        self.steps = footprint_strides(self.t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY),
+                                       floors, cov_h, self.floor_z)
+        if len(self.steps["t_s"]) == 0 and not np.isfinite(period):
+            raise InputError(f"{self.name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
+                             f"{self.t_last - self.t_first:.1f} s; nothing to navigate (is the sensor on a walking "
+                             "foot?)")
+
+    def stride_checks(self, path: _FinalPath) -> None:
+        """The stance choice, the stride findings, the path's figures; the mount check, the detector's threshold
+        and, with a reference, its metrics."""
+        from .ins.filter import propagated_gaps_warning
+        from .reference_path import compute_metrics
+        from .strides import footprint_summary
+        from .summary import mount_check_of
+
+        settings, warnings, fallback = self.settings, self.warnings, self.fallback
+        floors = settings.floor_settings()
+        min_stride = settings.selftune.min_stride_m
+        self.choice = fallback["choice"] if fallback else f"configured ({settings.detector.method})"
+        if fallback and fallback["no_rest"]:
+            self.confidence = 0.0
+        nav = path.nav
+        if nav.info.get("n_gaps"):  # as ``ins.run_filter`` says it
+            warnings.append(propagated_gaps_warning(nav.info["n_gaps"], nav.info["max_dt_s"]))
+        findings = stride_findings(self.steps, settings.checks, self.choice)
+        warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(self.name, findings))
+        self.path_stats = footprint_summary(self.fp, floors, min_stride, path.fp_acc.walked_s, self.floor_z)
+        self.path_stats["storeys"] = self.storeys.summary() if self.storeys is not None else None
+        self.lap("strides")
+        p99 = self.rate_p99()
+        self.mount = mount_check_of(p99, self.t_last - self.t_first, self.period,
+                                    float(self.path_stats.get("distance_m", 0.0)))
+        if not self.mount["looks_like_foot"]:  # as ``summary.build_summary``
+            warnings.append(self.mount["message"])
+        self.threshold = path.gamma.threshold(getattr(self.probe_detector, "threshold", None))
+        self.metrics = None
+        if path.sinks.reference is not None:  # as ``process``: the path with its storeys, every row
+            path_rows = path.sinks.reference.rows(path.n_rows)
+            self.metrics = compute_metrics(self.input.reference, path_rows[:, 0], path_rows[:, 1:4],
+                                           path_rows[:, 4] > 0.5, self.rec.meta.get("mount"), min_stride)
+            del path_rows
+            self.lap("reference")
+
+    def summary(self, path: _FinalPath) -> dict:
+        """The run's summary (summary.json but ``files``; its schema in docs/)."""
+        from bootnav.core.conventions import SOFTWARE
+        from bootnav.core.jsonio import to_jsonable
+
+        from . import selftune
+        from .ins.measurements import LevelHeightMeasurement, ZaruMeasurement
+        from .summary import HEADLINE_KEYS, PATH_CONVENTIONS, final_uncertainty, is_closed_loop
+
+        settings, run, nav, final_filter = self.settings, self.input, path.nav, self.final_filter
+        t_first, t_last, floor, quality, fallback = self.t_first, self.t_last, self.floor, self.quality, self.fallback
+        gamma = path.gamma
+        return {
+            "input": {"source": self.name, "format": "hdf5" if run.is_hdf5 else "imported",
+                      "samples_total": int(self.rec.reader.n), "samples_processed": path.n_rows,
+                      "t_start_s": t_first, "t_end_s": t_last,
+                      "crop_s": list(settings.crop_s) if settings.crop_s else None,
+                      "duration_s": t_last - t_first, "rate_hz": float(self.rate),
+                      "chunk_s": float(settings.block_s), "device": None if self.device is None else str(self.device),
+                      "gravity_mps2": float(self.gravity)},
+            "calibration": to_jsonable(self.sensor_cal.provenance),
+            "alignment": self.alignment,
+            "software": dict(SOFTWARE),
+            "stance": {"method": settings.detector.method, "fraction": path.n_stance / max(path.n_rows, 1),
+                       "phases": int(len(self.fp)), "noise_floor_log10": floor,
+                       # a fixed-threshold detector's γ; the adaptive one's 10^median of its γ per sample
+                       "threshold": to_jsonable(self.threshold),
+                       # what the detector used (``detect_stance``'s info: the parts a run in passes knows)
+                       "info": {"dt_s": float(self.dt0), "noise_floor_log10": floor, "n_saturated": path.n_saturated,
+                                **({"threshold_log10_range": gamma.range} if gamma.n else {})}},
+            "navigation": {"stance_choice": self.choice, "blocks": len(self.blocks),
+                           "fallback_used": self.failed is not None and not self.choice.startswith("configured"),
+                           "configured_failed": self.failed,
+                           "candidates": to_jsonable(fallback["candidates"] if fallback else []),
+                           "confidence": float(self.confidence), "gait_period_s": to_jsonable(float(self.period)),
+                           "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
+                           "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
+                                            for bit, nm in selftune.FLAG_NAMES.items()},
+                           "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
+                           "timing_offset": to_jsonable(self.timing)},
+            "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
+                                   "n_states": final_filter.n_states, "smoother": final_filter.smoother,
+                                   # which aids ran (as ``ins.run_filter`` says it)
+                                   "zaru": ZaruMeasurement.active(final_filter),
+                                   "heading_aid": final_filter.heading_aid,
+                                   "level_height": LevelHeightMeasurement.active(final_filter),
+                                   **nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
+                                   # the last sample, as ``ins.run_filter`` gives it
+                                   "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
+                                   **({} if self.heading_decision is None else
+                                      {"heading_decision": self.heading_decision}),
+                                   **({} if self.revisit_report is None else {"revisits": self.revisit_report})}),
+            "path": self.path_stats,
+            "metrics": to_jsonable(self.metrics),
+            "saturation_intervals": self.sat_iv,
+            "closed_loop": is_closed_loop(run.reference),
+            "mount": self.mount,
+            "uncertainty": final_uncertainty(self.steps),
+            "confidence": float(self.confidence),
+            **{k: self.path_stats[k] for k in HEADLINE_KEYS if k in self.path_stats},  # as ``summary.build_summary``
+            "timings_s": self.lap.timings,
+            "conventions": dict(PATH_CONVENTIONS),
+            "settings": settings.to_dict(),
+            "warnings": self.warnings,
+        }
+
+    def write_files(self, path: _FinalPath, sinks: _FinalSinks, summary: dict) -> dict[str, str]:
+        """The outputs after the final pass (steps.csv, path.geojson, results.h5 committed, the charts); {kind: path}."""
+        import json
+
+        from .outputs import draw_here, geojson_of, write_steps_csv
+
+        out, opts, charts, worker = self.out, self.settings.output, sinks.charts, self.worker
+        if charts is not None:  # drawn by the chart processes while the files are finished
+            charts.finish(self.t_mid, self.fp, self.steps, summary, self.settings)
+            if worker is not None:
+                worker.submit(charts, out)
+        files = {"trajectory": str(out / "trajectory.csv")}
+        files["steps"] = str(write_steps_csv(out / "steps.csv", self.steps))
+        if opts.geojson and opts.geo_anchor:  # as ``outputs.write_outputs``
+            atomic.write_text(out / "path.geojson", json.dumps(geojson_of(
+                self.fp, path.ends[0], path.ends[1], summary.get("distance_m"), opts.geo_anchor)))
+            files["geojson"] = str(out / "path.geojson")
+        if sinks.results is not None:
+            files["hdf5"] = sinks.results.commit(summary, self.steps, self.settings, self.rec.start,
+                                                 self.sensor_cal.provenance)
+        self.lap("write")
+        if charts is not None:
+            drawn, error = worker.wait() if worker is not None else draw_here(charts, out)
+            if error:
+                self.warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
+            files.update(drawn)
+            self.lap("plots")
+        return files
+
+
+class _FinalPath:
+    """The final pass's rows as they become final (``emit``): checked finite, corrected by the revisits and the
+    storeys, pushed to the sinks; and what the passes after it read: the footprints with their horizontal
+    covariance, the unwrapped yaw at each phase's last sample (``ellipses``), the stride flags
+    (``selftune.StrideQualityAccumulator``), the path's ends, its rows and stance samples, the saturated samples
+    and the adaptive detector's γ (``_GammaLog``).
+
+    Parameters
+    ----------
+    passes : BlockPasses
+        The run (its revisits, storeys, name and window start).
+    sinks : _FinalSinks
+        Where the rows go.
+    nav : ins.stream.StreamNavigator
+        The final filter (its ``info`` and ``covariance`` go to the summary).
+    """
+
+    def __init__(self, passes: BlockPasses, sinks: _FinalSinks, nav):
+        from . import selftune
+        from .strides import FootprintAccumulator
+
+        self.passes, self.sinks, self.nav = passes, sinks, nav
+        self.fp_acc = FootprintAccumulator()
+        self.yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
+        self._yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
+        self.quality_acc = selftune.StrideQualityAccumulator()
+        self._gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
+        self._stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
+        self.n_rows = self.n_stance = 0
+        self.ends = [None, None]  # the path's first and last positions (the GeoJSON's start and end)
+        self.n_saturated = 0  # samples the detector excluded as saturated (``detect_stance``'s ``n_saturated``)
+        self.gamma = sinks.gamma
+
+    def push_samples(self, ch) -> None:
+        """A stance chunk before the navigator's rows of it: the samples the sinks and the stride flags need."""
+        sinks = self.sinks
+        if sinks.charts is not None:
+            sinks.charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
+        self._gyro_rows.put(ch.start, ch.gyro_b)
+        self.n_saturated += int(np.count_nonzero(np.any(np.reshape(ch.saturated, (len(ch), -1)), axis=1)))
+        self.gamma.push(ch)
+        if sinks.wants_statistic:
+            self._stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
+        if sinks.collect is not None:
+            sinks.collect.push_samples(ch, self.passes.acc_used(ch) if self.passes.tau else None)
+
+    def emit(self, r) -> None:
+        """Rows of the final filter (``NavRows``), final: corrected, accumulated, pushed to every sink."""
+        from bootnav.core.rotations import euler_zyx_from_quat
+
+        from .ellipses import unwrapped_yaw
+
+        passes = self.passes
+        if not len(r):
+            return
+        if not np.all(np.isfinite(r.pos_n)):
+            check_path_finite(passes.name, r.t_s, r.pos_n, passes.rec.start + r.start)
+        passes.corrected(r)
+        self.quality_acc.push(r.t_s, r.pos_n, r.stance, self._gyro_rows.take(r.start, r.start + len(r)),
+                              r.gyro_bias_b)  # on the filter's path, before the storeys
+        pos_filter = r.pos_n  # the filter's path (revisits corrected), before the storeys
+        if passes.snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
+            r.pos_n = r.pos_n.copy()
+            r.pos_n[:, 2] += np.interp(r.t_s, passes.storey_t, passes.storeys.offset_fp)
+        stat = self._stat_rows.take(r.start, r.start + len(r)) if self.sinks.wants_statistic else None
+        self.sinks.push(_FinalRows(r, pos_filter, stat))
+        self.fp_acc.push(r.t_s, r.pos_n, r.stance,
+                         np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
+        yaw = unwrapped_yaw(r.q_nb) if not self._yaw_last else np.unwrap(
+            np.concatenate((self._yaw_last, euler_zyx_from_quat(np.asarray(r.q_nb, float))[:, 2])))[1:]
+        self._yaw_last[:] = [float(yaw[-1])]
+        self.yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
+        if not self.n_rows:
+            self.ends[0] = r.pos_n[0].copy()
+        self.ends[1] = r.pos_n[-1].copy()
+        self.n_rows += len(r)
+        self.n_stance += int(np.count_nonzero(r.stance))
+
+
+@dataclass
+class _FinalRows:
+    """One push of the final pass to its sinks: ``NavRows`` after the revisits' and the storeys' corrections, the
+    filter's path before the storeys (``pos_filter``, (n, 3) m) and the detector statistic of the rows (None
+    when no sink keeps it)."""
+
+    r: Any
+    pos_filter: np.ndarray
+    statistic: np.ndarray | None
+
+
+class _TrajectoryRows:
+    """trajectory.csv's rows appended as they become final, to a file opened by ``atomic.replacing`` (it appears
+    complete or not at all)."""
+
+    def __init__(self, f):
+        from .outputs import TRAJECTORY_COLUMNS
+
+        self._f = f
+        f.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
+
+    def push(self, rows: _FinalRows) -> None:
+        from .outputs import TRAJECTORY_FORMATS, append_csv_rows, trajectory_columns
+
+        r = rows.r
+        append_csv_rows(self._f, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb), TRAJECTORY_FORMATS)
+
+    def close(self) -> None:
+        """Nothing: ``atomic.replacing`` closes and commits the file."""
+
+
+class _ResultsRows:
+    """results.h5's per-sample rows (``outputs.ResultsWriter``) appended as they become final, into a temporary
+    copy beside the target (``outputs.start_results``: the recording's groups copied or linked) that ``commit``
+    finishes (attributes, the strides) and renames over the target."""
+
+    UNITS = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
+             "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m",
+             "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
+    STEP_UNITS = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
+                  "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
+    statistic = True
+
+    def __init__(self, tmp: Path, target: Path, group: str, run: _Input, n: int):
+        from .outputs import ResultsWriter, start_results
+
+        self.tmp, self.target, self.group = tmp, target, group
+        start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
+        self.writer = ResultsWriter(tmp, group, n, self.UNITS)
+
+    def push(self, rows: _FinalRows) -> None:
+        r = rows.r
+        self.writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
+                            "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
+                            "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
+                            "stance_statistic": rows.statistic})
+
+    def commit(self, summary: dict, steps: dict, settings: ProcessSettings, sample_start: int,
+               calibration: dict) -> str:
+        """The group's attributes and strides written, the file renamed over the target; its ``file:group``."""
+        import json
+
+        from bootnav.core.conventions import CONVENTIONS, __version__
+        from bootnav.core.jsonio import to_jsonable
+        from bootnav.logger.recording import attach_dimension_scales, write_group
+
+        from .outputs import heading_columns
+
+        tmp, group = self.tmp, self.group
+        self.writer.close()
+        attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
+                 "summary": json.dumps(to_jsonable(summary)), "sample_index_start": sample_start,
+                 "created_utc": _utc_now(), "stance_method": settings.detector.method,
+                 "stance_threshold": json.dumps(summary["stance"]["threshold"]),
+                 "calibration": json.dumps(to_jsonable(calibration)),
+                 **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
+        write_group(tmp, group, {}, attrs, replace=False)
+        write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
+                    {"description": "one row per stride, see postproc/strides.py"}, self.STEP_UNITS)
+        attach_dimension_scales(tmp, group)
+        attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
+        atomic.commit(tmp, self.target)
+        return f"{self.target}:{group}"
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+class _ReferenceRows:
+    """The path's rows (t, x, y, z, stance) for a reference's metrics: a reference is compared with the whole
+    path, so they go to a temporary file, read back memory-mapped by ``compute_metrics`` after the pass."""
+
+    statistic = False
+
+    def __init__(self):
+        import tempfile
+
+        self._f = tempfile.TemporaryFile(prefix="bootnav-path-")
+
+    def push(self, rows: _FinalRows) -> None:
+        r = rows.r
+        np.column_stack((r.t_s, r.pos_n, r.stance)).astype(np.float64).tofile(self._f)
+
+    def rows(self, n: int) -> np.ndarray:
+        """The n rows pushed, (n, 5), memory-mapped."""
+        self._f.flush()
+        return np.memmap(self._f, np.float64, "r", shape=(n, 5))
+
+    def close(self) -> None:
+        self._f.close()
+
+
+class _ChartRows:
+    """The path's rows for the charts (``plots.ChartStream``, which also takes the samples: ``push_imu``)."""
+
+    statistic = False
+
+    def __init__(self, charts):
+        self.charts = charts
+
+    def push(self, rows: _FinalRows) -> None:
+        r = rows.r
+        self.charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
+
+    def close(self) -> None:
+        """Nothing: the charts are finished after the strides (``BlockPasses.write_files``)."""
+
+
+class _GammaLog:
+    """The adaptive detector's per-sample log10 γ, for its representative threshold 10^median (``adaptive``):
+    spilled to a temporary file (the median exact from it, ``_order_statistics``), with its range (the
+    detector's ``threshold_log10_range``). Inactive for another detector."""
+
+    def __init__(self, active: bool):
+        import tempfile
+
+        self._f = tempfile.TemporaryFile(prefix="bootnav-gamma-") if active else None
+        self.n = 0
+        self.range = [np.inf, -np.inf]
+
+    def push(self, ch) -> None:
+        if self._f is not None and ch.threshold_log10 is not None:
+            np.asarray(ch.threshold_log10, np.float64).tofile(self._f)
+            self.n += len(ch)
+            if len(ch):
+                self.range[:] = [min(self.range[0], float(np.min(ch.threshold_log10))),
+                                 max(self.range[1], float(np.max(ch.threshold_log10)))]
+
+    def threshold(self, fixed):
+        """10^median of the γ pushed (np.median, exact from the spilled rows); ``fixed`` without any."""
+        if self._f is not None and self.n:
+            n = self.n
+            return float(10.0 ** np.mean(_order_statistics(lambda: _spilled(self._f, n), ((n - 1) // 2, n // 2))))
+        return fixed
+
+    def close(self) -> None:
+        if self._f is not None:
+            self._f.close()
+
+
+class _FinalSinks:
+    """Where the final pass's rows go, each sink with ``push(rows)`` and ``close()``: files (trajectory.csv,
+    results.h5, the charts) with an output folder, else the memory of ``process`` (``_Collected``); the
+    reference's rows with a reference. ``close`` closes every one and removes results.h5's temporary copy
+    when it was not committed.
+
+    Parameters
+    ----------
+    passes : BlockPasses
+        The run (its input, settings, output folder and window).
+    """
+
+    def __init__(self, passes: BlockPasses):
+        run, out, opts = passes.input, passes.out, passes.settings.output
+        self.collect = run.rows
+        if self.collect is not None:
+            self.collect.reset()  # the fallback's passes run the final pass again: the rows of the last one
+        self.results = self.reference = self.charts = None
+        self._tmp = None
+        self._sinks: list = []
+        self.gamma = _GammaLog(passes.settings.detector.method == "adaptive")
+        try:
             if out is not None:
                 out.mkdir(parents=True, exist_ok=True)
                 target = run.path if run.into_recording else out / "results.h5"
-                tmp = atomic.temporary_beside(target)
-            reuse = bool(replay) and replay["filter"] is final_filter and replay["gate"] is gate_iv and revisit is None
-            nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
-            replayed = iter(replay.pop("rows")) if reuse else None
-            fp_acc = FootprintAccumulator()
-            yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
-            yaw_last: list[float] = []  # the previous row's unwrapped yaw: np.unwrap continued across blocks
-            quality_acc = selftune.StrideQualityAccumulator()
-            gyro_rows = _RowQueue()  # the gyro of the rows the navigator holds back, for the stride flags
-            charts = None
+                self._tmp = atomic.temporary_beside(target)
             if opts.plots and out is not None:
                 from .plots import ChartStream
 
-                charts = ChartStream(t_first, t_last, n, gravity, opts.plot_max_points)
-            units = {"t_s": "s", "pos_n_m": "m", "vel_n_mps": "m/s", "q_nb": "1 (wxyz)", "stance": "1 (bool)",
-                     "acc_bias_b_mps2": "m/s^2", "gyro_bias_b_radps": "rad/s", "pos_sigma_n_m": "m",
-                     "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
-            stat_rows = _RowQueue()  # the detector statistic of the rows the navigator holds back
-            n_rows = n_stance = 0
-            ends = [None, None]  # the path's first and last positions (the GeoJSON's start and end)
-            writer = None
-            # a reference is compared with the whole path: its rows (t, x, y, z, stance) go to a temporary file,
-            # read back memory-mapped by ``compute_metrics`` after the pass
-            spill = tempfile.TemporaryFile(prefix="bootnav-path-") if run.reference is not None else None
-            # the adaptive detector's per-sample log10 γ, for its representative threshold 10^median (``adaptive``)
-            gamma_spill = tempfile.TemporaryFile(prefix="bootnav-gamma-") if method == "adaptive" else None
-            n_gamma = 0
-            gamma_range = [np.inf, -np.inf]  # the adaptive detector's log10 γ range (its ``threshold_log10_range``)
-            n_saturated = 0  # samples the detector excluded as saturated (``detect_stance``'s ``n_saturated``)
-            try:
-                if opts.write_hdf5 and out is not None:
-                    start_results(tmp, target, run.path, run.is_hdf5, run.recording, run.into_recording)
-                writer = ResultsWriter(tmp, group, n, units) if opts.write_hdf5 and out is not None else None
-                # trajectory.csv appears complete or not at all
-                with atomic.replacing(out / "trajectory.csv") if out is not None else contextlib.nullcontext() as csv:
-                    if csv is not None:
-                        csv.write((",".join(TRAJECTORY_COLUMNS) + "\n").encode("ascii"))
+                self.charts = ChartStream(passes.t_first, passes.t_last, passes.n, passes.gravity,
+                                          opts.plot_max_points)
+            if run.reference is not None:
+                self.reference = _ReferenceRows()
+                self._sinks.append(self.reference)
+            if opts.write_hdf5 and out is not None:
+                self.results = _ResultsRows(self._tmp, target, f"/results/{opts.results_name}", run, passes.n)
+                self._sinks.append(self.results)
+        except BaseException:
+            self.close()
+            raise
+        if self.collect is not None:
+            self._sinks.append(self.collect)
+        if self.charts is not None:
+            self._sinks.append(_ChartRows(self.charts))
+        self.wants_statistic = self.results is not None or self.collect is not None
 
-                    def emit(r) -> None:
-                        nonlocal n_rows, n_stance
-                        if not len(r):
-                            return
-                        if not np.all(np.isfinite(r.pos_n)):
-                            check_path_finite(name, r.t_s, r.pos_n, rec.start + r.start)
-                        corrected(r)
-                        quality_acc.push(r.t_s, r.pos_n, r.stance, gyro_rows.take(r.start, r.start + len(r)),
-                                         r.gyro_bias_b)  # on the filter's path, before the storeys
-                        pos_filter = r.pos_n  # the filter's path (revisits corrected), before the storeys
-                        if snap:  # ``floors.snap_storeys``: the offsets interpolated in time between the footprints
-                            r.pos_n = r.pos_n.copy()
-                            r.pos_n[:, 2] += np.interp(r.t_s, storey_t, storeys.offset_fp)
-                        if csv is not None:
-                            append_csv_rows(csv, trajectory_columns(r.t_s, r.pos_n, r.vel_n, r.stance, r.q_nb),
-                                            TRAJECTORY_FORMATS)
-                        if spill is not None:
-                            np.column_stack((r.t_s, r.pos_n, r.stance)).astype(np.float64).tofile(spill)
-                        stat = (stat_rows.take(r.start, r.start + len(r))
-                                if writer is not None or collect is not None else None)
-                        if writer is not None:
-                            writer.append({"t_s": r.t_s, "pos_n_m": r.pos_n, "vel_n_mps": r.vel_n, "q_nb": r.q_nb,
-                                           "stance": r.stance.astype(np.uint8), "acc_bias_b_mps2": r.acc_bias_b,
-                                           "gyro_bias_b_radps": r.gyro_bias_b, "pos_sigma_n_m": r.pos_sigma_n,
-                                           "stance_statistic": stat})
-                        if collect is not None:
-                            collect.push_rows(r, pos_filter, stat)
-                        fp_acc.push(r.t_s, r.pos_n, r.stance,
-                                    np.column_stack((r.pos_sigma_n[:, 0] ** 2, r.pos_sigma_n[:, 1] ** 2, r.pos_cov_en)))
-                        yaw = unwrapped_yaw(r.q_nb) if not yaw_last else np.unwrap(
-                            np.concatenate((yaw_last, euler_zyx_from_quat(np.asarray(r.q_nb, float))[:, 2])))[1:]
-                        yaw_last[:] = [float(yaw[-1])]
-                        yaw_acc.push(r.t_s, np.zeros((len(r), 3)), r.stance, np.column_stack((yaw, yaw, yaw)))
-                        if charts is not None:
-                            charts.push_nav(r.t_s, r.pos_n, r.vel_n, r.q_nb, r.stance)
-                        if not n_rows:
-                            ends[0] = r.pos_n[0].copy()
-                        ends[1] = r.pos_n[-1].copy()
-                        n_rows += len(r)
-                        n_stance += int(np.count_nonzero(r.stance))
+    def open_trajectory(self, f) -> None:
+        """trajectory.csv's rows go to ``f`` (opened by ``atomic.replacing``) from now on."""
+        self._sinks.insert(0, _TrajectoryRows(f))
 
-                    for ch in stance_stream():
-                        if charts is not None:
-                            charts.push_imu(ch.t_s, ch.acc_b, ch.gyro_b, ch.saturated)
-                        gyro_rows.put(ch.start, ch.gyro_b)
-                        n_saturated += int(np.count_nonzero(np.any(np.reshape(ch.saturated, (len(ch), -1)), axis=1)))
-                        if gamma_spill is not None and ch.threshold_log10 is not None:
-                            np.asarray(ch.threshold_log10, np.float64).tofile(gamma_spill)
-                            n_gamma += len(ch)
-                            if len(ch):
-                                gamma_range[:] = [min(gamma_range[0], float(np.min(ch.threshold_log10))),
-                                                  max(gamma_range[1], float(np.max(ch.threshold_log10)))]
-                        if writer is not None or collect is not None:
-                            stat_rows.put(ch.start, np.asarray(ch.statistic, np.float64))
-                        if collect is not None:
-                            collect.push_samples(ch, acc_used(ch) if tau else None)
-                        emit(next(replayed) if replayed is not None else
-                             nav.push(ch.t_s, acc_used(ch), ch.gyro_b, ch.stance, ch.saturated, heading_gate=gate(ch)))
-                        _call_progress(progress, "navigation", min(0.99, (ch.start + len(ch)) / n))
-                    emit(next(replayed) if replayed is not None else nav.finish())
-                lap("navigation")
+    def push(self, rows: _FinalRows) -> None:
+        for sink in self._sinks:
+            sink.push(rows)
 
-                t_mid, fp = fp_acc.finish()
-                min_stride = settings.selftune.min_stride_m
-                quality = quality_acc.finish(period, settings.selftune)
-                confidence = selftune.confidence(innovation, quality.bad_fraction, period, st)
-                split = selftune.split_strides(quality, period, st)
-                if split:
-                    warnings.append(split)
-                if not np.isfinite(period):
-                    warnings.append("no periodic gait found: the confidence of this path is 0")
-                cov_h = fp_acc.cov.copy() if len(fp_acc.cov) == len(fp) else None
-                yaw_acc.finish()
-                if cov_h is not None and len(yaw_acc.cov) == len(fp):  # the sensor errors the filter does not model
-                    cov_h = cov_h + scale_error_covariance(fp, yaw_acc.cov[:, 0], *scale_sigmas(
-                        settings, sensor_cal.provenance.get("status") == "applied"))
-                # the floor number: the storeys found as heights of whole nominal storeys (as ``process``)
-                floor_z = storeys.storey_fp * floors.floor_height_m if storeys is not None else None
-                steps = footprint_strides(t_mid, fp, min_stride, quality.flags & np.uint8(0xFF ^ selftune.TINY), floors,
-                                          cov_h, floor_z)
-                if len(steps["t_s"]) == 0 and not np.isfinite(period):
-                    raise InputError(f"{name}: no motion: not one stride of >= {min_stride:g} m and no periodic gait in "
-                                     f"{t_last - t_first:.1f} s; nothing to navigate (is the sensor on a walking foot?)")
-                if attempt == 0 and failed is None and quality.bad_fraction > st.max_bad_fraction:
-                    failed = selftune.implausible_strides(quality)
-                    if st.fallback:  # the configured path's strides fail: the fallback's passes
-                        del warnings[n_warn:]
-                        fallback = select_fallback(failed, period)
-                        warnings[n_warn:n_warn] = fallback["warnings"]
-                        lap("fallback")
-                        continue
-                    warnings.insert(n_warn, f"stance detector '{method}': {failed}")
-                choice = fallback["choice"] if fallback else f"configured ({settings.detector.method})"
-                if fallback and fallback["no_rest"]:
-                    confidence = 0.0
-                if nav.info.get("n_gaps"):  # as ``ins.run_filter`` says it
-                    warnings.append(propagated_gaps_warning(nav.info["n_gaps"], nav.info["max_dt_s"]))
-                findings = stride_findings(steps, settings.checks, choice)
-                warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(name, findings))
-                path_stats = footprint_summary(fp, floors, min_stride, fp_acc.walked_s, floor_z)
-                path_stats["storeys"] = storeys.summary() if storeys is not None else None
-                lap("strides")
-                p99 = rate_p99()
-                mount = mount_check_of(p99, t_last - t_first, period, float(path_stats.get("distance_m", 0.0)))
-                if not mount["looks_like_foot"]:  # as ``summary.build_summary``
-                    warnings.append(mount["message"])
-                threshold = getattr(probe_detector, "threshold", None)
-                if gamma_spill is not None and n_gamma:  # np.median, exact from the spilled rows
-                    threshold = float(10.0 ** np.mean(_order_statistics(
-                        lambda: _spilled(gamma_spill, n_gamma), ((n_gamma - 1) // 2, n_gamma // 2))))
-                metrics = None
-                if spill is not None:  # as ``process``: the path with its storeys, every row
-                    spill.flush()
-                    path_rows = np.memmap(spill, np.float64, "r", shape=(n_rows, 5))
-                    metrics = compute_metrics(run.reference, path_rows[:, 0], path_rows[:, 1:4], path_rows[:, 4] > 0.5,
-                                              rec.meta.get("mount"), min_stride)
-                    del path_rows
-                    lap("reference")
-                summary = {
-                    "input": {"source": name, "format": "hdf5" if run.is_hdf5 else "imported",
-                              "samples_total": int(rec.reader.n), "samples_processed": n_rows,
-                              "t_start_s": t_first, "t_end_s": t_last,
-                              "crop_s": list(settings.crop_s) if settings.crop_s else None,
-                              "duration_s": t_last - t_first, "rate_hz": float(rate),
-                              "chunk_s": float(chunk_s), "device": None if device is None else str(device), "gravity_mps2": float(gravity)},
-                    "calibration": to_jsonable(sensor_cal.provenance),
-                    "alignment": alignment,
-                    "software": dict(SOFTWARE),
-                    "stance": {"method": settings.detector.method, "fraction": n_stance / max(n_rows, 1),
-                               "phases": int(len(fp)), "noise_floor_log10": floor,
-                               # a fixed-threshold detector's γ; the adaptive one's 10^median of its γ per sample
-                               "threshold": to_jsonable(threshold),
-                               # what the detector used (``detect_stance``'s info: the parts a run in passes knows)
-                               "info": {"dt_s": float(dt0), "noise_floor_log10": floor, "n_saturated": n_saturated,
-                                        **({"threshold_log10_range": gamma_range} if n_gamma else {})}},
-                    "navigation": {"stance_choice": choice, "blocks": len(blocks),
-                                   "fallback_used": failed is not None and not choice.startswith("configured"),
-                                   "configured_failed": failed,
-                                   "candidates": to_jsonable(fallback["candidates"] if fallback else []),
-                                   "confidence": float(confidence), "gait_period_s": to_jsonable(float(period)),
-                                   "implausible_stride_fraction": to_jsonable(float(quality.bad_fraction)),
-                                   "stride_flags": {nm: int(np.count_nonzero(quality.flags & bit))
-                                                    for bit, nm in selftune.FLAG_NAMES.items()},
-                                   "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
-                                   "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
-                                           "n_states": final_filter.n_states, "smoother": final_filter.smoother,
-                                           # which aids ran (as ``ins.run_filter`` says it)
-                                           "zaru": ZaruMeasurement.active(final_filter),
-                                           "heading_aid": final_filter.heading_aid,
-                                           "level_height": LevelHeightMeasurement.active(final_filter),
-                                           **nav.info,  # with the filter's (not smoothed) 1-σ of each error state at
-                                           # the last sample, as ``ins.run_filter`` gives it
-                                           "final_state_sigma": np.sqrt(np.maximum(np.diag(nav.covariance), 0.0)),
-                                           **({} if heading_decision is None else
-                                                          {"heading_decision": heading_decision}),
-                                           **({} if revisit_report is None else {"revisits": revisit_report})}),
-                    "path": path_stats,
-                    "metrics": to_jsonable(metrics),
-                    "saturation_intervals": sat_iv,
-                    "closed_loop": is_closed_loop(run.reference),
-                    "mount": mount,
-                    "uncertainty": final_uncertainty(steps),
-                    "confidence": float(confidence),
-                    **{k: path_stats[k] for k in HEADLINE_KEYS if k in path_stats},  # as ``summary.build_summary``
-                    "timings_s": timings,
-                    "conventions": dict(PATH_CONVENTIONS),
-                    "settings": settings.to_dict(),
-                    "warnings": warnings,
-                }
-                if collect is not None:  # ``process``: the run's figures beside its rows
-                    collect.extra.update(
-                        init=init, gravity=float(gravity), sensor_cal=sensor_cal, saturation_intervals=sat_iv,
-                        steps=steps, metrics=metrics, period=float(period), quality=quality, timing=timing,
-                        confidence=float(confidence), choice=choice, failed=failed,
-                        candidates=fallback["candidates"] if fallback else [], threshold=threshold,
-                        stance_info=summary["stance"]["info"], filter_info=summary["filter"])
-                    break
-                if charts is not None:  # drawn by the chart processes while the files are finished
-                    charts.finish(t_mid, fp, steps, summary, settings)
-                    if worker is not None:
-                        worker.submit(charts, out)
-                files = {"trajectory": str(out / "trajectory.csv")}
-                files["steps"] = str(write_steps_csv(out / "steps.csv", steps))
-                if opts.geojson and opts.geo_anchor:  # as ``outputs.write_outputs``
-                    atomic.write_text(out / "path.geojson", json.dumps(geojson_of(
-                        fp, ends[0], ends[1], summary.get("distance_m"), opts.geo_anchor)))
-                    files["geojson"] = str(out / "path.geojson")
-                if writer is not None:
-                    writer.close()
-                    attrs = {"software": f"bootnav {__version__}", "settings": settings.to_json(indent=None),
-                             "summary": json.dumps(to_jsonable(summary)), "sample_index_start": rec.start,
-                             "created_utc": _utc_now(), "stance_method": settings.detector.method,
-                             "stance_threshold": json.dumps(summary["stance"]["threshold"]),
-                             "calibration": json.dumps(to_jsonable(sensor_cal.provenance)),
-                             **{f"convention_{k}": v for k, v in CONVENTIONS.items()}}
-                    write_group(tmp, group, {}, attrs, replace=False)
-                    step_units = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
-                                  "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
-                    write_group(tmp, f"{group}/steps", {**steps, **heading_columns(steps["yaw_enu_rad"])},
-                                {"description": "one row per stride, see postproc/strides.py"}, step_units)
-                    attach_dimension_scales(tmp, group)
-                    attach_dimension_scales(tmp, f"{group}/steps", dim="stride")
-                    atomic.commit(tmp, target)
-                    files["hdf5"] = f"{target}:{group}"
-                lap("write")
-                if charts is not None:
-                    drawn, error = worker.wait() if worker is not None else draw_here(charts, out)
-                    if error:
-                        warnings.append(f"{out}: the charts were not drawn ({error}); the other outputs are complete")
-                    files.update(drawn)
-                    lap("plots")
-            finally:
-                if writer is not None:
-                    writer.close()
-                if spill is not None:
-                    spill.close()
-                if gamma_spill is not None:
-                    gamma_spill.close()
-                if tmp is not None:
-                    tmp.unlink(missing_ok=True)
-            break
-        rate_rows.close()
-    return summary, ({} if out is None else files)
+    def close(self) -> None:
+        for sink in (self.results, self.reference, self.gamma):
+            if sink is not None:
+                sink.close()
+        if self._tmp is not None:
+            self._tmp.unlink(missing_ok=True)
 
 
 def _with_stance_of(chunks, other):

@@ -497,7 +497,7 @@ def test_passes_over_one_block_replay_the_heading_pass_and_give_the_whole_path(w
     reader = RecordingReader(rec)
     try:
         run = pipeline._Input(crop_window(reader, None, str(rec)), str(rec), rec, True, None, False, None)
-        summary, _ = pipeline._block_passes(run, settings, out, [], pipeline._StageClock(None), None, None)
+        summary, _ = pipeline.BlockPasses(run, settings, out, [], pipeline._StageClock(None), None, None).run()
     finally:
         reader.close()
     assert summary["navigation"]["blocks"] == 1
