@@ -292,7 +292,7 @@ def stance_findings_of(n_phases: int, frac: float, span: float, w: float | None,
                        method: str) -> list[Finding]:
     """``stance_findings`` from its figures: stance phases, fraction of samples at rest, the record's span (s) and
     the median angular rate over the stance samples (rad/s; None: not checked). The one definition of the
-    findings: a recording read in blocks gives the figures from a pass over them (``pipeline._block_passes``)."""
+    findings: a recording read in blocks gives the figures from a pass over them (``passes.BlockPasses``)."""
     found = []
     if w is not None:
         if w > checks.max_stance_gyro_radps:

@@ -1,4 +1,4 @@
-"""What the passes over the blocks of a long recording compute once and read back (``pipeline._block_passes``).
+"""What the passes over the blocks of a long recording compute once and read back (``passes.BlockPasses``).
 
 A run in many blocks makes several passes over its samples (``pipeline``'s module docstring). Without these
 spills each pass decoded the HDF5 blocks again, applied the sensor calibration and searched the clipping
@@ -179,7 +179,7 @@ class ArrayFile:
 
 class DecodedBlocks:
     """The samples of a run's blocks, decoded and calibrated once, and their saturation bits with the
-    clipping rails' computed once (``pipeline._block_passes``' ``read``).
+    clipping rails' computed once (``passes.BlockPasses.read``).
 
     Parameters
     ----------
@@ -224,7 +224,7 @@ class DecodedBlocks:
 
 class StanceSpill:
     """The ``StanceChunk``\\ s of each stance detector stream of a run, spilled as the first pass makes them and
-    replayed by the passes after it (``pipeline._block_passes``' ``detector_stream``).
+    replayed by the passes after it (``passes.BlockPasses.detector_stream``).
 
     A stream is replayed only when it was recorded to its end (a pass that stopped early leaves nothing), and
     only for the same key: the detector's settings and fixed noise floor (the rate, gravity, rest bias and the
@@ -290,7 +290,7 @@ class StanceRecorder:
 
 class NavRowSpill:
     """The ``NavRows`` of each push of a filter pass, in order, for the final pass to replay
-    (``pipeline._block_passes``' ``path_footprints``).
+    (``passes.BlockPasses.path_footprints``).
 
     Parameters
     ----------
@@ -342,7 +342,7 @@ class NavRowSpill:
 
 
 class PassSpills:
-    """The spills of one run in passes (``pipeline._block_passes``): its budget, ``samples``
+    """The spills of one run in passes (``passes.BlockPasses``): its budget, ``samples``
     (``DecodedBlocks``), ``stance`` (``StanceSpill``) and a ``NavRowSpill`` per filter pass (``nav_rows``).
 
     Parameters

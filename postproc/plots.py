@@ -13,7 +13,7 @@ Plus ``path.html`` (``make_html``): the path from above as a small self-containe
 
 Time charts shade stance (green) and saturated intervals (red). Every chart is drawn from a decimated
 stream (``ChartStream``, built on ``decimate``), the same for a whole run (``make_plots``) and a run in
-blocks (``pipeline._block_passes`` feeds it block by block): time charts keep the minimum and the maximum
+blocks (``passes.BlockPasses`` feeds it block by block): time charts keep the minimum and the maximum
 of every pixel column (``decimate.TimeEnvelope``), so a one-sample peak stays visible, and a column is shaded
 if any of its samples is in stance or saturated; the path charts and ``path.html`` keep, per time column,
 the samples at each coordinate's extremes (``decimate.PathExtremes``, at most

@@ -1,7 +1,7 @@
 """The layout of ``summary.json``: what one ``process`` run did and found, in plain JSON types.
 
 The layout is documented as a JSON Schema in ``docs/summary.schema.json`` (every kind of run: the one
-``pipeline._block_passes`` builds for ``process`` and ``bootnav process``, ``build_summary``'s of a
+``passes.BlockPasses`` builds for ``process`` and ``bootnav process``, ``build_summary``'s of a
 ``ProcessResult`` (a fused foot of ``twoboots``), ``twoboots``, ``pdr``). Sections: ``software``, ``conventions`` (the frames and sign conventions of every output), ``input``,
 ``calibration`` (which sensor calibration ran: file, device id, date, residuals; or "none" and why),
 ``alignment`` (gravity, initial roll/pitch, gyro bias, still period), ``stance``, ``filter``, ``path``

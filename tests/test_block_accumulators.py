@@ -1,4 +1,4 @@
-"""The accumulators the block passes make whole-record decisions with (``pipeline._block_passes``) give what the
+"""The accumulators the block passes make whole-record decisions with (``passes.BlockPasses``) give what the
 whole-array functions give, for any chunking."""
 
 import numpy as np
@@ -81,7 +81,7 @@ def test_order_statistics_keep_at_most_cap_values():
     (32 MB in all) with cap 2¹⁶ (0.5 MB) stay under 8 MB traced (ten pieces; keeping them all is 32 MB)."""
     import tracemalloc
 
-    from bootnav.postproc import pipeline
+    from bootnav.postproc import passes
 
     def pieces():
         for i in range(40):
@@ -91,8 +91,8 @@ def test_order_statistics_keep_at_most_cap_values():
     m = len(whole)
     tracemalloc.start()
     try:
-        med = pipeline._order_statistics(pieces, ((m - 1) // 2, m // 2), cap=1 << 16)
-        p99 = pipeline._percentile(pieces, 99, cap=1 << 16)
+        med = passes._order_statistics(pieces, ((m - 1) // 2, m // 2), cap=1 << 16)
+        p99 = passes._percentile(pieces, 99, cap=1 << 16)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

@@ -109,24 +109,24 @@ def test_every_block_length_gives_the_one_block_path(walk, block_s):
 
 @pytest.mark.parametrize("block_s", [13.0, 50.0])
 def test_the_timing_probes_stop_early_and_change_nothing(walk, tmp_path, block_s, monkeypatch):
-    """With few level strides to count, the block passes' probes stop early (``pipeline._ForwardProbes``): the
+    """With few level strides to count, the block passes' probes stop early (``passes._ForwardProbes``): the
     same figures, to the last bit, as probes run to the end of the record, and the one-block run's."""
-    from bootnav.postproc import pipeline
+    from bootnav.postproc import passes
 
     d, rec, _ = walk
     whole = process(rec, _settings(timing_max_level_strides=8))
     settings = _settings(timing_max_level_strides=8)
     settings.block_s = block_s
-    stopped, finish = [], pipeline._ForwardProbes.finish
+    stopped, finish = [], passes._ForwardProbes.finish
 
     def spy(self, starts, n):
         stopped.append(self.cut is not None)
         return finish(self, starts, n)
 
-    monkeypatch.setattr(pipeline._ForwardProbes, "finish", spy)
+    monkeypatch.setattr(passes._ForwardProbes, "finish", spy)
     early, _ = process_to(rec, settings, tmp_path / "early")
     assert stopped == [True]
-    monkeypatch.setattr(pipeline._ForwardProbes, "_look", lambda self, starts: None)  # never stop
+    monkeypatch.setattr(passes._ForwardProbes, "_look", lambda self, starts: None)  # never stop
     late, _ = process_to(rec, settings, tmp_path / "late")
     mine, theirs = early["navigation"]["timing_offset"], whole.navigation.timing
     assert mine["probe_s"] < 0.5 * whole.summary["input"]["duration_s"]  # the probes saw the first part only
@@ -396,10 +396,10 @@ def test_heading_auto_off_in_blocks_is_the_one_block_run(tmp_path):
 
 @pytest.mark.parametrize("kind", ["jitter", "quantised", "gaps and repeats"])
 def test_the_nominal_period_of_the_passes_is_the_whole_records(kind):
-    """Δt₀ of the block passes (``pipeline._nominal_period``, passes over the times) is ``timebase.sample_period``
+    """Δt₀ of the block passes (``passes._nominal_period``, passes over the times) is ``timebase.sample_period``
     of the whole time axis to the last bit, however few steps a pass may hold (``cap``) or read (``rows``)."""
     from bootnav.core.timebase import sample_period
-    from bootnav.postproc.pipeline import _nominal_period
+    from bootnav.postproc.passes import _nominal_period
     from bootnav.postproc.source import MemoryReader
     from bootnav.logger.recording import Recording, make_events
 
@@ -422,7 +422,7 @@ def test_the_cycle_minimum_candidate_from_blocks_is_the_whole_records(walk):
     from bootnav.postproc import selftune
     from bootnav.postproc.calibration import stance_reference
     from bootnav.postproc.detectors.stream import StanceChunk
-    from bootnav.postproc.pipeline import _cycle_minimum
+    from bootnav.postproc.passes import _cycle_minimum
 
     d, rec, whole = walk
     settings = _settings()
@@ -481,7 +481,7 @@ def test_passes_over_one_block_replay_the_heading_pass_and_give_the_whole_path(w
     unaided one when the heading decision is off: ``navigate`` runs it once) instead of running the filter +
     smoother again; the path is the whole-array run's."""
     from bootnav.logger.recording import RecordingReader
-    from bootnav.postproc import pipeline
+    from bootnav.postproc import passes, pipeline
     from bootnav.postproc.ins.stream import StreamNavigator
     from bootnav.postproc.source import crop_window
 
@@ -497,7 +497,7 @@ def test_passes_over_one_block_replay_the_heading_pass_and_give_the_whole_path(w
     reader = RecordingReader(rec)
     try:
         run = pipeline._Input(crop_window(reader, None, str(rec)), str(rec), rec, True, None, False, None)
-        summary, _ = pipeline.BlockPasses(run, settings, out, [], pipeline._StageClock(None), None, None).run()
+        summary, _ = passes.BlockPasses(run, settings, out, [], pipeline._StageClock(None), None, None).run()
     finally:
         reader.close()
     assert summary["navigation"]["blocks"] == 1

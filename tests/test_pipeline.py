@@ -68,7 +68,7 @@ def test_real_closed_loop_walk_closes(short_walk_result):
     assert np.all(np.hypot(r.steps["stride_length_m"], r.steps["dz_m"]) >= r.settings.selftune.min_stride_m)
     assert 0.8 < np.median(r.steps["stride_length_m"]) < 1.8
     assert r.summary["path"]["stance_phases"] > 16  # the standing phases are still there
-    for stage in ("load", "timing", "navigation", "strides", "reference"):  # the passes of ``_block_passes``
+    for stage in ("load", "timing", "navigation", "strides", "reference"):  # the passes of ``BlockPasses``
         assert r.summary["timings_s"][stage] >= 0.0
 
 

@@ -83,7 +83,7 @@ def test_summary_json(cli_run):
     assert s["conventions"]["nav_frame"].startswith("ENU")
     # closed loop (truth): closure bound from the paper's best Table 1 error (2.5 % of the distance)
     assert s["metrics"]["closure_pct"] < 2.5
-    # the passes (pipeline._block_passes): load (checks, calibration), the noise floor, the timing probes, the final pass
+    # the passes (passes.BlockPasses): load (checks, calibration), the noise floor, the timing probes, the final pass
     assert set(s["timings_s"]) >= {"load", "stance_floor", "timing", "navigation", "strides", "write", "plots"}
     assert "closure" in proc.stdout and "distance" in proc.stdout
     assert "navigation done" in proc.stderr  # progress goes to stderr, results to stdout

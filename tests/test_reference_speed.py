@@ -63,6 +63,6 @@ def test_reference_has_its_own_stage_timing():
         pytest.skip("recordings/ not present")
     ref = REPO / "recordings" / "xio_ngimu_short_walk.reference.json"
     timings = process(rec, ProcessSettings(reference=str(ref))).summary["timings_s"]
-    stages = list(timings)  # the passes of ``pipeline._block_passes``, in order: the reference right after strides
+    stages = list(timings)  # the passes of ``passes.BlockPasses``, in order: the reference right after strides
     assert stages[:3] == ["load", "stance_floor", "timing"] and stages.index("reference") == stages.index("strides") + 1
     assert "reference" not in process(rec, ProcessSettings()).summary["timings_s"]

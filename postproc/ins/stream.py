@@ -1,7 +1,7 @@
 """Incremental navigation: the fast engine's ZUPT filter + segment RTS smoother, pushed chunk by chunk.
 
 ``StreamNavigator`` is THE engine: ``run_filter`` (``run_fast`` here) pushes a whole record through it, the
-live view and the block passes of a long recording (``pipeline._block_passes``) push chunks as they arrive or
+live view and the block passes of a long recording (``passes.BlockPasses``) push chunks as they arrive or
 are read. Push samples in chunks of any size (1 sample, 7, 10⁵, ...); each ``push`` returns the output rows
 that became final, with their absolute sample index; ``finish`` returns the rest. The rows are identical for
 every chunking (the kernel runs the same arithmetic on the same samples in the same order; tests/test_stream_engine.py).

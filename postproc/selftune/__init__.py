@@ -10,7 +10,7 @@ path between two ZUPTs is unaided drift) or declares stance on a moving foot. Th
 million samples per second, so a few candidate masks can be tried per recording and judged by what the
 data say about them.
 
-Candidates (``pipeline._block_passes``' fallback): the configured detector (default: adaptive, α = 0.3), the adaptive rule
+Candidates (``passes.BlockPasses.select_fallback``): the configured detector (default: adaptive, α = 0.3), the adaptive rule
 with α = 0.2 and 0.4, fixed-threshold SHOE [Skog2010], and "cycle minimum": the configured mask plus, in
 every gait cycle it missed, the lowest-energy window of the SHOE statistic (``cycle_minimum_stance``), so
 that every stride gets at least one zero-velocity update even when the foot never rests (running, fast

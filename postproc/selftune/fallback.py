@@ -1,6 +1,6 @@
 """The truth-free stance fallback's "cycle minimum" candidate: when the configured detector fails, the candidate
 masks (adaptive α's, SHOE, cycle minimum) are scored by their ZUPT innovations and stride flags in passes over
-the blocks (``pipeline._block_passes``' ``select_fallback``); see ``bootnav.postproc.selftune``."""
+the blocks (``passes.BlockPasses.select_fallback``); see ``bootnav.postproc.selftune``."""
 
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from bootnav.postproc.pipeline import process
 
 REPO = Path(__file__).resolve().parents[2]
-STAGES = ("load", "stance_floor", "timing", "navigation", "strides")  # the passes of ``pipeline._block_passes``
+STAGES = ("load", "stance_floor", "timing", "navigation", "strides")  # the passes of ``passes.BlockPasses``
 
 
 def test_every_stage_is_timed_and_the_stages_add_up_to_at_most_the_total():
