@@ -55,6 +55,21 @@ class BlockPasses:
         The chart process (None: the charts, if any, are drawn here).
     progress : callable or None
         ``progress(stage, fraction)``.
+
+    Attributes
+    ----------
+    blocks : list of (int, int)
+        The rows of each block; ``spills`` (``passcache.PassSpills``) what the passes read back over many.
+    dt0, gravity, init, rails
+        Δt₀ (s), gravity (m/s²), the initial alignment, the clipping rails (None without clipping detection).
+    floor, chosen
+        The adaptive detector's noise floor (log10, None for another detector); the fallback's stance ({}: the
+        configured detector's).
+    period, tau, timing, failed
+        The gait period (s), the timing offset τ (s) and its figures, why the configured stance failed (None).
+    final_filter, gate_iv, revisit, storeys
+        The pass-3 decisions the final pass runs with: the filter (aided or not), the heading gate, the
+        revisits' corrections, the storeys' offsets.
     """
 
     def __init__(self, run, settings: ProcessSettings, out: Path | None, warnings: list[str], lap, worker,
@@ -836,7 +851,6 @@ class _ResultsRows:
              "stance_statistic": "detector-specific (see attrs stance_method, stance_threshold)"}
     STEP_UNITS = {"t_s": "s", "x_m": "m", "y_m": "m", "z_m": "m", "stride_length_m": "m", "dz_m": "m",
                   "yaw_enu_rad": "rad", "heading_deg_cw_from_north": "deg", "floor": "1"}
-    statistic = True
 
     def __init__(self, tmp: Path, target: Path, group: str, run, n: int):
         from .outputs import ResultsWriter, start_results
@@ -887,8 +901,6 @@ class _ReferenceRows:
     """The path's rows (t, x, y, z, stance) for a reference's metrics: a reference is compared with the whole
     path, so they go to a temporary file, read back memory-mapped by ``compute_metrics`` after the pass."""
 
-    statistic = False
-
     def __init__(self):
         import tempfile
 
@@ -909,8 +921,6 @@ class _ReferenceRows:
 
 class _ChartRows:
     """The path's rows for the charts (``plots.ChartStream``, which also takes the samples: ``push_imu``)."""
-
-    statistic = False
 
     def __init__(self, charts):
         self.charts = charts
