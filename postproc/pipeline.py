@@ -415,7 +415,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .detectors.stream import StreamStance, stance_detector
     from .ins.filter import propagated_gaps_warning
     from .ins.measurements import LevelHeightMeasurement, ZaruMeasurement
-    from .ins.stream import StreamNavigator
+    from .ins.stream import navigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
                           start_results, append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .reference_path import compute_metrics
@@ -631,7 +631,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             signs = (-1, 1) if st.timing_calibration else (0,)
             probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
             forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
-            probes = _ForwardProbes({s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs},
+            probes = _ForwardProbes({s: navigator(init, gravity, dt0, forward) for s in signs},
                                     st.timing_probe_s, st.timing_max_level_strides if st.timing_calibration else None)
             gait = selftune.GaitPeriodAccumulator(dt0)
             phase_starts = _Runs()  # the stance phases
@@ -702,7 +702,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
             def path_footprints(filter_settings, with_var=False):
                 """A pass of the filter + smoother (its rows corrected by the revisits found): its footprints (mid
                 times, (K,); (K, 3)) and, ``with_var``, the horizontal variance at their times (K,)."""
-                path_nav = StreamNavigator.from_initial_state(init, gravity, dt0, filter_settings)
+                path_nav = navigator(init, gravity, dt0, filter_settings)
                 path_fp = FootprintAccumulator()
                 var = _PhaseInterpolation() if with_var else None
                 pieces = spills.nav_rows() if revisit is None else None  # one block: in memory; more: spilled
@@ -771,7 +771,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                 target = run.path if run.into_recording else out / "results.h5"
                 tmp = atomic.temporary_beside(target)
             reuse = bool(replay) and replay["filter"] is final_filter and replay["gate"] is gate_iv and revisit is None
-            nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(init, gravity, dt0, final_filter)
+            nav = replay["nav"] if reuse else navigator(init, gravity, dt0, final_filter)
             replayed = iter(replay.pop("rows")) if reuse else None
             fp_acc = FootprintAccumulator()
             yaw_acc = FootprintAccumulator()  # the unwrapped yaw at each phase's last sample (``ellipses``)
@@ -952,7 +952,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
                                                     for bit, nm in selftune.FLAG_NAMES.items()},
                                    "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                                    "timing_offset": to_jsonable(timing)},
-                    "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
+                    "filter": to_jsonable({"mode": final_filter.mode, "engine": final_filter.engine,
                                            "n_states": final_filter.n_states, "smoother": final_filter.smoother,
                                            # which aids ran (as ``ins.run_filter`` says it)
                                            "zaru": ZaruMeasurement.active(final_filter),
@@ -1055,10 +1055,10 @@ class _CandidateScore:
 
     def __init__(self, name: str, init, gravity: float, dt0: float, filter_settings):
         from . import selftune
-        from .ins.stream import StreamNavigator
+        from .ins.stream import navigator
 
         self.name = name
-        self.nav = StreamNavigator.from_initial_state(init, gravity, dt0, replace(filter_settings, smoother="none"))
+        self.nav = navigator(init, gravity, dt0, replace(filter_settings, smoother="none"))
         self.onsets = _OnsetInnovations()
         self.quality = selftune.StrideQualityAccumulator()
         self.gyro = _RowQueue()  # the gyro of the rows the navigator holds back

@@ -155,6 +155,13 @@ class NavRows:
         return np.arange(self.start, self.start + len(self), dtype=np.int64)
 
     @classmethod
+    def empty(cls, start: int) -> NavRows:
+        """No rows, at absolute index ``start``."""
+        z3 = np.zeros((0, 3))
+        return cls(start, np.zeros(0), z3, z3.copy(), np.zeros((0, 4)), z3.copy(), z3.copy(), z3.copy(), np.zeros(0),
+                   np.zeros(0, bool), np.zeros(0, bool))
+
+    @classmethod
     def concatenate(cls, parts: list[NavRows]) -> NavRows:
         """Consecutive parts as one (ValueError if they are not consecutive)."""
         parts = [p for p in parts if len(p)] or parts[:1]
@@ -173,12 +180,6 @@ def _riccati_gain(zupt_gain) -> fast.RiccatiGain:
         return fast.RiccatiGain(np.eye(3), np.zeros(3), np.zeros((6, 3)))
     return fast.RiccatiGain(*(np.ascontiguousarray(a, dtype=np.float64) for a in (zupt_gain.U, zupt_gain.lam,
                                                                                      zupt_gain.T)))
-
-
-def _empty_rows(start: int) -> NavRows:
-    z3 = np.zeros((0, 3))
-    return NavRows(start, np.zeros(0), z3, z3.copy(), np.zeros((0, 4)), z3.copy(), z3.copy(), z3.copy(),
-                   np.zeros(0), np.zeros(0, bool), np.zeros(0, bool))
 
 
 class StreamNavigator:
@@ -674,7 +675,7 @@ class StreamNavigator:
         t = self._q_t[:L]
         n_open = self._out_filled - self._out_from
         if L == 0 and not (final and n_open):
-            return _empty_rows(self._out_start)
+            return NavRows.empty(self._out_start)
         # onset-delay context for what stays queued
         s = self._q_stance
         if L:
@@ -795,6 +796,32 @@ class StreamNavigator:
         self._out, self._out_from, self._out_filled = out, n_final, filled
         self._out_start += n_final
         return rows
+
+
+def navigator(init, gravity: float, nominal_dt_s: float, settings: FilterSettings | None = None):
+    """The navigator of ``settings.engine`` from an initial state, as the block passes build theirs
+    (``pipeline._block_passes``): "fast" → ``StreamNavigator.from_initial_state`` (rows as they become final,
+    memory bounded); "reference" → ``filterpy_engine.RecordReference`` (the same ``push`` / ``finish`` /
+    ``info`` / ``covariance``; every row at ``finish``, the whole record kept: a slow, readable check).
+
+    Parameters
+    ----------
+    init : object
+        Initial state (``StreamNavigator.from_initial_state``'s).
+    gravity : float
+        Local gravity magnitude, m/s².
+    nominal_dt_s : float
+        Nominal sample period, s.
+    settings : FilterSettings, optional
+        Default ``FilterSettings()``.
+    """
+    settings = settings or FilterSettings()
+    settings.validate()
+    if settings.engine == "reference":
+        from bootnav.postproc.ins.filterpy_engine import RecordReference
+
+        return RecordReference(init, gravity, nominal_dt_s, settings)
+    return StreamNavigator.from_initial_state(init, gravity, nominal_dt_s, settings)
 
 
 def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None,
