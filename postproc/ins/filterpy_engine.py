@@ -348,7 +348,7 @@ class RecordReference:
     per-sample open-loop times τ of the whole record (``prepare.prepare_filter(t_s, zupt_mask)``), then the
     per-sample loop (``ReferenceNavigator``) in chunks cut where the heading gate changes. ``push`` returns no
     rows, ``finish`` every row (start 0; ``stance`` the pushed mask, ``zupt`` the delayed one). Not
-    memory-bounded and slow (a Python loop, ~0.1 ms per sample: ``FilterSettings.engine``): a reference. No
+    memory-bounded and slow (a Python loop, ~0.12 ms per sample: ``FilterSettings.engine``): a reference. No
     outside updates (``apply_measurement``): the two-boot fusion drives ``ReferenceNavigator`` itself.
 
     Parameters
