@@ -10,6 +10,8 @@ docstring, so the fast numba engine can be checked against it (tests/test_ins_en
 ``ReferenceNavigator`` is the loop with its state kept between pushes and an outside update at the last sample
 (``apply_measurement``); ``run_reference`` pushes a whole record through it, the two-boot fusion drives two in
 lockstep (tests/test_twoboots_engines.py: the fused feet of both engines agree to 1e-6 m).
+``RecordReference`` puts the engine behind the stream's push/finish for the block passes of ``process``
+(``stream.navigator``).
 """
 
 from __future__ import annotations
