@@ -415,7 +415,7 @@ def _block_passes(run: _Input, settings: ProcessSettings, out: Path, warnings: l
     from .detectors.stream import StreamStance, stance_detector
     from .ins.filter import propagated_gaps_warning
     from .ins.measurements import LevelHeightMeasurement, ZaruMeasurement
-    from .ins.stream import navigator
+    from .ins.filter import navigator
     from .outputs import (TRAJECTORY_COLUMNS, TRAJECTORY_FORMATS, ResultsWriter, draw_here, geojson_of,
                           start_results, append_csv_rows, heading_columns, trajectory_columns, write_steps_csv)
     from .reference_path import compute_metrics
@@ -1055,7 +1055,7 @@ class _CandidateScore:
 
     def __init__(self, name: str, init, gravity: float, dt0: float, filter_settings):
         from . import selftune
-        from .ins.stream import navigator
+        from .ins.filter import navigator
 
         self.name = name
         self.nav = navigator(init, gravity, dt0, replace(filter_settings, smoother="none"))

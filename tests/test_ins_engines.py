@@ -118,10 +118,11 @@ def test_saturation_variance_acts_on_the_clipped_axis_only():
                                   dict(n_states=9, heading_aid="dominant_directions", hde_threshold_rad=0.8)],
                          ids=lambda c: "-".join(f"{k}={v}" for k, v in c.items()))
 def test_navigator_of_each_engine_pushes_alike(messy_walk, case):
-    """``stream.navigator`` (what the block passes build): the reference engine behind the stream's push/finish
+    """``filter.navigator`` (what the block passes build): the reference engine behind the stream's push/finish
     (stance mask pushed in chunks of 37 samples, onset delay applied inside, the heading gate closed over a
     stretch, a saturated burst) gives the stream's rows, its ZUPT mask and its counters, to 1e-9 m."""
-    from bootnav.postproc.ins.stream import NavRows, navigator
+    from bootnav.postproc.ins.filter import navigator
+    from bootnav.postproc.ins.stream import NavRows
 
     t, acc, gyr, stance, init, g = messy_walk
     n = len(t)

@@ -11,7 +11,7 @@ docstring, so the fast numba engine can be checked against it (tests/test_ins_en
 (``apply_measurement``); ``run_reference`` pushes a whole record through it, the two-boot fusion drives two in
 lockstep (tests/test_twoboots_engines.py: the fused feet of both engines agree to 1e-6 m).
 ``RecordReference`` puts the engine behind the stream's push/finish for the block passes of ``process``
-(``stream.navigator``).
+(``filter.navigator``).
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ER
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
 from bootnav.postproc.ins.increments import previous_rows, sculling_coning
 from bootnav.postproc.ins.mechanization import strapdown_step
-from bootnav.postproc.ins.prepare import MAX_LISTED_GAPS, FilterSetup, gated_chunks, prepare_filter, saturation_variance
+from bootnav.postproc.ins.prepare import (MAX_LISTED_GAPS, FilterSetup, delay_zupt_onsets, gated_chunks, prepare_filter,
+                                          saturation_variance)
 from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
 from bootnav.postproc.ins.smoother import apply_smoothed_correction, error_dynamics, rts_backward_numpy
 from bootnav.postproc.ins.stream import NavRows
@@ -342,11 +343,11 @@ def _smooth_segment(seg, start, n, out):
 class RecordReference:
     """The reference engine behind the part of ``stream.StreamNavigator``'s interface the block passes use
     (``pipeline._block_passes``: ``push(t_s, acc_b, gyro_b, stance, saturated, heading_gate=…)`` → ``NavRows``,
-    ``finish``, ``info``, ``covariance``, ``set_heading_gate``); built by ``stream.navigator`` for
+    ``finish``, ``info``, ``covariance``, ``set_heading_gate``); built by ``filter.navigator`` for
     ``FilterSettings.engine = "reference"``.
 
     It keeps every pushed sample and runs the whole record at ``finish``, as ``filter.run_filter`` does: the
-    onset delay on the whole stance mask (``filter.delay_zupt_onsets``), the paper mode's gain with the
+    onset delay on the whole stance mask (``prepare.delay_zupt_onsets``), the paper mode's gain with the
     per-sample open-loop times τ of the whole record (``prepare.prepare_filter(t_s, zupt_mask)``), then the
     per-sample loop (``ReferenceNavigator``) in chunks cut where the heading gate changes. ``push`` returns no
     rows, ``finish`` every row (start 0; ``stance`` the pushed mask, ``zupt`` the delayed one). Not
@@ -423,7 +424,6 @@ class RecordReference:
     def finish(self) -> NavRows:
         """Run the whole record (class docstring); every row, start 0."""
         from bootnav.core.timebase import gap_mask
-        from bootnav.postproc.ins.filter import delay_zupt_onsets
 
         if self._finished:
             raise InputError("this reference navigator is finished; build a new one for another record")

@@ -11,7 +11,7 @@ after a stance phase to the last sample of the next one, at most ``smoother_max_
 closes, i.e. when the first sample after it arrives; until then those rows are held back. Without the
 smoother a row is final once the next sample is filtered (``apply_measurement`` may still change the last
 one). Before filtering, a stance sample waits until its ZUPT decision is known: the onset delay
-(``filter.delay_zupt_onsets``) removes min(``zupt_onset_delay_s``, ``zupt_onset_max_fraction`` × phase
+(``prepare.delay_zupt_onsets``) removes min(``zupt_onset_delay_s``, ``zupt_onset_max_fraction`` × phase
 duration) from the start of each stance phase, which is known once the phase has ended or lasted
 ``zupt_onset_delay_s / zupt_onset_max_fraction`` (0.45 s by default). Memory is bounded by the chunk size +
 ``smoother_max_segment_s`` + that look-ahead, never by the record length.
@@ -796,32 +796,6 @@ class StreamNavigator:
         self._out, self._out_from, self._out_filled = out, n_final, filled
         self._out_start += n_final
         return rows
-
-
-def navigator(init, gravity: float, nominal_dt_s: float, settings: FilterSettings | None = None):
-    """The navigator of ``settings.engine`` from an initial state, as the block passes build theirs
-    (``pipeline._block_passes``): "fast" → ``StreamNavigator.from_initial_state`` (rows as they become final,
-    memory bounded); "reference" → ``filterpy_engine.RecordReference`` (the same ``push`` / ``finish`` /
-    ``info`` / ``covariance``; every row at ``finish``, the whole record kept: a slow, readable check).
-
-    Parameters
-    ----------
-    init : object
-        Initial state (``StreamNavigator.from_initial_state``'s).
-    gravity : float
-        Local gravity magnitude, m/s².
-    nominal_dt_s : float
-        Nominal sample period, s.
-    settings : FilterSettings, optional
-        Default ``FilterSettings()``.
-    """
-    settings = settings or FilterSettings()
-    settings.validate()
-    if settings.engine == "reference":
-        from bootnav.postproc.ins.filterpy_engine import RecordReference
-
-        return RecordReference(init, gravity, nominal_dt_s, settings)
-    return StreamNavigator.from_initial_state(init, gravity, nominal_dt_s, settings)
 
 
 def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None,
