@@ -361,7 +361,7 @@ class BlockPasses:
         from bootnav.core.arrays import row_norm
 
         from . import selftune
-        from .ins.stream import StreamNavigator
+        from .ins.filter import navigator
 
         settings, init, gravity, dt0, n = self.settings, self.init, self.gravity, self.dt0, self.n
         st = settings.selftune
@@ -370,7 +370,7 @@ class BlockPasses:
         signs = (-1, 1) if st.timing_calibration else (0,)
         probe_filter = replace(settings.filter, smoother="none", level_height=False)  # as selftune's probes
         forward = probe_filter if st.timing_calibration else replace(settings.filter, smoother="none")
-        probes = _ForwardProbes({s: StreamNavigator.from_initial_state(init, gravity, dt0, forward) for s in signs},
+        probes = _ForwardProbes({s: navigator(init, gravity, dt0, forward) for s in signs},
                                 st.timing_probe_s, st.timing_max_level_strides if st.timing_calibration else None)
         gait = selftune.GaitPeriodAccumulator(dt0)
         phase_starts = _Runs()  # the stance phases
@@ -451,10 +451,10 @@ class BlockPasses:
         one block, spilled over more: ``passcache.NavRowSpill``) are kept in ``replay``, which the final pass
         replays when it runs the same filter with the same gate (the heading decision off: the unaided path is
         the final one, as ``navigate`` runs it once)."""
-        from .ins.stream import StreamNavigator
+        from .ins.filter import navigator
         from .strides import FootprintAccumulator
 
-        path_nav = StreamNavigator.from_initial_state(self.init, self.gravity, self.dt0, filter_settings)
+        path_nav = navigator(self.init, self.gravity, self.dt0, filter_settings)
         path_fp = FootprintAccumulator()
         var = _PhaseInterpolation() if with_var else None
         pieces = self.spills.nav_rows() if self.revisit is None else None  # one block: in memory; more: spilled
@@ -544,13 +544,12 @@ class BlockPasses:
 
     def final_pass(self, sinks: _FinalSinks) -> _FinalPath:
         """The final filter + smoother; each row pushed to the sinks when final (``_FinalPath.emit``)."""
-        from .ins.stream import StreamNavigator
+        from .ins.filter import navigator
 
         replay, final_filter = self.replay, self.final_filter
         reuse = (bool(replay) and replay["filter"] is final_filter and replay["gate"] is self.gate_iv
                  and self.revisit is None)
-        nav = replay["nav"] if reuse else StreamNavigator.from_initial_state(self.init, self.gravity, self.dt0,
-                                                                             final_filter)
+        nav = replay["nav"] if reuse else navigator(self.init, self.gravity, self.dt0, final_filter)
         replayed = iter(replay.pop("rows")) if reuse else None
         path = _FinalPath(self, sinks, nav)
         with contextlib.ExitStack() as stack:
@@ -675,7 +674,7 @@ class BlockPasses:
                                             for bit, nm in selftune.FLAG_NAMES.items()},
                            "stride_flag_bits": {nm: bit for bit, nm in selftune.FLAG_NAMES.items()},
                            "timing_offset": to_jsonable(self.timing)},
-            "filter": to_jsonable({"mode": final_filter.mode, "engine": "fast",  # the stream engine ran
+            "filter": to_jsonable({"mode": final_filter.mode, "engine": final_filter.engine,
                                    "n_states": final_filter.n_states, "smoother": final_filter.smoother,
                                    # which aids ran (as ``ins.run_filter`` says it)
                                    "zaru": ZaruMeasurement.active(final_filter),
@@ -744,7 +743,7 @@ class _FinalPath:
         The run (its revisits, storeys, name and window start).
     sinks : _FinalSinks
         Where the rows go.
-    nav : ins.stream.StreamNavigator
+    nav : ins.stream.StreamNavigator or ins.filterpy_engine.RecordReference
         The final filter (its ``info`` and ``covariance`` go to the summary).
     """
 
@@ -1049,10 +1048,10 @@ class _CandidateScore:
 
     def __init__(self, name: str, init, gravity: float, dt0: float, filter_settings):
         from . import selftune
-        from .ins.stream import StreamNavigator
+        from .ins.filter import navigator
 
         self.name = name
-        self.nav = StreamNavigator.from_initial_state(init, gravity, dt0, replace(filter_settings, smoother="none"))
+        self.nav = navigator(init, gravity, dt0, replace(filter_settings, smoother="none"))
         self.onsets = _OnsetInnovations()
         self.quality = selftune.StrideQualityAccumulator()
         self.gyro = _RowQueue()  # the gyro of the rows the navigator holds back

@@ -112,3 +112,91 @@ def test_saturation_variance_acts_on_the_clipped_axis_only():
     added = FilterSettings().sat_gyro_sigma_radps**2 * 0.005 * 0.005 * 100
     assert s_on[6] ** 2 - s_off[6] ** 2 == pytest.approx(added, rel=1e-9)
     assert abs(s_on[8] - s_off[8]) < 1e-12 and abs(s_on[7] - s_off[7]) < 1e-12
+
+
+@pytest.mark.parametrize("case", [dict(n_states=15, smoother="rts"), dict(n_states=9, mode="riccati"),
+                                  dict(n_states=9, heading_aid="dominant_directions", hde_threshold_rad=0.8)],
+                         ids=lambda c: "-".join(f"{k}={v}" for k, v in c.items()))
+def test_navigator_of_each_engine_pushes_alike(messy_walk, case):
+    """``filter.navigator`` (what the block passes build): the reference engine behind the stream's push/finish
+    (stance mask pushed in chunks of 37 samples, onset delay applied inside, the heading gate closed over a
+    stretch, a saturated burst) gives the stream's rows, its ZUPT mask and its counters, to 1e-9 m."""
+    from bootnav.postproc.ins.filter import navigator
+    from bootnav.postproc.ins.stream import NavRows
+
+    t, acc, gyr, stance, init, g = messy_walk
+    n = len(t)
+    gate = np.ones(n, bool)
+    gate[n // 3:n // 2] = False
+    sat = np.zeros(n, np.uint8)
+    sat[400:410] = 0b001001  # ax and gx clipped
+    rows, navs = {}, {}
+    for engine in ("fast", "reference"):
+        nav = navs[engine] = navigator(init, g, 0.005, FilterSettings(engine=engine, **case))
+        parts = [nav.push(t[a:a + 37], acc[a:a + 37], gyr[a:a + 37], stance[a:a + 37], sat[a:a + 37],
+                          heading_gate=gate[a:a + 37]) for a in range(0, n, 37)]
+        rows[engine] = NavRows.concatenate(parts + [nav.finish()])
+    a, b = rows["fast"], rows["reference"]
+    assert type(navs["reference"]).__name__ == "RecordReference" and b.start == 0 and len(b) == len(a) == n
+    np.testing.assert_array_equal(b.stance, a.stance)
+    np.testing.assert_array_equal(b.zupt, a.zupt)
+    assert a.zupt.sum() < a.stance.sum()  # the onset delay acted
+    for name in ("pos_n", "vel_n", "q_nb", "pos_sigma_n"):
+        assert np.abs(getattr(a, name) - getattr(b, name)).max() < 1e-9, name
+    fi, ri = navs["fast"].info, navs["reference"].info
+    assert set(fi) == set(ri)
+    for k in ("n_filtered", "n_updates", "heading_aid_updates", "n_duplicates", "n_gaps", "gaps",
+              "zupt_onset_samples_skipped", "saturated_samples_inflated", "smoother_segments"):
+        assert fi[k] == ri[k], k
+    assert fi["n_gaps"] == 2 and fi["n_duplicates"] == 6 and fi["saturated_samples_inflated"] == 10
+    assert np.abs(navs["fast"].covariance - navs["reference"].covariance).max() < 1e-9
+    assert np.linalg.norm(a.pos_n[-1, :2]) > 3.0
+
+
+@pytest.fixture(scope="module")
+def sim_walk(tmp_path_factory):
+    """1 min of the long simulation (turns, stairs), the input of ``process``."""
+    from bootnav.simulator.simulate import LongSimulation
+    from bootnav.simulator.writers import write_long_h5
+
+    return write_long_h5(LongSimulation(60.0, seed=5, block_s=30.0), tmp_path_factory.mktemp("eng") / "walk.h5")
+
+
+@pytest.mark.parametrize("mode", ["time_varying", "riccati"])
+def test_process_honours_the_reference_engine(sim_walk, mode):
+    """``bootnav.process(rec, filter={"engine": "reference"})`` runs the filterpy engine in every pass (the
+    timing probes, the heading decision's path, the final pass) and says so in summary.json; the path is the
+    fast engine's to 1e-9 m (the same filter: ``test_fast_equals_reference``), in the paper mode too (its gain
+    reads the whole record's open-loop times)."""
+    import time
+
+    import bootnav
+    from bootnav.postproc.ins import filterpy_engine
+
+    runs = []
+    real = filterpy_engine.ReferenceNavigator.finish
+
+    def counted(self):
+        runs.append(self._k)
+        return real(self)
+
+    out = {}
+    filterpy_engine.ReferenceNavigator.finish = counted
+    try:
+        for engine in ("fast", "reference"):
+            t0 = time.perf_counter()
+            out[engine] = bootnav.process(sim_walk, filter={"engine": engine, "mode": mode})
+            assert out[engine].summary["filter"]["engine"] == engine
+            assert out[engine].summary["filter"]["mode"] == mode
+    finally:
+        filterpy_engine.ReferenceNavigator.finish = real
+    n = len(out["fast"].t_s)
+    assert len(runs) >= 2 and max(runs) == n  # the passes ran the reference loop over the whole record
+    a, b = out["fast"], out["reference"]
+    np.testing.assert_array_equal(a.stance, b.stance)
+    assert np.abs(a.pos_n_m - b.pos_n_m).max() < 1e-9
+    assert np.abs(a.q_nb - b.q_nb).max() < 1e-9
+    assert a.summary["path"]["distance_m"] > 30.0
+    assert a.summary["path"]["distance_m"] == pytest.approx(b.summary["path"]["distance_m"], abs=1e-9)
+    assert a.summary["navigation"]["timing_offset"] == pytest.approx(b.summary["navigation"]["timing_offset"])
+    assert a.summary["filter"]["n_updates"] == b.summary["filter"]["n_updates"] > 0

@@ -182,7 +182,7 @@ def test_default_quiet_core_zaru_removes_yaw_bias_drift():
 
 def test_delay_zupt_onsets_trims_each_phase_start_with_a_cap():
     """First min(delay, fraction × duration) of each stance phase is not a ZUPT; the initial phase is whole."""
-    from bootnav.postproc.ins.filter import delay_zupt_onsets
+    from bootnav.postproc.ins.prepare import delay_zupt_onsets
 
     t = np.arange(200) * 0.01
     st = np.zeros(200, bool)

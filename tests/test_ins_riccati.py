@@ -8,7 +8,7 @@ import scipy.linalg
 from scipy.spatial.transform import Rotation
 
 from bootnav.postproc.ins import FilterSettings, run_filter, steady_state_gain
-from bootnav.postproc.ins.filter import delay_zupt_onsets
+from bootnav.postproc.ins.prepare import delay_zupt_onsets
 from bootnav.postproc.ins.riccati import (full_pv_model, open_loop_durations, paper_zupt_gain,
                                          still_period_acc_bias, zupt_observable_model)
 from tests.test_ins_synthetic import TruthInit, synthetic_walk

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bootnav.postproc.ins import FilterSettings, run_filter
-from bootnav.postproc.ins.filter import delay_zupt_onsets
+from bootnav.postproc.ins.prepare import delay_zupt_onsets
 from bootnav.postproc.ins.riccati import open_loop_durations, paper_zupt_gain
 from tests.conftest import DATASETS
 from tests.test_ins_synthetic import TruthInit, synthetic_walk

@@ -13,7 +13,7 @@ from bootnav.postproc.detectors import DetectorSettings, detect_stance
 from bootnav.core.arrays import median_dt
 from bootnav.postproc.detectors.stream import StreamStance, streamable_detectors
 from bootnav.postproc.ins import FilterSettings, run_filter
-from bootnav.postproc.ins.filter import delay_zupt_onsets
+from bootnav.postproc.ins.prepare import delay_zupt_onsets
 from bootnav.postproc.ins.stream import NavRows, StreamNavigator
 from tests.conftest import REPO
 

@@ -53,3 +53,19 @@ def test_fast_and_reference_engines_fuse_alike(single):
     # the constraint moved the feet: the fused left foot (its frame is the common one) is not its single path
     assert np.abs(fast.left.pos_n - single["left"].pos_n).max() > 0.01
     np.testing.assert_allclose(out["reference"].walker_pos_n, out["fast"].walker_pos_n, atol=1e-6, rtol=0)
+
+
+def test_two_boots_run_every_pass_on_the_reference_engine(tmp_path):
+    """``process_two_boots`` with ``filter.engine = "reference"``: each foot's single run (the block passes) and
+    the fusion say the reference engine ran, and each single foot's path is the fast engine's (1e-9 m)."""
+    import bootnav
+
+    files = write_two_boots(simulate_two_boots(LOOP, seed=4, geometry=GEO), tmp_path / "w.h5")
+    ref = bootnav.process_two_boots(*files, filter={"engine": "reference"})
+    assert ref.summary["engine"] == "reference"
+    for label, path in zip(("left", "right"), files):
+        single = ref.raw.single[label]
+        assert single.summary["filter"]["engine"] == "reference"
+        fast = process(path)
+        assert fast.summary["filter"]["engine"] == "fast"
+        assert np.abs(single.pos_n - fast.pos_n).max() < 1e-9

@@ -24,7 +24,7 @@ import pytest
 from bootnav.core.rotations import euler_zyx_from_quat
 from bootnav.postproc.pipeline import process
 from bootnav.postproc.twoboots import TwoBootSettings, process_two_boots
-from bootnav.postproc.ins.filter import delay_zupt_onsets
+from bootnav.postproc.ins.prepare import delay_zupt_onsets
 from bootnav.postproc.twoboots.fusion import constraint_instants, fuse
 from bootnav.postproc.twoboots.run import foot_input
 from bootnav.simulator import custom

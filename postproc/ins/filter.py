@@ -40,13 +40,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bootnav.core.runs import runs
 from bootnav.core.timebase import GAP_FACTOR, time_base
 from bootnav.postproc.ins.measurements import (HEADING_AID, LEVEL_HEIGHT, ZUPT, LevelHeightMeasurement,
                                                ZaruMeasurement)
 from bootnav.postproc.ins.mechanization import validate_imu
-from bootnav.postproc.ins.prepare import (MAX_LISTED_GAPS, FilterSetup, initial_covariance, prepare_filter,
-                                          saturation_variance)
+from bootnav.postproc.ins.prepare import (MAX_LISTED_GAPS, FilterSetup, delay_zupt_onsets, initial_covariance,
+                                          prepare_filter, saturation_variance)
 from bootnav.postproc.ins.settings import FilterSettings
 
 __all__ = ["FilterSetup", "NavSolution", "delay_zupt_onsets", "initial_covariance", "prepare_filter", "run_filter",
@@ -68,44 +67,32 @@ class NavSolution:
     pos_cov_en: np.ndarray | None = None  # (N,) the filter's east-north position covariance P_EN, m² (ellipses)
 
 
-def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_fraction: float) -> np.ndarray:
-    """Stance mask with the first min(delay_s, max_fraction × phase duration) of every stance phase removed.
-
-    Why: a detector reports stance as soon as the foot's energy falls, but after heel strike the foot is still
-    settling (loading response: heel rocker to foot flat, the first ~10 % of the gait cycle, ≈ 0.1 s
-    [Perry2010]). There the sensor still moves at a few cm/s, and a ZUPT would read that real motion as
-    accumulated velocity ERROR and move the position by P_pv P_vv⁻¹ δv (a vertical jump per stride on the
-    developer loops; tuning log). Letting the mechanization integrate that settling removes the jump.
-    The cap keeps most of a short (running) stance phase. A phase starting at sample 0 (the initial
-    still period) is kept whole.
+def navigator(init, gravity: float, nominal_dt_s: float, settings: FilterSettings | None = None):
+    """The navigator of ``settings.engine`` from an initial state, as the block passes build theirs
+    (``pipeline._block_passes``): "fast" → ``StreamNavigator.from_initial_state`` (rows as they become final,
+    memory bounded); "reference" → ``filterpy_engine.RecordReference`` (the same ``push`` / ``finish`` /
+    ``info`` / ``covariance``; every row at ``finish``, the whole record kept: a slow, readable check).
 
     Parameters
     ----------
-    t_s : (N,) array
-        Sample times, s.
-    stance : (N,) bool array
-        Detected stance.
-    delay_s : float
-        Longest part removed at each onset, s (0: off).
-    max_fraction : float
-        Largest fraction of a phase removed (0: off).
-
-    Returns
-    -------
-    (N,) bool array
-        The ZUPT mask.
+    init : object
+        Initial state (``StreamNavigator.from_initial_state``'s).
+    gravity : float
+        Local gravity magnitude, m/s².
+    nominal_dt_s : float
+        Nominal sample period, s.
+    settings : FilterSettings, optional
+        Default ``FilterSettings()``.
     """
-    out = np.array(stance, dtype=bool, copy=True)
-    if delay_s <= 0 or max_fraction <= 0 or not out.any():
-        return out
-    starts, stops = runs(out)
-    keep = starts > 0
-    starts, stops = starts[keep], stops[keep]
-    cut_t = t_s[starts] + np.minimum(delay_s, max_fraction * (t_s[stops - 1] - t_s[starts]))
-    cut = np.searchsorted(t_s, cut_t, side="left")
-    for a, c in zip(starts, cut):
-        out[a:c] = False
-    return out
+    settings = settings or FilterSettings()
+    settings.validate()
+    if settings.engine == "reference":
+        from bootnav.postproc.ins.filterpy_engine import RecordReference
+
+        return RecordReference(init, gravity, nominal_dt_s, settings)
+    from bootnav.postproc.ins.stream import StreamNavigator
+
+    return StreamNavigator.from_initial_state(init, gravity, nominal_dt_s, settings)
 
 
 def propagated_gaps_warning(n_gaps: int, largest_s: float) -> str:

@@ -10,6 +10,8 @@ docstring, so the fast numba engine can be checked against it (tests/test_ins_en
 ``ReferenceNavigator`` is the loop with its state kept between pushes and an outside update at the last sample
 (``apply_measurement``); ``run_reference`` pushes a whole record through it, the two-boot fusion drives two in
 lockstep (tests/test_twoboots_engines.py: the fused feet of both engines agree to 1e-6 m).
+``RecordReference`` puts the engine behind the stream's push/finish for the block passes of ``process``
+(``filter.navigator``).
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from bootnav.postproc.ins.layout import (BIAS_ACC, BIAS_GYRO, ERR_BA, ERR_BG, ER
 from bootnav.postproc.ins.measurements import HEADING_AID, LEVEL_HEIGHT, N_KINDS, ZUPT, ZuptMeasurement, active_measurements
 from bootnav.postproc.ins.increments import previous_rows, sculling_coning
 from bootnav.postproc.ins.mechanization import strapdown_step
-from bootnav.postproc.ins.prepare import FilterSetup, gated_chunks, saturation_variance
+from bootnav.postproc.ins.prepare import (MAX_LISTED_GAPS, FilterSetup, delay_zupt_onsets, gated_chunks, prepare_filter,
+                                          saturation_variance)
 from bootnav.postproc.ins.quaternion import correct_attitude, quat_to_rotmat
 from bootnav.postproc.ins.smoother import apply_smoothed_correction, error_dynamics, rts_backward_numpy
 from bootnav.postproc.ins.stream import NavRows
@@ -335,3 +338,124 @@ def _smooth_segment(seg, start, n, out):
         k = start + j
         apply_smoothed_correction(out["pos_n"][k], out["vel_n"][k], out["q_nb"][k], out["acc_bias_b"][k],
                                   out["gyro_bias_b"][k], dxs[j])
+
+
+class RecordReference:
+    """The reference engine behind the part of ``stream.StreamNavigator``'s interface the block passes use
+    (``pipeline._block_passes``: ``push(t_s, acc_b, gyro_b, stance, saturated, heading_gate=…)`` → ``NavRows``,
+    ``finish``, ``info``, ``covariance``, ``set_heading_gate``); built by ``filter.navigator`` for
+    ``FilterSettings.engine = "reference"``.
+
+    It keeps every pushed sample and runs the whole record at ``finish``, as ``filter.run_filter`` does: the
+    onset delay on the whole stance mask (``prepare.delay_zupt_onsets``), the paper mode's gain with the
+    per-sample open-loop times τ of the whole record (``prepare.prepare_filter(t_s, zupt_mask)``), then the
+    per-sample loop (``ReferenceNavigator``) in chunks cut where the heading gate changes. ``push`` returns no
+    rows, ``finish`` every row (start 0; ``stance`` the pushed mask, ``zupt`` the delayed one). Not
+    memory-bounded and slow (a Python loop, ~0.12 ms per sample: ``FilterSettings.engine``): a reference. No
+    outside updates (``apply_measurement``): the two-boot fusion drives ``ReferenceNavigator`` itself.
+
+    Parameters
+    ----------
+    init : object
+        Initial state (``StreamNavigator.from_initial_state``'s).
+    gravity : float
+        Local gravity magnitude, m/s².
+    nominal_dt_s : float
+        Nominal sample period Δt₀, s.
+    settings : FilterSettings
+        Validated filter settings with ``engine = "reference"``.
+    """
+
+    def __init__(self, init, gravity: float, nominal_dt_s: float, settings):
+        self.settings = settings
+        self.init = init
+        self.gravity = float(gravity)
+        self.nominal_dt_s = float(nominal_dt_s)
+        self._P0 = prepare_filter(init, gravity, settings, nominal_dt_s).P0  # refuses a bad init / gravity now
+        self._parts: list[tuple] = []  # (t, acc, gyro, stance, extra variance or None, gate) of each push
+        self._gate_set = True
+        self._n_pushed = 0
+        self._nav: ReferenceNavigator | None = None
+        self._info: dict = {}
+        self._finished = False
+
+    @property
+    def n_pushed(self) -> int:
+        """Samples pushed so far."""
+        return self._n_pushed
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(n, n) error-state covariance at the last filtered sample (P₀ before ``finish``: nothing is
+        filtered until then)."""
+        return self._nav.covariance if self._nav is not None else self._P0.copy()
+
+    @property
+    def info(self) -> dict:
+        """Counters of the run, with ``stream.StreamNavigator.info``'s keys (zero before ``finish``)."""
+        return dict(self._info) if self._info else {"n_pushed": self._n_pushed, "n_filtered": 0}
+
+    def set_heading_gate(self, open_: bool) -> None:
+        """The heading aid's gate for the samples pushed from now on without their own ``heading_gate``."""
+        self._gate_set = bool(open_)
+
+    def push(self, t_s, acc_b, gyro_b, stance, saturated=None, heading_gate=None) -> NavRows:
+        """Keep these samples (arguments as ``StreamNavigator.push``); no rows until ``finish``."""
+        if self._finished:
+            raise InputError("this reference navigator is finished; build a new one for another record")
+        t_s = np.array(t_s, dtype=float).reshape(-1)
+        m = t_s.shape[0]
+        acc_b = np.array(acc_b, dtype=float).reshape(m, 3)
+        gyro_b = np.array(gyro_b, dtype=float).reshape(m, 3)
+        stance = np.array(stance, dtype=bool).reshape(m)
+        extra = saturation_variance(saturated, m, self.settings)
+        if heading_gate is None:
+            gate = np.full(m, self._gate_set)
+        else:
+            gate = np.array(heading_gate, dtype=bool).reshape(-1)
+            if gate.shape != (m,):
+                raise InputError(f"push at sample {self._n_pushed}: heading_gate has {gate.shape[0]} flags for {m} "
+                                 "samples: give one per sample")
+        if m:
+            self._parts.append((t_s, acc_b, gyro_b, stance, extra, gate))
+            self._n_pushed += m
+        return NavRows.empty(0)
+
+    def finish(self) -> NavRows:
+        """Run the whole record (class docstring); every row, start 0."""
+        from bootnav.core.timebase import gap_mask
+
+        if self._finished:
+            raise InputError("this reference navigator is finished; build a new one for another record")
+        self._finished = True
+        if not self._parts:
+            return NavRows.empty(0)
+        t, acc, gyr, stance, gate = (np.concatenate([p[i] for p in self._parts]) for i in (0, 1, 2, 3, 5))
+        n = t.shape[0]
+        extra = None
+        if any(p[4] is not None for p in self._parts):
+            extra = np.concatenate([np.zeros((len(p[0]), 6)) if p[4] is None else p[4] for p in self._parts])
+        self._parts = []
+        s = self.settings
+        zupt = delay_zupt_onsets(t, stance, s.zupt_onset_delay_s, s.zupt_onset_max_fraction)
+        setup = prepare_filter(self.init, self.gravity, s, self.nominal_dt_s, t, zupt)
+        self._nav = nav = ReferenceNavigator(s, setup, self.nominal_dt_s)
+        for a, b, gate_open in gated_chunks(np.array([0, n]), gate):
+            nav.st[HDE_GATE] = 1.0 if gate_open else 0.0
+            nav._push(t[a:b], acc[a:b], gyr[a:b], zupt[a:b], None if extra is None else extra[a:b])
+        rows = nav.finish()
+        rows.stance = stance
+        step = np.diff(t, prepend=t[0])
+        gaps = np.flatnonzero(gap_mask(step, self.nominal_dt_s))
+        self._info = {
+            "n_pushed": n, "n_filtered": n, "n_updates": int(nav.applied[ZUPT]),
+            "heading_aid_updates": int(nav.applied[HEADING_AID]),
+            "level_height_updates": int(nav.applied[LEVEL_HEIGHT]), "external_updates": 0,
+            "smoother_segments": nav.segments, "smoother_skipped_steps": 0,
+            "smoother_max_segment_samples": setup.prm.max_segment, "n_duplicates": int(np.count_nonzero(step == 0)) - 1,
+            "n_gaps": int(gaps.size), "gaps": [(int(i), float(step[i])) for i in gaps[:MAX_LISTED_GAPS]],
+            "max_dt_s": float(step.max()), "zupt_onset_samples_skipped": int(stance.sum() - zupt.sum()),
+            "saturated_samples_inflated": 0 if extra is None else int((extra > 0).any(axis=1).sum()),
+            "compile_s": 0.0, "run_s": nav.run_s}
+        return rows
+

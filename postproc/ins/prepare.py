@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bootnav.core.runs import runs
 from bootnav.errors import InputError
 from bootnav.postproc.ins.params import kernel_params
 from bootnav.postproc.ins.settings import FilterSettings
@@ -156,3 +157,43 @@ def gated_chunks(bounds: np.ndarray, heading_gate) -> list[tuple[int, int, bool]
     change = np.flatnonzero(np.diff(gate.view(np.int8))) + 1
     cuts = np.union1d(bounds, change)
     return [(int(a), int(b), bool(gate[a])) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+def delay_zupt_onsets(t_s: np.ndarray, stance: np.ndarray, delay_s: float, max_fraction: float) -> np.ndarray:
+    """Stance mask with the first min(delay_s, max_fraction × phase duration) of every stance phase removed.
+
+    Why: a detector reports stance as soon as the foot's energy falls, but after heel strike the foot is still
+    settling (loading response: heel rocker to foot flat, the first ~10 % of the gait cycle, ≈ 0.1 s
+    [Perry2010]). There the sensor still moves at a few cm/s, and a ZUPT would read that real motion as
+    accumulated velocity ERROR and move the position by P_pv P_vv⁻¹ δv (a vertical jump per stride on the
+    developer loops; tuning log). Letting the mechanization integrate that settling removes the jump.
+    The cap keeps most of a short (running) stance phase. A phase starting at sample 0 (the initial
+    still period) is kept whole.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times, s.
+    stance : (N,) bool array
+        Detected stance.
+    delay_s : float
+        Longest part removed at each onset, s (0: off).
+    max_fraction : float
+        Largest fraction of a phase removed (0: off).
+
+    Returns
+    -------
+    (N,) bool array
+        The ZUPT mask.
+    """
+    out = np.array(stance, dtype=bool, copy=True)
+    if delay_s <= 0 or max_fraction <= 0 or not out.any():
+        return out
+    starts, stops = runs(out)
+    keep = starts > 0
+    starts, stops = starts[keep], stops[keep]
+    cut_t = t_s[starts] + np.minimum(delay_s, max_fraction * (t_s[stops - 1] - t_s[starts]))
+    cut = np.searchsorted(t_s, cut_t, side="left")
+    for a, c in zip(starts, cut):
+        out[a:c] = False
+    return out

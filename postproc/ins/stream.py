@@ -11,7 +11,7 @@ after a stance phase to the last sample of the next one, at most ``smoother_max_
 closes, i.e. when the first sample after it arrives; until then those rows are held back. Without the
 smoother a row is final once the next sample is filtered (``apply_measurement`` may still change the last
 one). Before filtering, a stance sample waits until its ZUPT decision is known: the onset delay
-(``filter.delay_zupt_onsets``) removes min(``zupt_onset_delay_s``, ``zupt_onset_max_fraction`` × phase
+(``prepare.delay_zupt_onsets``) removes min(``zupt_onset_delay_s``, ``zupt_onset_max_fraction`` × phase
 duration) from the start of each stance phase, which is known once the phase has ended or lasted
 ``zupt_onset_delay_s / zupt_onset_max_fraction`` (0.45 s by default). Memory is bounded by the chunk size +
 ``smoother_max_segment_s`` + that look-ahead, never by the record length.
@@ -155,6 +155,13 @@ class NavRows:
         return np.arange(self.start, self.start + len(self), dtype=np.int64)
 
     @classmethod
+    def empty(cls, start: int) -> NavRows:
+        """No rows, at absolute index ``start``."""
+        z3 = np.zeros((0, 3))
+        return cls(start, np.zeros(0), z3, z3.copy(), np.zeros((0, 4)), z3.copy(), z3.copy(), z3.copy(), np.zeros(0),
+                   np.zeros(0, bool), np.zeros(0, bool))
+
+    @classmethod
     def concatenate(cls, parts: list[NavRows]) -> NavRows:
         """Consecutive parts as one (ValueError if they are not consecutive)."""
         parts = [p for p in parts if len(p)] or parts[:1]
@@ -173,12 +180,6 @@ def _riccati_gain(zupt_gain) -> fast.RiccatiGain:
         return fast.RiccatiGain(np.eye(3), np.zeros(3), np.zeros((6, 3)))
     return fast.RiccatiGain(*(np.ascontiguousarray(a, dtype=np.float64) for a in (zupt_gain.U, zupt_gain.lam,
                                                                                      zupt_gain.T)))
-
-
-def _empty_rows(start: int) -> NavRows:
-    z3 = np.zeros((0, 3))
-    return NavRows(start, np.zeros(0), z3, z3.copy(), np.zeros((0, 4)), z3.copy(), z3.copy(), z3.copy(),
-                   np.zeros(0), np.zeros(0, bool), np.zeros(0, bool))
 
 
 class StreamNavigator:
@@ -674,7 +675,7 @@ class StreamNavigator:
         t = self._q_t[:L]
         n_open = self._out_filled - self._out_from
         if L == 0 and not (final and n_open):
-            return _empty_rows(self._out_start)
+            return NavRows.empty(self._out_start)
         # onset-delay context for what stays queued
         s = self._q_stance
         if L:

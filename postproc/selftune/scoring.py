@@ -14,7 +14,7 @@ from .settings import SelfTuneSettings
 def onset_innovations(t_s, vel_n, stance, filter_settings) -> np.ndarray:
     """Predicted velocity at each zero-velocity-update onset after a swing (the ZUPT innovation, negated).
 
-    The onset is the first aided sample after the onset delay (``ins.filter.delay_zupt_onsets``), and the
+    The onset is the first aided sample after the onset delay (``ins.prepare.delay_zupt_onsets``), and the
     value is the unaided prediction one sample before it. The initial still period (a phase starting at
     sample 0) has no swing before it and is skipped.
 
@@ -29,7 +29,7 @@ def onset_innovations(t_s, vel_n, stance, filter_settings) -> np.ndarray:
     -------
     (K, 3) velocities, one per update onset, m/s.
     """
-    from bootnav.postproc.ins.filter import delay_zupt_onsets
+    from bootnav.postproc.ins.prepare import delay_zupt_onsets
 
     aided = delay_zupt_onsets(t_s, stance, filter_settings.zupt_onset_delay_s,
                               filter_settings.zupt_onset_max_fraction)

@@ -117,7 +117,7 @@ def check_filter(filter_settings) -> None:
 def _navigator(foot: FootInput, fs):
     """The navigator of ``fs.engine`` fed with the ZUPT mask directly (onset delay applied here, on the whole
     mask)."""
-    from bootnav.postproc.ins.filter import delay_zupt_onsets
+    from bootnav.postproc.ins.prepare import delay_zupt_onsets
     from bootnav.postproc.ins.prepare import prepare_filter
 
     if foot.init_yaw_sigma_rad is not None:
