@@ -242,6 +242,185 @@ def smooth_segments(closed, n, rows, bufs):
     return bad
 
 
+@njit(cache=True, inline="always")
+def _segment_ended(seg, stance, k, max_segment):
+    """Whether input row k shows that the smoother's open segment ended: after the last sample of a stance
+    phase, or at ``max_segment`` samples."""
+    return seg[SEG_LEN] > 0 and (seg[SEG_LEN] >= max_segment or (stance[k - 1] and not stance[k]))
+
+
+@njit(cache=True)
+def _close_ended_segment(r, prm, n, rows, bufs, book, counters):
+    """Close the open segment, ended before output row r; smooth it here without a smoothing thread
+    (``book.batch_rows`` 0). Returns whether ``filter_chunk`` must return to let its caller smooth (or hand
+    on) the closed segments (``filter_chunk`` docstring)."""
+    seg, closed, batch_rows = book
+    close_segment(seg, closed, counters, r)
+    nc = seg[SEG_N_CLOSED]
+    if batch_rows == 0:  # no smoothing thread: smooth it now, while its buffers are in the cache
+        if nc > 0:
+            counters[SMOOTHER_SKIPPED] += smooth_segments(closed[:nc], n, rows, bufs)
+            seg[SEG_N_CLOSED] = 0
+        seg[SEG_TAIL] = seg[SEG_RING]
+        return False
+    return (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
+            or seg[SEG_RING] + prm.max_segment - seg[SEG_TAIL] > bufs.post.shape[0])
+
+
+@njit(cache=True, inline="always")
+def _strapdown(st, c, acc, gyro, k, dt, prm):
+    """Mechanization of input row k over the step ``dt``: attitude, C_nb into ``c``, then velocity and position
+    (a step of 0, a repeated time, only rotates f_b). Returns f_n and the bias-corrected f_b (x, y, z each)."""
+    ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
+    qw, qx, qy, qz = st[iq], st[iq + 1], st[iq + 2], st[iq + 3]
+    if dt > 0.0:
+        # [Heidari2019, eq. 1] row 3: q ← q ⊗ exp(ωΔt/2)
+        tx = (gyro[k, 0] - st[ibg]) * dt
+        ty = (gyro[k, 1] - st[ibg + 1]) * dt
+        tz = (gyro[k, 2] - st[ibg + 2]) * dt
+        if prm.midpoint:  # f_b rotated with the attitude at the middle of the step (mechanization.py)
+            qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, 0.5 * tx, 0.5 * ty, 0.5 * tz)
+            rotmat_into(c, qw, qx, qy, qz)
+            qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, 0.5 * tx, 0.5 * ty, 0.5 * tz)
+        else:
+            qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, tx, ty, tz)
+        st[iq], st[iq + 1], st[iq + 2], st[iq + 3] = qw, qx, qy, qz
+    if not (prm.midpoint and dt > 0.0):
+        rotmat_into(c, qw, qx, qy, qz)
+    fbx, fby, fbz = acc[k, 0] - st[iba], acc[k, 1] - st[iba + 1], acc[k, 2] - st[iba + 2]
+    fx = c[0, 0] * fbx + c[0, 1] * fby + c[0, 2] * fbz
+    fy = c[1, 0] * fbx + c[1, 1] * fby + c[1, 2] * fbz
+    fz = c[2, 0] * fbx + c[2, 1] * fby + c[2, 2] * fbz
+    if dt > 0.0:
+        ax, ay, az = fx, fy, fz - prm.gravity
+        hdt2 = 0.5 * dt * dt
+        st[ip] += st[iv] * dt + ax * hdt2
+        st[ip + 1] += st[iv + 1] * dt + ay * hdt2
+        st[ip + 2] += st[iv + 2] * dt + az * hdt2
+        st[iv] += ax * dt
+        st[iv + 1] += ay * dt
+        st[iv + 2] += az * dt
+    return fx, fy, fz, fbx, fby, fbz
+
+
+@njit(cache=True, inline="always")
+def _propagate(P, n, dt, c, fx, fy, fz, fbx, fby, fbz, st, gyro, xvar, k, prm):
+    """P ← F P Fᵀ + Q_d over the step ``dt`` > 0 of input row k (f_n, f_b from ``_strapdown``), with the
+    signal-proportional noise and the extra variance of saturated axes."""
+    ibg = BIAS_GYRO.start
+    # signal-proportional (scale-factor) noise: σ_k² = σ² + (κ |signal_k|)² (settings.py)
+    qa = prm.var_acc + prm.var_acc_scale * (fbx * fbx + fby * fby + fbz * fbz)
+    wx, wy, wz = gyro[k, 0] - st[ibg], gyro[k, 1] - st[ibg + 1], gyro[k, 2] - st[ibg + 2]
+    qg = prm.var_gyro + prm.var_gyro_scale * (wx * wx + wy * wy + wz * wz)
+    _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, prm.var_acc_bias_rw, prm.var_gyro_bias_rw)
+    # saturated axes (xvar: extra per-sample variance × Δt₀ per body axis ax..gz): the unknown part of
+    # a clipped sample acts along that body axis only, i.e. along column a of C_nb in the nav frame
+    for ax_ in range(6):
+        qx_ = xvar[k, ax_]
+        if qx_ > 0.0:
+            o = DV if ax_ < 3 else DTH
+            col = ax_ % 3
+            for i in range(3):
+                for m in range(3):
+                    P[o + i, o + m] += qx_ * dt * c[i, col] * c[m, col]
+
+
+@njit(cache=True, inline="always")
+def _store_transition(fpar, j, dt, fx, fy, fz, c):
+    """Buffer row j of the transition's parameters (Δt, f_n, C_nb: the smoother rebuilds F from them)."""
+    fpar[j, 0] = dt
+    fpar[j, 1], fpar[j, 2], fpar[j, 3] = fx, fy, fz
+    for a_ in range(3):
+        for b_ in range(3):
+            fpar[j, 4 + 3 * a_ + b_] = c[a_, b_]
+
+
+@njit(cache=True, inline="always")
+def _paper_zupt(k, dt, tau, c, acc, gyro, stance, ric, prm, n, st, P, dx, z, K, A, applied):
+    """The paper mode's ZUPT at a stance row: the constant Riccati gain per step (``riccati.gain_into``, ``tau``
+    the open-loop interval) on the ZUPT's z = −v̂; Joseph form with the paper's constant R = σ_zupt² I."""
+    gain_into(K, n, dt, tau, c, ric.u, ric.lam, ric.t)
+    zupt(st, dx, acc, gyro, stance, k, prm, z)
+    for i in range(n):
+        dx[i] = K[i, 0] * z[0] + K[i, 1] * z[1] + K[i, 2] * z[2]
+    joseph3(P, K, DV, prm.var_zupt, n, A)
+    applied[ZUPT] += 1
+
+
+@njit(cache=True, inline="always")
+def _registry_updates(k, last, j, acc, gyro, stance, active, prm, n, st, P, dx, z, K, A, pred, weights, blocks,
+                      gains, applied):
+    """The active measurement models of ``measurements.KERNEL_REGISTRY`` at input row k, applied sequentially
+    in registry order (``kalman.sequential_update``); with the smoother, what it needs of each update is
+    buffered in row j (P⁻ in ``pred``, S⁻¹ν in ``weights``, the states measured in ``blocks``, Kᵀ in ``gains``;
+    ``last``: k is the call's last row). Returns (whether any updated, how many)."""
+    updated = False
+    n_upd = 0
+    for entry in literal_unroll(KERNEL_REGISTRY):  # one specialised copy per model, registry order
+        if active[entry.kind]:
+            mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
+            if mrows > 0:
+                if prm.smooth:
+                    if not updated and last:  # P⁻ before the first update, at the last sample
+                        _store_prior(pred, j, P, n)  # (where an update from outside may come next)
+                    innovation_weight(P, dx, z, mrows, first, rr, weights[j, n_upd])
+                sequential_update(P, dx, z, mrows, first, rr, n, K, A)
+                if prm.smooth:  # what the smoother needs of this update (smoother.rts_backward)
+                    blocks[j, n_upd, 0] = first
+                    blocks[j, n_upd, 1] = mrows
+                    for c_ in range(mrows):
+                        for i in range(n):
+                            gains[j, n_upd, c_, i] = K[i, c_]
+                    n_upd += 1
+                applied[entry.kind] += 1
+                updated = True
+    return updated, n_upd
+
+
+@njit(cache=True, inline="always")
+def _inject_error(st, dx, n):
+    """Apply the error estimate to the nominal state (δx is reset by the caller: [Heidari2019, eq. 3])."""
+    ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
+    for i in range(3):
+        st[ip + i] += dx[DP + i]
+    for i in range(3):
+        st[iv + i] += dx[DV + i]
+    if n == 15:
+        for i in range(3):
+            st[iba + i] += dx[DBA + i]
+        for i in range(3):
+            st[ibg + i] += dx[DBG + i]
+    st[iq], st[iq + 1], st[iq + 2], st[iq + 3] = exp_times_quat(st[iq], st[iq + 1], st[iq + 2], st[iq + 3],
+                                                                dx[DTH], dx[DTH + 1], dx[DTH + 2])
+
+
+@njit(cache=True, inline="always")
+def _store_row(r, st, P, pos, vel, q, ba, bg, pos_sig, pos_cen):
+    """Output row r of the path (``PathRows``) ← the nominal state; of its uncertainty (``PathUncertainty``) ←
+    the position 1-σ per axis and P_EN."""
+    ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
+    for i in range(3):
+        pos[r, i] = st[ip + i]
+        vel[r, i] = st[iv + i]
+        ba[r, i] = st[iba + i]
+        bg[r, i] = st[ibg + i]
+        pos_sig[r, i] = math.sqrt(max(P[DP + i, DP + i], 0.0))
+    pos_cen[r] = P[DP, DP + 1]
+    for i in range(4):
+        q[r, i] = st[iq + i]
+
+
+@njit(cache=True, inline="always")
+def _store_posterior(buf_upd, buf_dx, buf_post, j, n_upd, dx, P, n):
+    """Buffer row j of the smoother ← the row's updates (``SmootherBuffers.updates``), its correction δx and
+    P⁺."""
+    buf_upd[j] = n_upd
+    for a_ in range(n):
+        buf_dx[j, a_] = dx[a_]
+        for b_ in range(n):
+            buf_post[j, a_, b_] = P[a_, b_]
+
+
 @njit(cache=True, nogil=True)
 def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     """Filter input rows k0..k1−1 (k0 ≥ 1) of ``inp`` (``KernelInputs``, whose ``stance`` is the ZUPT mask) with
@@ -266,150 +445,64 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     the same arithmetic) and never returns early. ``counts``
     (``RunCounts``) counts each measurement model's updates and the smoother's bookkeeping.
     """
+    n = model.n
+    K, A, dx, z, c = np.zeros((n, 3)), np.empty((n, n)), np.zeros(n), np.zeros(MAX_ROWS), np.empty((3, 3))
+    k = k0
+    while k < k1:
+        k = _filter_rows(k, k1, inp, o0, model, state, rows, unc, bufs, book, counts, K, A, dx, z, c)
+        if k < k1 and _close_ended_segment(o0 + k, model.prm, n, rows, bufs, book, counts.smoother):
+            return k
+    return k1
+
+
+@njit(cache=True, nogil=True, _nrt=False)
+def _filter_rows(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts, K, A, dx, z, c):
+    """``filter_chunk``'s loop over input rows k0..k1−1, with its work arrays (gain Kᵀ, a matrix A, δx, z, C_nb)
+    allocated by it. Returns k1, or the row before which the smoother's open segment ended (``filter_chunk``
+    closes it and calls again from there).
+
+    Compiled without numba's reference counting (``_nrt=False``: it allocates nothing and calls nothing that
+    does, so the smoothing stays in ``filter_chunk``): the arrays it hands to the inlined pieces below would
+    otherwise be counted in and out at every sample, which costs ~20 % of the kernel's time."""
     prm, active, n, ric = model
     st, P = state
-    pos_sig, pos_cen = unc
-    seg, closed, batch_rows = book
-    applied, counters = counts
-    dt_s, acc, gyro, stance, xvar, ric_tau = inp
-    ric_u, ric_lam, ric_t = ric
     pos, vel, q, ba, bg = rows
+    pos_sig, pos_cen = unc
+    seg = book.seg
+    applied = counts.applied
+    dt_s, acc, gyro, stance, xvar, ric_tau = inp
     buf_post, buf_pred, buf_fpar, buf_dx, buf_upd, buf_gain, buf_w, buf_blk = bufs
-    ip, iv, iq, iba, ibg = POS.start, VEL.start, QUAT.start, BIAS_ACC.start, BIAS_GYRO.start
-    K = np.zeros((n, 3))
-    A = np.empty((n, n))
-    dx = np.zeros(n)
-    z = np.zeros(MAX_ROWS)
-    c = np.empty((3, 3))
     cap = buf_post.shape[0]
     for k in range(k0, k1):
         r = o0 + k
-        if prm.smooth and seg[SEG_LEN] > 0 and (seg[SEG_LEN] >= prm.max_segment or (stance[k - 1] and not stance[k])):
-            close_segment(seg, closed, counters, r)
-            nc = seg[SEG_N_CLOSED]
-            if batch_rows == 0:  # no smoothing thread: smooth it now, while its buffers are in the cache
-                if nc > 0:
-                    counters[SMOOTHER_SKIPPED] += smooth_segments(closed[:nc], n, rows, bufs)
-                    seg[SEG_N_CLOSED] = 0
-                seg[SEG_TAIL] = seg[SEG_RING]
-            elif (nc == closed.shape[0] or (nc > 0 and seg[SEG_RING] - closed[0, CL_RING] >= batch_rows)
-                    or seg[SEG_RING] + prm.max_segment - seg[SEG_TAIL] > cap):
-                return k
+        if prm.smooth and _segment_ended(seg, stance, k, prm.max_segment):
+            return k
         dt = dt_s[k]
-        qw, qx, qy, qz = st[iq], st[iq + 1], st[iq + 2], st[iq + 3]
+        fx, fy, fz, fbx, fby, fbz = _strapdown(st, c, acc, gyro, k, dt, prm)
         if dt > 0.0:
-            # [Heidari2019, eq. 1] row 3: q ← q ⊗ exp(ωΔt/2)
-            tx = (gyro[k, 0] - st[ibg]) * dt
-            ty = (gyro[k, 1] - st[ibg + 1]) * dt
-            tz = (gyro[k, 2] - st[ibg + 2]) * dt
-            if prm.midpoint:  # f_b rotated with the attitude at the middle of the step (mechanization.py)
-                qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, 0.5 * tx, 0.5 * ty, 0.5 * tz)
-                rotmat_into(c, qw, qx, qy, qz)
-                qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, 0.5 * tx, 0.5 * ty, 0.5 * tz)
-            else:
-                qw, qx, qy, qz = quat_times_exp(qw, qx, qy, qz, tx, ty, tz)
-            st[iq], st[iq + 1], st[iq + 2], st[iq + 3] = qw, qx, qy, qz
-        if not (prm.midpoint and dt > 0.0):
-            rotmat_into(c, qw, qx, qy, qz)
-        fbx, fby, fbz = acc[k, 0] - st[iba], acc[k, 1] - st[iba + 1], acc[k, 2] - st[iba + 2]
-        fx = c[0, 0] * fbx + c[0, 1] * fby + c[0, 2] * fbz
-        fy = c[1, 0] * fbx + c[1, 1] * fby + c[1, 2] * fbz
-        fz = c[2, 0] * fbx + c[2, 1] * fby + c[2, 2] * fbz
-        if dt > 0.0:
-            ax, ay, az = fx, fy, fz - prm.gravity
-            hdt2 = 0.5 * dt * dt
-            st[ip] += st[iv] * dt + ax * hdt2
-            st[ip + 1] += st[iv + 1] * dt + ay * hdt2
-            st[ip + 2] += st[iv + 2] * dt + az * hdt2
-            st[iv] += ax * dt
-            st[iv + 1] += ay * dt
-            st[iv + 2] += az * dt
-            # signal-proportional (scale-factor) noise: σ_k² = σ² + (κ |signal_k|)² (settings.py)
-            qa = prm.var_acc + prm.var_acc_scale * (fbx * fbx + fby * fby + fbz * fbz)
-            wx, wy, wz = gyro[k, 0] - st[ibg], gyro[k, 1] - st[ibg + 1], gyro[k, 2] - st[ibg + 2]
-            qg = prm.var_gyro + prm.var_gyro_scale * (wx * wx + wy * wy + wz * wz)
-            _propagate_cov(P, n, dt, fx, fy, fz, c, qa, qg, prm.var_acc_bias_rw, prm.var_gyro_bias_rw)
-            # saturated axes (xvar: extra per-sample variance × Δt₀ per body axis ax..gz): the unknown part of
-            # a clipped sample acts along that body axis only, i.e. along column a of C_nb in the nav frame
-            for ax_ in range(6):
-                qx_ = xvar[k, ax_]
-                if qx_ > 0.0:
-                    o = DV if ax_ < 3 else DTH
-                    col = ax_ % 3
-                    for i in range(3):
-                        for m in range(3):
-                            P[o + i, o + m] += qx_ * dt * c[i, col] * c[m, col]
+            _propagate(P, n, dt, c, fx, fy, fz, fbx, fby, fbz, st, gyro, xvar, k, prm)
         j = (seg[SEG_RING] + seg[SEG_LEN]) % cap
         if prm.smooth:
-            buf_fpar[j, 0] = dt
-            buf_fpar[j, 1], buf_fpar[j, 2], buf_fpar[j, 3] = fx, fy, fz
-            for a_ in range(3):
-                for b_ in range(3):
-                    buf_fpar[j, 4 + 3 * a_ + b_] = c[a_, b_]
+            _store_transition(buf_fpar, j, dt, fx, fy, fz, c)
         for i in range(n):
             dx[i] = 0.0
         updated = False
         n_upd = 0
         if prm.riccati:
             if stance[k] and dt > 0.0:
-                # paper mode: the constant Riccati gain per step (riccati.gain_into) on the ZUPT's z = −v̂;
-                # Joseph form with the paper's constant R = σ_zupt² I
                 if prm.smooth:
                     _store_prior(buf_pred, j, P, n)
-                gain_into(K, n, dt, ric_tau[k], c, ric_u, ric_lam, ric_t)
-                zupt(st, dx, acc, gyro, stance, k, prm, z)
-                for i in range(n):
-                    dx[i] = K[i, 0] * z[0] + K[i, 1] * z[1] + K[i, 2] * z[2]
-                joseph3(P, K, DV, prm.var_zupt, n, A)
-                applied[ZUPT] += 1
+                _paper_zupt(k, dt, ric_tau[k], c, acc, gyro, stance, ric, prm, n, st, P, dx, z, K, A, applied)
                 updated = True
+            n_upd = -1  # for the smoother: factorise P⁻ at the row
         else:
-            for entry in literal_unroll(KERNEL_REGISTRY):  # one specialised copy per model, registry order
-                if active[entry.kind]:
-                    mrows, first, rr = measure(entry.kind, st, dx, acc, gyro, stance, k, prm, z)
-                    if mrows > 0:
-                        if prm.smooth:
-                            if not updated and k == k1 - 1:  # P⁻ before the first update, at the last sample
-                                _store_prior(buf_pred, j, P, n)  # (where an update from outside may come next)
-                            innovation_weight(P, dx, z, mrows, first, rr, buf_w[j, n_upd])
-                        sequential_update(P, dx, z, mrows, first, rr, n, K, A)
-                        if prm.smooth:  # what the smoother needs of this update (smoother.rts_backward)
-                            buf_blk[j, n_upd, 0] = first
-                            buf_blk[j, n_upd, 1] = mrows
-                            for c_ in range(mrows):
-                                for i in range(n):
-                                    buf_gain[j, n_upd, c_, i] = K[i, c_]
-                            n_upd += 1
-                        applied[entry.kind] += 1
-                        updated = True
+            updated, n_upd = _registry_updates(k, k == k1 - 1, j, acc, gyro, stance, active, prm, n, st, P, dx, z, K,
+                                               A, buf_pred, buf_w, buf_blk, buf_gain, applied)
         if updated:
-            # apply the error estimate to the nominal state and reset it ([Heidari2019, eq. 3])
-            for i in range(3):
-                st[ip + i] += dx[DP + i]
-            for i in range(3):
-                st[iv + i] += dx[DV + i]
-            if n == 15:
-                for i in range(3):
-                    st[iba + i] += dx[DBA + i]
-                for i in range(3):
-                    st[ibg + i] += dx[DBG + i]
-            st[iq], st[iq + 1], st[iq + 2], st[iq + 3] = exp_times_quat(st[iq], st[iq + 1], st[iq + 2], st[iq + 3],
-                                                                        dx[DTH], dx[DTH + 1], dx[DTH + 2])
-        for i in range(3):
-            pos[r, i] = st[ip + i]
-            vel[r, i] = st[iv + i]
-            ba[r, i] = st[iba + i]
-            bg[r, i] = st[ibg + i]
-            pos_sig[r, i] = math.sqrt(max(P[DP + i, DP + i], 0.0))
-        pos_cen[r] = P[DP, DP + 1]
-        for i in range(4):
-            q[r, i] = st[iq + i]
+            _inject_error(st, dx, n)
+        _store_row(r, st, P, pos, vel, q, ba, bg, pos_sig, pos_cen)
         if prm.smooth:
-            buf_upd[j] = n_upd if not prm.riccati else -1
-            for a_ in range(n):
-                buf_dx[j, a_] = dx[a_]
-                for b_ in range(n):
-                    buf_post[j, a_, b_] = P[a_, b_]
+            _store_posterior(buf_upd, buf_dx, buf_post, j, n_upd, dx, P, n)
             seg[SEG_LEN] += 1
     return k1
 
@@ -449,7 +542,9 @@ def kernel_sources(module_file=__file__) -> list[Path]:
     return sorted(seen)
 
 
-key_cache_on_sources((filter_chunk, close_segment, smooth_segments, rts_backward, _propagate_cov), kernel_sources())
+key_cache_on_sources((filter_chunk, _filter_rows, close_segment, smooth_segments, rts_backward, _propagate_cov,
+                      _close_ended_segment),
+                     kernel_sources())
 
 _compile_listeners: list = []
 _compile_lock = threading.Lock()  # one compilation (and one notice) when threads start engines at once

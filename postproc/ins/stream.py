@@ -676,34 +676,68 @@ class StreamNavigator:
         n_open = self._out_filled - self._out_from
         if L == 0 and not (final and n_open):
             return NavRows.empty(self._out_start)
-        # onset-delay context for what stays queued
-        s = self._q_stance
         if L:
-            if s[L - 1]:
-                false_before = np.flatnonzero(~s[:L])
-                if false_before.size:
-                    a = int(false_before[-1]) + 1
-                    self._run_t0, self._run_initial = float(t[a]), self._n_done + a == 0
-                elif not self._prev_raw:
-                    self._run_t0, self._run_initial = float(t[0]), self._n_done == 0
-            self._prev_raw = bool(s[L - 1])
-        # per-sample inputs with one look-back row (row 0: only its ZUPT flag is read)
+            self._carry_onset_context(L, t)
+        inp = self._kernel_inputs(L, t, zupt)
+        out = self._output_rows(n_open, L, t, zupt)
+        filled = n_open + L
+        tc = time.perf_counter()
+        self._filter(inp, L, n_open, out, final)
+        if final:
+            n_final = filled
+        else:
+            n_final = int(self._seg[fast.SEG_ROW]) if self.prm.smooth else filled - 1
+        self.run_s += time.perf_counter() - tc
+        if L:
+            self._dequeue(L, t, zupt)
+        rows = NavRows(self._out_start, out["t_s"][:n_final], out["pos_n"][:n_final], out["vel_n"][:n_final],
+                       out["q_nb"][:n_final], out["acc_bias_b"][:n_final], out["gyro_bias_b"][:n_final],
+                       out["pos_sigma_n"][:n_final], out["pos_cov_en"][:n_final], out["stance"][:n_final],
+                       out["zupt"][:n_final])
+        self._out, self._out_from, self._out_filled = out, n_final, filled
+        self._out_start += n_final
+        return rows
+
+    def _carry_onset_context(self, L: int, t) -> None:
+        """The onset delay's context for what stays queued after the first L samples (times ``t``): the raw
+        stance of the last of them, and the start of its stance run (``_decide`` reads them)."""
+        s = self._q_stance
+        if s[L - 1]:
+            false_before = np.flatnonzero(~s[:L])
+            if false_before.size:
+                a = int(false_before[-1]) + 1
+                self._run_t0, self._run_initial = float(t[a]), self._n_done + a == 0
+            elif not self._prev_raw:
+                self._run_t0, self._run_initial = float(t[0]), self._n_done == 0
+        self._prev_raw = bool(s[L - 1])
+
+    def _step_times(self, L: int, t) -> np.ndarray:
+        """Δt to each of the first L queued samples (times ``t``) with a look-back row 0; counts the repeated
+        times, the gaps and the longest step for ``info``."""
         dt = np.empty(L + 1)
         dt[0] = 0.0
-        prev_t = t[0] if (self._t_done_last is None and L) else self._t_done_last
+        if not L:
+            return dt
+        prev_t = t[0] if self._t_done_last is None else self._t_done_last
+        dt[1] = t[0] - prev_t
+        np.subtract(t[1:], t[:-1], out=dt[2:])
+        step = dt[1:]
+        self._n_duplicates += int((step == 0).sum()) - (1 if self._n_done == 0 else 0)
+        gap = step > GAP_FACTOR * self.nominal_dt_s
+        n_gap = int(gap.sum())
+        if n_gap and len(self._gaps) < MAX_LISTED_GAPS:
+            idx = np.flatnonzero(gap)[:MAX_LISTED_GAPS - len(self._gaps)]
+            self._gaps += [(self._n_done + int(i), float(step[i])) for i in idx]
+        self._n_gaps += n_gap
+        self._max_dt = max(self._max_dt, float(step.max()))
+        return dt
+
+    def _kernel_inputs(self, L: int, t, zupt) -> fast.KernelInputs:
+        """The kernel's input rows of the first L queued samples (times ``t``, ZUPT mask ``zupt``), with one
+        look-back row (row 0: only its ZUPT flag is read)."""
+        dt = self._step_times(L, t)
         if L:
-            dt[1] = t[0] - prev_t
-            np.subtract(t[1:], t[:-1], out=dt[2:])
-            step = dt[1:]
-            self._n_duplicates += int((step == 0).sum()) - (1 if self._n_done == 0 else 0)
-            gap = step > GAP_FACTOR * self.nominal_dt_s
-            n_gap = int(gap.sum())
-            if n_gap and len(self._gaps) < MAX_LISTED_GAPS:
-                idx = np.flatnonzero(gap)[:MAX_LISTED_GAPS - len(self._gaps)]
-                self._gaps += [(self._n_done + int(i), float(step[i])) for i in idx]
-            self._n_gaps += n_gap
-            self._n_onset_skipped += int(np.count_nonzero(s[:L])) - int(np.count_nonzero(zupt))
-            self._max_dt = max(self._max_dt, float(step.max()))
+            self._n_onset_skipped += int(np.count_nonzero(self._q_stance[:L])) - int(np.count_nonzero(zupt))
         acc = np.empty((L + 1, 3))
         acc[0] = 0.0
         acc[1:] = self._q_acc[:L]
@@ -723,9 +757,13 @@ class StreamNavigator:
         xvar = np.empty((L + 1, 6))
         xvar[0] = 0.0
         xvar[1:] = self._q_xvar[:L]
+        return fast.KernelInputs(dt, acc, gyr, zm, xvar, self._open_loop_intervals(L, t, zupt, zm))
+
+    def _open_loop_intervals(self, L: int, t, zupt, zm) -> np.ndarray:
+        """Paper mode: at each input row where a ZUPT run starts, the open-loop interval it closes, the time since
+        the last ZUPT sample before it (riccati.py); zeros otherwise."""
         tau = np.zeros(L + 1)
         if self.prm.riccati and L:
-            # open-loop interval each ZUPT run closes: time since the last ZUPT sample before it (riccati.py)
             on = np.flatnonzero(zm[1:] & ~zm[:-1])
             true_idx = np.flatnonzero(zupt)
             k = np.searchsorted(true_idx, on) - 1
@@ -733,7 +771,10 @@ class StreamNavigator:
             tau[1 + on] = t[on] - last
             if true_idx.size:
                 self._last_zupt_t = float(t[true_idx[-1]])
-        # output rows: the not-final ones carried over, then room for the L new ones
+        return tau
+
+    def _output_rows(self, n_open: int, L: int, t, zupt) -> dict:
+        """Output rows: the n_open not-final ones carried over, then room for the L new ones."""
         out = {name: np.empty((n_open + L, 3)) for name in _ROWS3}
         out["q_nb"] = np.empty((n_open + L, 4))
         out["t_s"] = np.empty(n_open + L)
@@ -744,26 +785,32 @@ class StreamNavigator:
             for name, arr in out.items():
                 arr[:n_open] = self._out[name][self._out_from:self._out_filled]
         out["t_s"][n_open:] = t
-        out["stance"][n_open:] = s[:L]
+        out["stance"][n_open:] = self._q_stance[:L]
         out["zupt"][n_open:] = zupt
+        return out
+
+    def _gate_pieces(self, L: int) -> list:
+        """(first input row, stop, heading gate flag or None: as set) of the runs of one gate flag each (input
+        row k = queued sample k - 1)."""
+        if self._q_gate is None or not L:
+            return [(1, L + 1, None)]
+        g = np.where(np.isnan(self._q_gate[:L]), self._gate_set, self._q_gate[:L])
+        cut = np.flatnonzero(np.diff(g)) + 1
+        edges = np.concatenate(([0], cut, [L]))
+        return [(int(a) + 1, int(b) + 1, float(g[a])) for a, b in zip(edges[:-1], edges[1:])]
+
+    def _filter(self, inp: fast.KernelInputs, L: int, n_open: int, out: dict, final: bool) -> None:
+        """Run the kernel over the L input rows into ``out`` (after its n_open carried rows), smoothing the
+        segments it closes; ``final``: close the last one too."""
         self._seg[fast.SEG_ROW] -= self._out_from
-        tc = time.perf_counter()
         rows_out = fast.PathRows(out["pos_n"], out["vel_n"], out["q_nb"], out["acc_bias_b"], out["gyro_bias_b"])
-        inp = fast.KernelInputs(dt, acc, gyr, zm, xvar, tau)
         unc = fast.PathUncertainty(out["pos_sigma_n"], out["pos_cov_en"])
         filled = n_open + L
-        if self._q_gate is None or not L:
-            pieces = [(1, L + 1, None)]
-        else:  # input rows a..b-1 of one gate flag each (input row k = queued sample k - 1)
-            g = np.where(np.isnan(self._q_gate[:L]), self._gate_set, self._q_gate[:L])
-            cut = np.flatnonzero(np.diff(g)) + 1
-            edges = np.concatenate(([0], cut, [L]))
-            pieces = [(int(a) + 1, int(b) + 1, float(g[a])) for a, b in zip(edges[:-1], edges[1:])]
         if self._workers is None and self.prm.smooth:
             self._workers = _smoothing_workers()
         book = self._book if self._workers else self._book_inline
         try:
-            for k, stop, flag in pieces:
+            for k, stop, flag in self._gate_pieces(L):
                 if flag is not None:
                     self._st[HDE_GATE] = flag
                 while k < stop:
@@ -776,27 +823,16 @@ class StreamNavigator:
         finally:
             if self.prm.smooth:
                 self._drain(rows_out)
-        if final:
-            n_final = filled
-        else:
-            n_final = int(self._seg[fast.SEG_ROW]) if self.prm.smooth else filled - 1
-        self.run_s += time.perf_counter() - tc
-        if L:
-            self._t_done_last = float(t[-1])
-            self._prev_zupt = bool(zupt[-1])
-            self._n_done += L
-            self._q_t, self._q_acc, self._q_gyro = self._q_t[L:], self._q_acc[L:], self._q_gyro[L:]
-            self._q_stance, self._q_xvar = self._q_stance[L:], self._q_xvar[L:]
-            if self._q_gate is not None:
-                self._q_gate = self._q_gate[L:]
-        rows = NavRows(self._out_start, out["t_s"][:n_final], out["pos_n"][:n_final], out["vel_n"][:n_final],
-                       out["q_nb"][:n_final], out["acc_bias_b"][:n_final], out["gyro_bias_b"][:n_final],
-                       out["pos_sigma_n"][:n_final], out["pos_cov_en"][:n_final], out["stance"][:n_final],
-                       out["zupt"][:n_final])
-        self._out, self._out_from, self._out_filled = out, n_final, filled
-        self._out_start += n_final
-        return rows
 
+    def _dequeue(self, L: int, t, zupt) -> None:
+        """Drop the first L queued samples, filtered (times ``t``, ZUPT mask ``zupt``)."""
+        self._t_done_last = float(t[-1])
+        self._prev_zupt = bool(zupt[-1])
+        self._n_done += L
+        self._q_t, self._q_acc, self._q_gyro = self._q_t[L:], self._q_acc[L:], self._q_gyro[L:]
+        self._q_stance, self._q_xvar = self._q_stance[L:], self._q_xvar[L:]
+        if self._q_gate is not None:
+            self._q_gate = self._q_gate[L:]
 
 def run_fast(t_s, acc_b, gyro_b, stance, setup: FilterSetup, settings, tb, progress=None, extra_var=None,
              heading_gate=None):
