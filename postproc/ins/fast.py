@@ -347,7 +347,7 @@ def _paper_zupt(k, dt, tau, c, acc, gyro, stance, ric, prm, n, st, P, dx, z, K, 
     applied[ZUPT] += 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def _registry_updates(k, last, j, acc, gyro, stance, active, prm, n, st, P, dx, z, K, A, pred, weights, blocks,
                       gains, applied):
     """The active measurement models of ``measurements.KERNEL_REGISTRY`` at input row k, applied sequentially
@@ -462,8 +462,10 @@ def _filter_rows(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts, K
     closes it and calls again from there).
 
     Compiled without numba's reference counting (``_nrt=False``: it allocates nothing and calls nothing that
-    does, so the smoothing stays in ``filter_chunk``): the arrays it hands to the inlined pieces below would
-    otherwise be counted in and out at every sample, which costs ~20 % of the kernel's time."""
+    does, so the smoothing stays in ``filter_chunk``): the arrays it hands to its pieces would otherwise be
+    counted in and out at every sample, which costs ~20 % of the kernel's time. The pieces are inlined but
+    ``_registry_updates``, a call of its own: inlining its unrolled loop over the measurement models would
+    double the kernels' first compilation (~25 s → ~60 s on 2 cores) for no measurable speed."""
     prm, active, n, ric = model
     st, P = state
     pos, vel, q, ba, bg = rows
@@ -543,7 +545,7 @@ def kernel_sources(module_file=__file__) -> list[Path]:
 
 
 key_cache_on_sources((filter_chunk, _filter_rows, close_segment, smooth_segments, rts_backward, _propagate_cov,
-                      _close_ended_segment),
+                      _close_ended_segment, _registry_updates),
                      kernel_sources())
 
 _compile_listeners: list = []
