@@ -190,7 +190,24 @@ class BlockPasses:
                 last_read.update(rows=(i0, i1), block=(t, acc, gyro, sat))
             spills.samples.put(i0, i1, (t, acc, gyro, sat))
         if rails is not None and rails.rail_pos is not None:
-            sat = spills.samples.railed(i0, i1, lambda: sat | rails.bits(acc, gyro))
+            sat = spills.samples.railed(i0, i1, lambda: sat | self._rail_bits(i0, i1, acc, gyro))
+        return t, acc, gyro, sat
+
+    def _rail_bits(self, i0: int, i1: int, acc, gyro):
+        """The clipping rails' bits of rows i0..i1-1, found on the samples as the sensor gave them: it clips in its
+        own units, and a calibration's scale and cross-axis terms would make an exact rail slope."""
+        if self.sensor_cal.calibration is not None:
+            _, acc, gyro, _ = self.rec.block(i0, i1)
+        return self.rails.bits(acc, gyro)
+
+    def read_raw(self, i0: int, i1: int):
+        """Rows i0..i1-1 as the sensor gave them (no calibration), the clipping rails' bits added once they are
+        known: what the rails and the sample checks look at, as ``_rail_bits`` says."""
+        if self.sensor_cal.calibration is None:
+            return self.read(i0, i1)
+        t, acc, gyro, sat = self.rec.block(i0, i1)
+        if self.rails is not None and self.rails.rail_pos is not None:
+            sat = sat | self.rails.bits(acc, gyro)
         return t, acc, gyro, sat
 
     def clipping_rails(self) -> None:
@@ -198,9 +215,9 @@ class BlockPasses:
         if self.settings.detector.detect_clipping:
             self.rails = ClipRails(self.settings.filter.sloping_rails)
             for i0, i1 in self.blocks:
-                self.rails.add_peaks(*self.read(i0, i1)[1:3])
+                self.rails.add_peaks(*self.read_raw(i0, i1)[1:3])
             for i0, i1 in self.blocks:
-                self.rails.add_counts(*self.read(i0, i1)[1:3])
+                self.rails.add_counts(*self.read_raw(i0, i1)[1:3])
             self.rails.finish()
 
     def check_samples_pass(self) -> None:
@@ -216,7 +233,7 @@ class BlockPasses:
         start = self.rec.start
         for i0, i1 in self.blocks:  # the checks of ``process`` (each block with the last samples of the one before)
             a = max(i0 - 2, 0)
-            t, acc, gyro, sat = self.read(a, i1)
+            t, acc, gyro, sat = self.read_raw(a, i1)
             check_samples(name, t, acc, gyro, start + a, settings.checks, (t_first, t_last))  # refusals; warnings
             # of the whole record below
             k = max(i0 - a - 1, 0)  # the steps that end in this block

@@ -308,9 +308,16 @@ def process_to(source: str | Path, settings: ProcessSettings | None, out_dir: st
         check_outputs(settings, out, [path], into_recording, force)
         worker = ChartWorker.start() if settings.output.plots else None  # warms matplotlib up during the passes
         with atomic.output_set(planned_files(settings, out, into_recording)):  # all outputs or none
-            run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording, ref)
-            summary, files = passes.BlockPasses(run, settings, out, warnings, _StageClock(progress), worker,
-                                                progress).run()
+            try:
+                run = _Input(window, str(path), path, hdf5, None if src is None else src.recording, into_recording,
+                             ref)
+                summary, files = passes.BlockPasses(run, settings, out, warnings, _StageClock(progress), worker,
+                                                    progress).run()
+            except BaseException:  # a failure or a stop signal: the chart processes end before the outputs are
+                if worker is not None:  # removed, so none renames a chart into place after the removal
+                    worker.close()
+                    worker = None
+                raise
             files["summary"] = str(out / "summary.json")
             summary["files"] = files
             atomic.write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1, allow_nan=False) + "\n")

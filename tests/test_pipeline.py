@@ -500,3 +500,20 @@ def test_settings_saved_by_the_previous_release_still_load():
     assert s.filter.n_states == 15 and s.checks.max_gap_s == 1.0
     with pytest.raises(InputError, match=r"settings\.filter: unknown key\(s\) \['gap_factr'\]"):
         ProcessSettings.from_dict({"filter": {"gap_factr": 5.0}})
+
+
+def test_clipping_rails_are_found_on_the_samples_as_the_sensor_gave_them(tmp_path, walk_arrays):
+    """A sensor clips in its own units: with a calibration whose cross-axis terms make a rail slope, the run
+    flags the same samples as without it (the rails are searched before the calibration is applied)."""
+    from bootnav.core.sensorcal import SensorCalibration, TriadCalibration
+
+    t, acc, gyro = walk_arrays
+    clipped = np.clip(acc, -2 * 9.80665, 2 * 9.80665)  # a +-2 g accelerometer; no saturation bitmask
+    path = _write(tmp_path, t, clipped, gyro)
+    cross = np.array([[1.0, 0.01, -0.02], [0.015, 1.0, 0.01], [-0.01, 0.02, 1.0]])
+    cal = SensorCalibration(acc=TriadCalibration(matrix=cross, bias=np.zeros(3), bias_temp_coeff=np.zeros(3)))
+    raw = process(path)
+    calibrated = process(path, calibration=cal)
+    assert raw.saturated.sum() > 0
+    assert np.array_equal(calibrated.saturated, raw.saturated)
+    assert calibrated.summary["saturation_intervals"] == raw.summary["saturation_intervals"]

@@ -69,7 +69,7 @@ class NavSolution:
 
 def navigator(init, gravity: float, nominal_dt_s: float, settings: FilterSettings | None = None):
     """The navigator of ``settings.engine`` from an initial state, as the block passes build theirs
-    (``pipeline._block_passes``): "fast" → ``StreamNavigator.from_initial_state`` (rows as they become final,
+    (``passes.BlockPasses``): "fast" → ``StreamNavigator.from_initial_state`` (rows as they become final,
     memory bounded); "reference" → ``filterpy_engine.RecordReference`` (the same ``push`` / ``finish`` /
     ``info`` / ``covariance``; every row at ``finish``, the whole record kept: a slow, readable check).
 

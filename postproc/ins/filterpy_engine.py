@@ -342,7 +342,7 @@ def _smooth_segment(seg, start, n, out):
 
 class RecordReference:
     """The reference engine behind the part of ``stream.StreamNavigator``'s interface the block passes use
-    (``pipeline._block_passes``: ``push(t_s, acc_b, gyro_b, stance, saturated, heading_gate=…)`` → ``NavRows``,
+    (``passes.BlockPasses``: ``push(t_s, acc_b, gyro_b, stance, saturated, heading_gate=…)`` → ``NavRows``,
     ``finish``, ``info``, ``covariance``, ``set_heading_gate``); built by ``filter.navigator`` for
     ``FilterSettings.engine = "reference"``.
 

@@ -34,17 +34,24 @@ def joseph3(P, K, off, r, n, A):
 
 
 @njit(cache=True, inline="always")
-def kalman_gain3(P, off, r, n, K):
-    """K = P Hᵀ (H P Hᵀ + r I)⁻¹ for H selecting states off..off+2 (closed-form 3×3 inverse)."""
+def innovation_cofactors(P, off, r):
+    """The cofactors m_ij (row-major) and determinant of S = H P Hᵀ + r I, H selecting states off..off+2, so that
+    S⁻¹ = [m_ij] / det: a general 3×3 inverse (S is symmetric up to rounding; all entries are used so that it
+    equals numpy's inverse)."""
     a, b, c = P[off, off] + r, P[off, off + 1], P[off, off + 2]
     d, e = P[off + 1, off + 1] + r, P[off + 1, off + 2]
     f = P[off + 2, off + 2] + r
     b2, c2, e2 = P[off + 1, off], P[off + 2, off], P[off + 2, off + 1]
-    # general 3×3 inverse (S is symmetric up to rounding; use all entries so it equals numpy's inverse)
     m00, m01, m02 = d * f - e * e2, c * e2 - b * f, b * e - c * d
     m10, m11, m12 = e * c2 - b2 * f, a * f - c * c2, c * b2 - a * e
     m20, m21, m22 = b2 * e2 - d * c2, b * c2 - a * e2, a * d - b * b2
-    det = a * m00 + b * m10 + c * m20
+    return m00, m01, m02, m10, m11, m12, m20, m21, m22, a * m00 + b * m10 + c * m20
+
+
+@njit(cache=True, inline="always")
+def kalman_gain3(P, off, r, n, K):
+    """K = P Hᵀ (H P Hᵀ + r I)⁻¹ for H selecting states off..off+2 (closed-form 3×3 inverse)."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22, det = innovation_cofactors(P, off, r)
     for i in range(n):
         p0, p1, p2 = P[i, off], P[i, off + 1], P[i, off + 2]
         K[i, 0] = (p0 * m00 + p1 * m10 + p2 * m20) / det
@@ -100,14 +107,7 @@ def innovation_weight(P, dx, z, m, first, r, out):
     smoother needs of the update besides K: P⁻⁻¹ K ν = Hᵀ S⁻¹ ν (``smoother.rts_backward``)."""
     if m == 3:
         off = first
-        a, b, c = P[off, off] + r, P[off, off + 1], P[off, off + 2]
-        d, e = P[off + 1, off + 1] + r, P[off + 1, off + 2]
-        f = P[off + 2, off + 2] + r
-        b2, c2, e2 = P[off + 1, off], P[off + 2, off], P[off + 2, off + 1]
-        m00, m01, m02 = d * f - e * e2, c * e2 - b * f, b * e - c * d
-        m10, m11, m12 = e * c2 - b2 * f, a * f - c * c2, c * b2 - a * e
-        m20, m21, m22 = b2 * e2 - d * c2, b * c2 - a * e2, a * d - b * b2
-        det = a * m00 + b * m10 + c * m20
+        m00, m01, m02, m10, m11, m12, m20, m21, m22, det = innovation_cofactors(P, off, r)
         v0, v1, v2 = z[0] - dx[off], z[1] - dx[off + 1], z[2] - dx[off + 2]
         out[0] = (m00 * v0 + m01 * v1 + m02 * v2) / det
         out[1] = (m10 * v0 + m11 * v1 + m12 * v2) / det

@@ -185,3 +185,32 @@ def test_the_shuffle_walk_warns_about_its_strides(tmp_path):
     if res.summary["distance_m"] > 0.8 * truth:
         pytest.skip("the stance detector no longer splits this walk")
     assert any("less than half the gait cycle" in w for w in res.warnings), res.warnings
+
+
+def test_a_stop_while_the_charts_are_drawn_leaves_no_chart(tmp_path, monkeypatch):
+    """A stop that lands while the chart processes draw (the end of a short run): the chart processes must end
+    before the outputs are removed, or one renames its chart into place after the removal (found by the
+    SIGHUP test above once a short run took less than its 4 s)."""
+    from bootnav.postproc import outputs
+    from bootnav.postproc.pipeline import process_to
+    from bootnav.postproc.settings import ProcessSettings
+
+    out = tmp_path / "o"
+
+    def stopped_at_the_first_chart(self):
+        deadline = time.monotonic() + 60.0
+        while not list(out.glob("*.png")) and time.monotonic() < deadline:  # one chart is on disk: the others
+            time.sleep(0.005)  # are being drawn
+        raise KeyboardInterrupt
+
+    close = outputs.ChartWorker.close
+
+    def slow_close(self):  # the chart processes draw on for a while before they are ended, as under load
+        time.sleep(1.5)  # longer than drawing the remaining charts takes
+        close(self)
+
+    monkeypatch.setattr(outputs.ChartWorker, "wait", stopped_at_the_first_chart)
+    monkeypatch.setattr(outputs.ChartWorker, "close", slow_close)
+    with pytest.raises(KeyboardInterrupt):
+        process_to(REC, ProcessSettings(), out)
+    assert not out.exists() or sorted(p.name for p in out.iterdir()) == []
