@@ -53,6 +53,20 @@ from bootnav.postproc.ins.measurements import KERNEL_REGISTRY, MAX_ROWS, N_KINDS
 from bootnav.postproc.ins.riccati import gain_into
 from bootnav.postproc.ins.smoother import rts_backward, tri_index
 
+
+def _no_refcount_option() -> dict:
+    """``{"_nrt": False}``: numba's private option that compiles a function without
+    reference counting, for the allocation-free loop of the kernel (``_filter_rows``); {} where a numba release
+    no longer has it (the loop is then ~20 % slower; the results are the same)."""
+    try:
+        from numba.core.options import DefaultOptions
+    except ImportError:
+        return {}
+    return {"_nrt": False} if hasattr(DefaultOptions, "_nrt") else {}
+
+
+NO_REFCOUNT = _no_refcount_option()
+
 # smoother bookkeeping counters
 SMOOTHER_SKIPPED, SMOOTHER_SEGMENTS = 0, 1
 # the smoother's state ``seg``: open segment's length, its first output row, its first buffer row (absolute: the
@@ -347,7 +361,7 @@ def _paper_zupt(k, dt, tau, c, acc, gyro, stance, ric, prm, n, st, P, dx, z, K, 
     applied[ZUPT] += 1
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, **NO_REFCOUNT)
 def _registry_updates(k, last, j, acc, gyro, stance, active, prm, n, st, P, dx, z, K, A, pred, weights, blocks,
                       gains, applied):
     """The active measurement models of ``measurements.KERNEL_REGISTRY`` at input row k, applied sequentially
@@ -455,7 +469,7 @@ def filter_chunk(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts):
     return k1
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _filter_rows(k0, k1, inp, o0, model, state, rows, unc, bufs, book, counts, K, A, dx, z, c):
     """``filter_chunk``'s loop over input rows k0..k1−1, with its work arrays (gain Kᵀ, a matrix A, δx, z, C_nb)
     allocated by it. Returns k1, or the row before which the smoother's open segment ended (``filter_chunk``
