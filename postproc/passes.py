@@ -618,7 +618,6 @@ class BlockPasses:
     def stride_checks(self, path: _FinalPath) -> None:
         """The stance choice, the stride findings, the path's figures; the mount check, the detector's threshold
         and, with a reference, its metrics."""
-        from .ins.filter import propagated_gaps_warning
         from .reference_path import compute_metrics
         from .strides import footprint_summary
         from .summary import mount_check_of
@@ -629,9 +628,6 @@ class BlockPasses:
         self.choice = fallback["choice"] if fallback else f"configured ({settings.detector.method})"
         if fallback and fallback["no_rest"]:
             self.confidence = 0.0
-        nav = path.nav
-        if nav.info.get("n_gaps"):  # as ``ins.run_filter`` says it
-            warnings.append(propagated_gaps_warning(nav.info["n_gaps"], nav.info["max_dt_s"]))
         findings = stride_findings(self.steps, settings.checks, self.choice)
         warnings += ([f.message for f in findings] if settings.selftune.fallback else refuse_fatal(self.name, findings))
         self.path_stats = footprint_summary(self.fp, floors, min_stride, path.fp_acc.walked_s, self.floor_z)
